@@ -1,0 +1,1 @@
+"""The ``momakitchen`` console script."""

@@ -1,0 +1,89 @@
+"""Robot specifications: the numbers that describe each mobile manipulator.
+
+This registry is the single source of truth for robot names, reach and mount height; the
+scene sampler (obstacle semicircles), labelling (sampling radius) and the learning code
+(robot descriptor) all read it. Figures are the manufacturers' (``shared/robots/KINEMATICS.md``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from momakitchen.errors import MomaError
+
+END_EFFECTORS = ("parallel_gripper", "suction")
+
+
+@dataclass(frozen=True)
+class RobotSpec:
+    """A mobile manipulator as the rest of the pipeline sees it.
+
+    Attributes:
+        name: registry key, lower case.
+        reach: manufacturer's arm reach in metres (sampling radius for labels).
+        mount_height: height of the arm base above the floor in metres.
+        dof: number of arm joints.
+        end_effector: one of ``END_EFFECTORS``.
+        footprint: base footprint (length along x, width along y) in metres.
+    """
+
+    name: str
+    reach: float
+    mount_height: float
+    dof: int
+    end_effector: str
+    footprint: tuple[float, float] = (0.55, 0.45)
+
+    def __post_init__(self) -> None:
+        if not self.name or self.name != self.name.lower():
+            raise MomaError(f"robot name must be non-empty lower case, got {self.name!r}")
+        if not 0.1 <= self.reach <= 3.0:
+            raise MomaError(f"robot {self.name!r}: reach must be in [0.1, 3] m, got {self.reach}")
+        if not 0.0 <= self.mount_height <= 2.5:
+            raise MomaError(
+                f"robot {self.name!r}: mount_height must be in [0, 2.5] m, got {self.mount_height}"
+            )
+        if not 3 <= self.dof <= 10:
+            raise MomaError(f"robot {self.name!r}: dof must be in [3, 10], got {self.dof}")
+        if self.end_effector not in END_EFFECTORS:
+            raise MomaError(
+                f"robot {self.name!r}: end_effector must be one of {END_EFFECTORS}, "
+                f"got {self.end_effector!r}"
+            )
+        if any(not 0.1 <= f <= 2.0 for f in self.footprint):
+            raise MomaError(f"robot {self.name!r}: footprint must be in [0.1, 2] m, got {self.footprint}")
+
+
+ROBOTS: dict[str, RobotSpec] = {}
+
+
+def register_robot(spec: RobotSpec, *, replace: bool = False) -> RobotSpec:
+    """Add ``spec`` to the registry; refuses to silently replace an existing name."""
+    if spec.name in ROBOTS and not replace:
+        raise MomaError(f"robot {spec.name!r} is already registered")
+    ROBOTS[spec.name] = spec
+    return spec
+
+
+def get_robot_spec(name: str) -> RobotSpec:
+    """Look up a robot by name; unknown names raise MomaError listing the known ones."""
+    try:
+        return ROBOTS[name]
+    except KeyError:
+        raise MomaError(f"unknown robot {name!r}; known robots: {', '.join(ROBOTS)}") from None
+
+
+# Manufacturer figures (KINEMATICS.md, "Mounting and descriptors"). Reach as in the
+# MoMa-Kitchen reference code where it gives one.
+for _spec in (
+    RobotSpec("panda", reach=0.85, mount_height=1.03, dof=7, end_effector="parallel_gripper"),
+    RobotSpec("flexiv", reach=0.78, mount_height=1.03, dof=7, end_effector="parallel_gripper"),
+    RobotSpec("ur5e", reach=0.85, mount_height=1.03, dof=6, end_effector="suction"),
+    RobotSpec(
+        "xarm6", reach=0.70, mount_height=0.33, dof=6, end_effector="parallel_gripper",
+        footprint=(0.60, 0.48),
+    ),
+    RobotSpec("realman", reach=0.90, mount_height=1.03, dof=6, end_effector="parallel_gripper"),
+    RobotSpec("elephant", reach=0.63, mount_height=1.03, dof=6, end_effector="parallel_gripper"),
+):
+    register_robot(_spec)
