@@ -51,7 +51,9 @@ class RobotSpec:
                 f"got {self.end_effector!r}"
             )
         if any(not 0.1 <= f <= 2.0 for f in self.footprint):
-            raise MomaError(f"robot {self.name!r}: footprint must be in [0.1, 2] m, got {self.footprint}")
+            raise MomaError(
+                f"robot {self.name!r}: footprint must be in [0.1, 2] m, got {self.footprint}"
+            )
 
 
 ROBOTS: dict[str, RobotSpec] = {}
@@ -87,3 +89,23 @@ for _spec in (
     RobotSpec("elephant", reach=0.63, mount_height=1.03, dof=6, end_effector="parallel_gripper"),
 ):
     register_robot(_spec)
+
+
+# Robot descriptor for learning. Version it: a model trained on one descriptor layout must
+# not silently receive another.
+DESCRIPTOR_VERSION = 1
+DESCRIPTOR_NAMES = ("reach_m", "mount_height_m", "dof_over_7", "is_suction")
+DESCRIPTOR_DIM = len(DESCRIPTOR_NAMES)
+
+
+def robot_descriptor(spec: RobotSpec) -> tuple[float, ...]:
+    """The robot as numbers for the model, in the order of ``DESCRIPTOR_NAMES``.
+
+    The first two entries are the paper's descriptor ``[reach, mount height]``.
+    """
+    return (
+        float(spec.reach),
+        float(spec.mount_height),
+        spec.dof / 7.0,
+        1.0 if spec.end_effector == "suction" else 0.0,
+    )
