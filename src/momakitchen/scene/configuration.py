@@ -1,0 +1,278 @@
+"""Configurations: a scene plus objects on the counter, one target, obstacles and a robot.
+
+Pure data, fully determined by ``(scene_id, index)`` and the :class:`SceneConfig`. A
+configuration's target is either a rigid object standing on the countertop or the
+functional part (door, drawer, lever) of an articulated furniture unit. Obstacles stand
+inside the sampling semicircle in front of the target, whose radius is the robot's reach.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from momakitchen.assets import categories_of_kind, get_category
+from momakitchen.errors import MomaError
+from momakitchen.robots import ROBOTS, get_robot_spec
+from momakitchen.scene.geometry import Footprint, overlaps_any, semicircle_grid
+from momakitchen.scene.layout import Layout, Placed, _r, sample_layout, scene_rng
+from momakitchen.scene.urdf_frames import link_rest_poses
+
+CONFIG_STREAM = 1
+
+
+@dataclass(frozen=True)
+class SceneConfig:
+    """How configurations are sampled.
+
+    Attributes:
+        configs_per_scene: configurations per scene (paper: ~25 on average).
+        objects: (min, max) rigid objects standing on the countertop.
+        obstacles: (min, max) obstacles in front of the target.
+        rigid_target_prob: probability that the target is a rigid object rather than an
+            articulated part.
+        grid_spacing: spacing (m) of the trial grid in the semicircle.
+        min_free_positions: a configuration is resampled until at least this many grid
+            positions within 0.8 x reach of the target have a collision-free base footprint
+            (solvable in general, but obstacles still block some of the best spots).
+        robots: robot names assigned round-robin over configurations (``()`` = all).
+    """
+
+    configs_per_scene: int = 10
+    objects: tuple[int, int] = (1, 3)
+    obstacles: tuple[int, int] = (1, 3)
+    rigid_target_prob: float = 0.5
+    grid_spacing: float = 0.1
+    min_free_positions: int = 4
+    robots: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        if not 1 <= self.configs_per_scene <= 1000:
+            raise MomaError(f"configs_per_scene must be in [1, 1000], got {self.configs_per_scene}")
+        for name in ("objects", "obstacles"):
+            lo, hi = getattr(self, name)
+            if not 0 <= lo <= hi <= 6:
+                raise MomaError(f"{name} must satisfy 0 <= min <= max <= 6, got {(lo, hi)}")
+        if self.objects[1] < 1:
+            raise MomaError(f"objects must allow at least one object, got {self.objects}")
+        if not 0.0 <= self.rigid_target_prob <= 1.0:
+            raise MomaError(f"rigid_target_prob must be in [0, 1], got {self.rigid_target_prob}")
+        if not 0.02 <= self.grid_spacing <= 0.5:
+            raise MomaError(f"grid_spacing must be in [0.02, 0.5] m, got {self.grid_spacing}")
+        for name in self.robots:
+            get_robot_spec(name)
+
+    @property
+    def robot_names(self) -> tuple[str, ...]:
+        return self.robots or tuple(ROBOTS)
+
+
+@dataclass(frozen=True)
+class Target:
+    """The configuration's target.
+
+    ``uid`` names the placed asset (a rigid object ``r*`` or a furniture unit ``f*``/``a*``);
+    for an articulated target ``articulation`` indexes ``model.articulations``.
+    ``anchor`` is the world (x, y, z) of the grasp point at rest: the sampling
+    semicircle is centred on its floor projection.
+    """
+
+    uid: str
+    category: str
+    articulation: int | None
+    anchor: tuple[float, float, float]
+
+    @property
+    def is_articulated(self) -> bool:
+        return self.articulation is not None
+
+
+@dataclass(frozen=True)
+class Configuration:
+    """A scene plus objects, one target, obstacles and the robot used to label it."""
+
+    scene_id: int
+    index: int
+    robot: str
+    objects: tuple[Placed, ...]
+    target: Target
+    obstacles: tuple[Placed, ...]
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "scene_id": self.scene_id,
+            "index": self.index,
+            "robot": self.robot,
+            "target": dataclasses.asdict(self.target),
+            "objects": [p.to_dict() for p in self.objects],
+            "obstacles": [p.to_dict() for p in self.obstacles],
+        }
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> Configuration:
+        t = data["target"]
+        return cls(
+            scene_id=int(data["scene_id"]),
+            index=int(data["index"]),
+            robot=data["robot"],
+            objects=tuple(Placed.from_dict(p) for p in data["objects"]),
+            target=Target(t["uid"], t["category"], t["articulation"], tuple(t["anchor"])),
+            obstacles=tuple(Placed.from_dict(p) for p in data["obstacles"]),
+        )
+
+
+def handle_anchor(unit: Placed, articulation: int) -> tuple[float, float, float]:
+    """World position of an articulated part's grasp point with the part closed."""
+    model = unit.model
+    art = model.articulations[articulation]
+    link_pose = link_rest_poses(model.urdf)[art.handle.link]
+    local = link_pose[:3, :3] @ np.asarray(art.handle.position) + link_pose[:3, 3]
+    return tuple(_r(v) for v in unit.to_world(local))
+
+
+def articulated_targets(layout: Layout) -> list[tuple[str, int]]:
+    """(uid, articulation index) of every functional part in the kitchen."""
+    return [(p.uid, i) for p in layout.furniture for i in range(len(p.model.articulations))]
+
+
+def _place_objects(layout: Layout, rng: np.random.Generator, count: int) -> list[Placed]:
+    """Stand ``count`` rigid objects on the free countertop, towards its front edge."""
+    areas = layout.placement_areas()
+    rigid = categories_of_kind("rigid")
+    placed: list[Placed] = []
+    for i in range(count):
+        for _attempt in range(40):
+            cat = rigid[int(rng.integers(len(rigid)))]
+            params = get_category(cat).sample(rng, None)
+            sx, sy, _ = get_category(cat).build(params).size
+            radius = 0.5 * float(np.hypot(sx, sy)) + 0.01
+            area = areas[int(rng.integers(len(areas)))]
+            if area.x1 - area.x0 < 2 * radius or area.y1 - area.y0 < 2 * radius + 0.03:
+                continue
+            x = rng.uniform(area.x0 + radius, area.x1 - radius)
+            y_lo = max(area.y0 + radius, area.y1 - 0.38)
+            y = rng.uniform(y_lo, max(y_lo, area.y1 - radius - 0.03))
+            if any(np.hypot(x - q.x, y - q.y) < radius + 0.5 * np.hypot(*q.model.size[:2]) + 0.02
+                   for q in placed):
+                continue
+            yaw = rng.uniform(-np.pi, np.pi)
+            placed.append(Placed(f"r{i}", cat, params, _r(x), _r(y), _r(area.z + 0.001), _r(yaw)))
+            break
+    return placed
+
+
+def _free_positions(center: np.ndarray, reach: float, blocked: list[Footprint],
+                    footprint: tuple[float, float], spacing: float, room: Any) -> int:
+    """Number of grid positions within 0.8 x reach whose base footprint (facing the
+    target) overlaps nothing and stays inside the room."""
+    count = 0
+    for x, y in semicircle_grid((center[0], center[1]), 0.8 * reach + 0.35, spacing):
+        yaw = float(np.arctan2(center[1] - y, center[0] - x))
+        fp = Footprint(x, y, yaw, *footprint)
+        corners = fp.corners()
+        if (corners.min() < 0 or corners[:, 0].max() > room.width
+                or corners[:, 1].max() > room.depth):
+            continue
+        if not overlaps_any(fp, blocked):
+            count += 1
+    return count
+
+
+def _place_obstacles(layout: Layout, rng: np.random.Generator, cfg: SceneConfig, anchor: np.ndarray,
+                     reach: float, footprint: tuple[float, float]) -> tuple[Placed, ...]:
+    furniture = layout.footprints(margin=0.02)
+    kinds = categories_of_kind("obstacle")
+    best: tuple[Placed, ...] = ()
+    for _attempt in range(30):
+        count = int(rng.integers(cfg.obstacles[0], cfg.obstacles[1] + 1))
+        placed: list[Placed] = []
+        for i in range(count):
+            for _try in range(60):
+                cat = kinds[int(rng.integers(len(kinds)))]
+                params = get_category(cat).sample(rng, None)
+                # The first obstacle stands where a robot would like to park; others anywhere.
+                r_max = 0.8 * reach + 0.3 if i == 0 else reach
+                r = rng.uniform(0.35, r_max)
+                theta = rng.uniform(0.15, np.pi - 0.15)
+                x, y = anchor[0] + r * np.cos(theta), anchor[1] + r * np.sin(theta)
+                yaw = _r(rng.uniform(-np.pi, np.pi))
+                ob = Placed(f"o{i}", cat, params, _r(x), _r(y), 0.001, yaw)
+                fp = ob.footprint()
+                c = fp.corners()
+                inside = (c.min() > 0.02 and c[:, 0].max() < layout.room.width - 0.02
+                          and c[:, 1].max() < layout.room.depth - 0.02)
+                if inside and not overlaps_any(fp, furniture + [q.footprint(0.02) for q in placed]):
+                    placed.append(ob)
+                    break
+        blocked = furniture + [q.footprint() for q in placed]
+        free = _free_positions(anchor, reach, blocked, footprint, cfg.grid_spacing, layout.room)
+        if free >= cfg.min_free_positions and len(placed) >= cfg.obstacles[0]:
+            return tuple(placed)
+        if len(placed) > len(best):
+            best = tuple(placed)
+    return best[: max(1, cfg.obstacles[0])] if best else ()
+
+
+def sample_configuration(
+    layout: Layout, index: int, cfg: SceneConfig | None = None
+) -> Configuration:
+    """Configuration ``index`` of ``layout`` (deterministic in ``(scene_id, index, cfg)``)."""
+    cfg = cfg or SceneConfig()
+    if not 0 <= index < cfg.configs_per_scene:
+        raise MomaError(
+            f"configuration index must be in [0, {cfg.configs_per_scene - 1}], got {index}"
+        )
+    rng = scene_rng(layout.scene_id, CONFIG_STREAM, index)
+    names = cfg.robot_names
+    robot = get_robot_spec(names[(layout.scene_id * 7 + index) % len(names)])
+    objects = _place_objects(layout, rng, int(rng.integers(cfg.objects[0], cfg.objects[1] + 1)))
+    parts = articulated_targets(layout)
+    if objects and (not parts or rng.random() < cfg.rigid_target_prob):
+        obj = objects[int(rng.integers(len(objects)))]
+        grasp = obj.model.grasps[0]
+        anchor = tuple(_r(v) for v in obj.to_world(np.asarray(grasp.position)))
+        target = Target(obj.uid, obj.category, None, anchor)
+    else:
+        uid, art = parts[int(rng.integers(len(parts)))]
+        target = Target(uid, layout.unit(uid).category, art, handle_anchor(layout.unit(uid), art))
+    obstacles = _place_obstacles(layout, rng, cfg, np.asarray(target.anchor), robot.reach,
+                                 robot.footprint)
+    return Configuration(layout.scene_id, index, robot.name, tuple(objects), target, obstacles)
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A layout with its configurations."""
+
+    layout: Layout
+    configurations: tuple[Configuration, ...]
+    config: SceneConfig
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "schema_version": 1,
+            "scene_config": dataclasses.asdict(self.config),
+            "layout": self.layout.to_dict(),
+            "configurations": [c.to_dict() for c in self.configurations],
+        }
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> Scene:
+        raw = data["scene_config"]
+        config = SceneConfig(**{k: tuple(v) if isinstance(v, list) else v for k, v in raw.items()})
+        return cls(
+            Layout.from_dict(data["layout"]),
+            tuple(Configuration.from_dict(c) for c in data["configurations"]),
+            config,
+        )
+
+
+def sample_scene(scene_id: int, cfg: SceneConfig | None = None) -> Scene:
+    """The kitchen ``scene_id`` with all its configurations."""
+    cfg = cfg or SceneConfig()
+    layout = sample_layout(scene_id)
+    configs = tuple(sample_configuration(layout, k, cfg) for k in range(cfg.configs_per_scene))
+    return Scene(layout, configs, cfg)

@@ -1,0 +1,68 @@
+"""Rest poses of URDF links, computed from the joint origins alone (pure Python).
+
+The layout sampler needs to know where a handle is before any simulator exists, e.g. to
+centre a sampling semicircle on it. With every joint at position 0, a link's pose in the
+root-link frame is the product of the joint origins along its chain.
+"""
+
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+
+import numpy as np
+
+from momakitchen.errors import MomaError
+
+
+def rpy_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
+    """URDF fixed-axis roll-pitch-yaw to a rotation matrix: Rz(yaw) Ry(pitch) Rx(roll)."""
+    cr, sr, cp, sp, cy, sy = (np.cos(roll), np.sin(roll), np.cos(pitch), np.sin(pitch),
+                              np.cos(yaw), np.sin(yaw))
+    return np.array([
+        [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+        [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+        [-sp, cp * sr, cp * cr],
+    ])
+
+
+def _origin(elem: ET.Element | None) -> np.ndarray:
+    tf = np.eye(4)
+    if elem is None:
+        return tf
+    xyz = [float(v) for v in elem.get("xyz", "0 0 0").split()]
+    rpy = [float(v) for v in elem.get("rpy", "0 0 0").split()]
+    tf[:3, :3] = rpy_matrix(*rpy)
+    tf[:3, 3] = xyz
+    return tf
+
+
+def link_rest_poses(urdf: str) -> dict[str, np.ndarray]:
+    """Pose of every link in the root-link frame with all joints at 0.
+
+    Returns:
+        Mapping link name -> homogeneous transform of shape (4, 4).
+    """
+    try:
+        root = ET.fromstring(urdf)
+    except ET.ParseError as exc:
+        raise MomaError(f"URDF does not parse: {exc}") from None
+    links = [link.get("name") for link in root.findall("link")]
+    parent_of: dict[str, tuple[str, np.ndarray]] = {}
+    for joint in root.findall("joint"):
+        child = joint.find("child").get("link")
+        parent = joint.find("parent").get("link")
+        parent_of[child] = (parent, _origin(joint.find("origin")))
+    poses: dict[str, np.ndarray] = {}
+
+    def pose(name: str) -> np.ndarray:
+        if name not in poses:
+            if name in parent_of:
+                parent, tf = parent_of[name]
+                poses[name] = pose(parent) @ tf
+            else:
+                poses[name] = np.eye(4)
+        return poses[name]
+
+    for name in links:
+        pose(name)
+    return poses
