@@ -1,0 +1,1 @@
+"""Cameras, rendering and point clouds."""
