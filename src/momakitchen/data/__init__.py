@@ -1,0 +1,1 @@
+"""Datasets: the sample / batch contract (:mod:`.batch`), synthetic episodes (:mod:`.synthetic`)."""

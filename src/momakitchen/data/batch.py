@@ -1,0 +1,252 @@
+"""The sample / batch contract between datasets and models, and the collate function.
+
+Every torch Dataset of episodes in this package (the synthetic factory in
+:mod:`momakitchen.data.synthetic` and the HDF5-backed dataset) returns **samples** with the
+keys below; :class:`EpisodeCollator` turns a list of samples into a **batch** with fixed
+point counts, padding with masks or sampling down.
+
+Sample (one episode, variable point counts ``ng``/``nf``; tensors or NumPy arrays):
+
+==================  ===========  =========  ===============================================
+key                 shape        dtype      meaning
+==================  ===========  =========  ===============================================
+``global_xyz``      (ng, 3)      float32    first-person cloud in the viewpoint's robot base
+                                            frame (x forward, y left, z up, z = 0 floor)
+``global_rgb``      (ng, 3)      float32    colour in [0, 1]
+``global_align``    (ng,)        float32    visual-alignment channel: -1 obstacle, 0 other,
+                                            +1 target
+``floor_xyz``       (nf, 3)      float32    floor points (same frame)
+``floor_label``     (nf,)        float32    dense affordance map in [0, 1] (optional at
+                                            inference time)
+``robot``           (D,)         float32    ``robot_descriptor(spec)``, D = DESCRIPTOR_DIM
+``scene_id``        int                     metadata (not tensors)
+``config_index``    int
+``episode_index``   int
+``robot_name``      str
+==================  ===========  =========  ===============================================
+
+A sample may also carry ``global_mask`` (ng,) / ``floor_mask`` (nf,) booleans; points whose
+mask is False are dropped before collation.
+
+Batch (after :class:`EpisodeCollator`, ``B`` samples, ``Ng``/``Nf`` fixed point counts):
+
+- ``global_xyz`` (B, Ng, 3), ``global_rgb`` (B, Ng, 3), ``global_align`` (B, Ng) float32
+- ``global_mask`` (B, Ng) bool: True = real point, False = padding
+- ``floor_xyz`` (B, Nf, 3) float32, ``floor_mask`` (B, Nf) bool
+- ``floor_label`` (B, Nf) float32 (present when every sample has labels; 0 on padding)
+- ``robot`` (B, D) float32
+- ``scene_id``, ``config_index``, ``episode_index``: lists of int; ``robot_name``: list of str
+
+Padding entries are zeros. Real points always come first in each row (masks are prefix
+masks), but models must rely on the masks only.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import torch
+
+from momakitchen.errors import MomaError
+from momakitchen.robots.spec import DESCRIPTOR_DIM
+
+GLOBAL_KEYS = ("global_xyz", "global_rgb", "global_align")
+FLOOR_KEYS = ("floor_xyz", "floor_label")
+META_KEYS = ("scene_id", "config_index", "episode_index", "robot_name")
+TENSOR_KEYS = (
+    "global_xyz",
+    "global_rgb",
+    "global_align",
+    "global_mask",
+    "floor_xyz",
+    "floor_mask",
+    "floor_label",
+    "robot",
+)
+
+Batch = dict[str, Any]
+
+
+def _as_array(value: Any, key: str) -> np.ndarray:
+    if isinstance(value, torch.Tensor):
+        value = value.detach().cpu().numpy()
+    try:
+        return np.asarray(value, dtype=np.float32)
+    except (TypeError, ValueError) as exc:
+        raise MomaError(f"sample field {key!r} is not numeric: {exc}") from None
+
+
+def validate_sample(sample: Mapping[str, Any]) -> dict[str, Any]:
+    """Check a sample against the contract and return it as float32 NumPy arrays.
+
+    Points flagged False by an optional ``global_mask`` / ``floor_mask`` are removed.
+    Raises :class:`MomaError` naming the bad field and shape.
+    """
+    out: dict[str, Any] = {}
+    for key in (*GLOBAL_KEYS, "floor_xyz", "robot"):
+        if key not in sample:
+            raise MomaError(f"sample is missing field {key!r}; it has {sorted(sample)}")
+    for key in META_KEYS:
+        out[key] = sample.get(key, -1 if key != "robot_name" else "")
+    xyz = _as_array(sample["global_xyz"], "global_xyz")
+    if xyz.ndim != 2 or xyz.shape[1] != 3:
+        raise MomaError(f"global_xyz must have shape (ng, 3), got {xyz.shape}")
+    ng = xyz.shape[0]
+    rgb = _as_array(sample["global_rgb"], "global_rgb")
+    align = _as_array(sample["global_align"], "global_align")
+    if rgb.shape != (ng, 3):
+        raise MomaError(f"global_rgb must have shape ({ng}, 3), got {rgb.shape}")
+    if align.shape != (ng,):
+        raise MomaError(f"global_align must have shape ({ng},), got {align.shape}")
+    gmask = np.ones(ng, dtype=bool)
+    if "global_mask" in sample:
+        gmask = np.asarray(_as_array(sample["global_mask"], "global_mask"), dtype=bool)
+        if gmask.shape != (ng,):
+            raise MomaError(f"global_mask must have shape ({ng},), got {gmask.shape}")
+    fxyz = _as_array(sample["floor_xyz"], "floor_xyz")
+    if fxyz.ndim != 2 or fxyz.shape[1] != 3:
+        raise MomaError(f"floor_xyz must have shape (nf, 3), got {fxyz.shape}")
+    nf = fxyz.shape[0]
+    fmask = np.ones(nf, dtype=bool)
+    if "floor_mask" in sample:
+        fmask = np.asarray(_as_array(sample["floor_mask"], "floor_mask"), dtype=bool)
+        if fmask.shape != (nf,):
+            raise MomaError(f"floor_mask must have shape ({nf},), got {fmask.shape}")
+    robot = _as_array(sample["robot"], "robot")
+    if robot.shape != (DESCRIPTOR_DIM,):
+        raise MomaError(
+            f"robot descriptor must have shape ({DESCRIPTOR_DIM},), got {robot.shape}"
+        )
+    out["global_xyz"] = xyz[gmask]
+    out["global_rgb"] = rgb[gmask]
+    out["global_align"] = align[gmask]
+    out["floor_xyz"] = fxyz[fmask]
+    out["robot"] = robot
+    if "floor_label" in sample and sample["floor_label"] is not None:
+        label = _as_array(sample["floor_label"], "floor_label")
+        if label.shape != (nf,):
+            raise MomaError(f"floor_label must have shape ({nf},), got {label.shape}")
+        out["floor_label"] = label[fmask]
+    if out["global_xyz"].shape[0] == 0 or out["floor_xyz"].shape[0] == 0:
+        raise MomaError(
+            f"episode (scene {out['scene_id']}, configuration {out['config_index']}, "
+            f"episode {out['episode_index']}) has no global or no floor points"
+        )
+    return out
+
+
+def _sample_seed(seed: int, sample: Mapping[str, Any], position: int) -> np.random.Generator:
+    """A generator that depends on the seed and the episode identity, not the batch."""
+    ident = [int(seed) & 0xFFFFFFFF]
+    for key in ("scene_id", "config_index", "episode_index"):
+        value = sample.get(key, -1)
+        ident.append(int(value) & 0xFFFFFFFF if int(value) >= 0 else 0xFFFFFFFF)
+    if all(v == 0xFFFFFFFF for v in ident[1:]):
+        ident.append(position)
+    return np.random.default_rng(ident)
+
+
+def _fit(n_real: int, n_out: int, rng: np.random.Generator) -> np.ndarray:
+    """Indices of the points kept when fitting ``n_real`` points into ``n_out`` slots."""
+    if n_real <= n_out:
+        return np.arange(n_real)
+    return np.sort(rng.choice(n_real, size=n_out, replace=False))
+
+
+@dataclass(frozen=True)
+class EpisodeCollator:
+    """Collate samples into a fixed-size batch (see the module docstring for shapes).
+
+    Attributes:
+        num_global: Ng, the global point count of the batch. ``None``: the largest in the
+            batch (pad only).
+        num_floor: Nf, the floor point count. ``None``: the largest in the batch.
+        seed: clouds larger than the target count are sampled down without replacement by
+            a generator seeded from ``(seed, scene_id, config_index, episode_index)``, so
+            the same episode is always reduced the same way whatever batch it lands in.
+    """
+
+    num_global: int | None = None
+    num_floor: int | None = None
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        for name in ("num_global", "num_floor"):
+            value = getattr(self, name)
+            if value is not None and (not isinstance(value, int) or value < 1):
+                raise MomaError(f"EpisodeCollator.{name} must be a positive int, got {value!r}")
+
+    def __call__(self, samples: Sequence[Mapping[str, Any]]) -> Batch:
+        return collate_episodes(samples, self.num_global, self.num_floor, self.seed)
+
+
+def collate_episodes(
+    samples: Sequence[Mapping[str, Any]],
+    num_global: int | None = None,
+    num_floor: int | None = None,
+    seed: int = 0,
+) -> Batch:
+    """Stack samples into a batch with fixed point counts and masks.
+
+    Shapes:
+        - input: a list of B samples (``global_xyz`` (ng_i, 3), ``floor_xyz`` (nf_i, 3), ...)
+        - output: ``global_*`` (B, Ng, ...), ``floor_*`` (B, Nf, ...), ``robot`` (B, D),
+          masks (B, Ng) / (B, Nf) bool. Ng = ``num_global`` or max ng_i; Nf likewise.
+    """
+    if len(samples) == 0:
+        raise MomaError("cannot collate an empty list of samples")
+    clean = [validate_sample(s) for s in samples]
+    ng = num_global or max(s["global_xyz"].shape[0] for s in clean)
+    nf = num_floor or max(s["floor_xyz"].shape[0] for s in clean)
+    b = len(clean)
+    has_label = all("floor_label" in s for s in clean)
+    out = {
+        "global_xyz": np.zeros((b, ng, 3), np.float32),
+        "global_rgb": np.zeros((b, ng, 3), np.float32),
+        "global_align": np.zeros((b, ng), np.float32),
+        "global_mask": np.zeros((b, ng), bool),
+        "floor_xyz": np.zeros((b, nf, 3), np.float32),
+        "floor_mask": np.zeros((b, nf), bool),
+        "robot": np.stack([s["robot"] for s in clean]).astype(np.float32),
+    }
+    if has_label:
+        out["floor_label"] = np.zeros((b, nf), np.float32)
+    for i, s in enumerate(clean):
+        rng = _sample_seed(seed, s, i)
+        gi = _fit(s["global_xyz"].shape[0], ng, rng)
+        fi = _fit(s["floor_xyz"].shape[0], nf, rng)
+        for key in GLOBAL_KEYS:
+            out[key][i, : len(gi)] = s[key][gi]
+        out["global_mask"][i, : len(gi)] = True
+        out["floor_xyz"][i, : len(fi)] = s["floor_xyz"][fi]
+        out["floor_mask"][i, : len(fi)] = True
+        if has_label:
+            out["floor_label"][i, : len(fi)] = s["floor_label"][fi]
+    batch: Batch = {k: torch.from_numpy(v) for k, v in out.items()}
+    for key in META_KEYS:
+        batch[key] = [s[key] for s in clean]
+    return batch
+
+
+def batch_to(batch: Batch, device: torch.device | str) -> Batch:
+    """Move the tensors of a batch to ``device`` (metadata lists are kept as they are)."""
+    return {k: (v.to(device) if isinstance(v, torch.Tensor) else v) for k, v in batch.items()}
+
+
+def episode_maps(batch: Batch, pred: torch.Tensor) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """Per-episode 1-D prediction and label arrays over the real floor points.
+
+    Shapes:
+        - ``pred``: (B, Nf); ``batch["floor_label"]``, ``batch["floor_mask"]``: (B, Nf)
+        - output: two lists of B arrays of shape (nf_i,)
+    """
+    mask = batch["floor_mask"].cpu().numpy()
+    p = pred.detach().cpu().numpy()
+    labels = batch.get("floor_label")
+    y = labels.cpu().numpy() if labels is not None else None
+    preds = [p[i][mask[i]].astype(np.float64) for i in range(p.shape[0])]
+    gts = [y[i][mask[i]].astype(np.float64) for i in range(p.shape[0])] if y is not None else []
+    return preds, gts

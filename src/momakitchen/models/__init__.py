@@ -1,0 +1,21 @@
+"""Models: PointNet++ layers, NavAff, baselines and ablations, one registry.
+
+``build_model(name, ModelConfig(...))`` returns an :class:`AffordanceModel`;
+``model(batch)`` gives ``{"pred": (B, Nf)}`` (plus ``loss``/``mse`` when labels are present).
+"""
+
+from momakitchen.models.base import AffordanceModel, num_parameters
+from momakitchen.models.config import ModelConfig
+from momakitchen.models.loss import WeightedMSELoss
+from momakitchen.models.registry import MODELS, build_model, get_model_entry, model_names
+
+__all__ = [
+    "MODELS",
+    "AffordanceModel",
+    "ModelConfig",
+    "WeightedMSELoss",
+    "build_model",
+    "get_model_entry",
+    "model_names",
+    "num_parameters",
+]

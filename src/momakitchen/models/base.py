@@ -1,0 +1,85 @@
+"""Model = backbone + head + loss, returning dicts (the layout every model here follows)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import torch
+from torch import nn
+
+from momakitchen.models.config import ModelConfig
+from momakitchen.models.loss import WeightedMSELoss
+from momakitchen.models.pointnet2 import PointMLP
+from momakitchen.robots.spec import DESCRIPTOR_DIM
+
+
+class Backbone(nn.Module):
+    """Maps a batch to per-floor-point features.
+
+    Shapes:
+        - input: a batch (see :mod:`momakitchen.data.batch`)
+        - output: (B, Nf, ``out_channels``)
+    """
+
+    out_channels: int
+
+    def forward(self, batch: dict[str, Any]) -> torch.Tensor:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+
+class AffordanceHead(nn.Module):
+    """Per-point MLP to one value in [0, 1], optionally conditioned on the robot descriptor.
+
+    Shapes:
+        - input: ``feats`` (B, Nf, C), ``robot`` (B, D)
+        - output: (B, Nf) in [0, 1]
+    """
+
+    def __init__(self, in_channels: int, hidden: int, use_robot: bool, dropout: float) -> None:
+        super().__init__()
+        self.use_robot = use_robot
+        robot_ch = 0
+        if use_robot:
+            robot_ch = max(8, hidden // 4)
+            self.robot_mlp = PointMLP(DESCRIPTOR_DIM, [robot_ch, robot_ch])
+        self.mlp = PointMLP(in_channels + robot_ch, [hidden])
+        self.drop = nn.Dropout(dropout)
+        self.out = nn.Linear(hidden, 1)
+
+    def forward(self, feats: torch.Tensor, robot: torch.Tensor) -> torch.Tensor:
+        if self.use_robot:
+            r = self.robot_mlp(robot).unsqueeze(1).expand(-1, feats.shape[1], -1)
+            feats = torch.cat([feats, r], -1)
+        return torch.sigmoid(self.out(self.drop(self.mlp(feats))).squeeze(-1))
+
+
+class AffordanceModel(nn.Module):
+    """A registered model: ``backbone`` → ``head`` → ``criterion``.
+
+    ``model(batch)`` returns ``{"pred": (B, Nf)}`` with values in [0, 1]; when the batch
+    carries ``floor_label`` the dict also holds ``loss`` and ``mse`` from the criterion.
+    Predictions on padded floor points are set to 0.
+    """
+
+    def __init__(
+        self, name: str, config: ModelConfig, backbone: Backbone, head_uses_robot: bool
+    ) -> None:
+        super().__init__()
+        self.name = name
+        self.config = config
+        self.backbone = backbone
+        hidden = max(16, backbone.out_channels)
+        self.head = AffordanceHead(backbone.out_channels, hidden, head_uses_robot, config.dropout)
+        self.criterion = WeightedMSELoss(config.lambda_zero, config.zero_weight_prob)
+
+    def forward(self, batch: dict[str, Any]) -> dict[str, torch.Tensor]:
+        feats = self.backbone(batch)
+        pred = self.head(feats, batch["robot"]) * batch["floor_mask"].to(feats.dtype)
+        out = {"pred": pred}
+        if "floor_label" in batch:
+            out.update(self.criterion(pred, batch["floor_label"], batch["floor_mask"]))
+        return out
+
+
+def num_parameters(model: nn.Module) -> int:
+    return sum(p.numel() for p in model.parameters())

@@ -1,0 +1,99 @@
+"""Model hyper-parameters shared by NavAff, its ablations and the baselines."""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, fields
+from typing import Any
+
+from momakitchen.errors import MomaError
+
+
+@dataclass(frozen=True)
+class ModelConfig:
+    """Sizes of a model (reference values: DESIGN.md §3.6).
+
+    Attributes:
+        embed_dim: token width of the cross-attention (paper: 512).
+        num_tokens: global and floor tokens (centroids of the last set abstraction; 64).
+        num_heads: attention heads (4).
+        dropout: attention and feed-forward dropout (0.1).
+        num_robot_tokens: tokens the robot descriptor is expanded into.
+        attention_layers: stacked cross-attention blocks.
+        width: multiplier of the PointNet++ MLP widths (1.0 = reference widths).
+        global_npoints: centroids of the first two global set abstractions (the third
+            yields ``num_tokens``).
+        floor_npoints: centroids of the first floor set abstraction (the second yields
+            ``num_tokens``).
+        nsample_scale: multiplier of the neighbour counts (16, 32, 64 per scale).
+        lambda_zero: weighted-MSE weight on zero-valued labels (0.7).
+        zero_weight_prob: probability that a training step applies ``lambda_zero`` (0.5).
+    """
+
+    embed_dim: int = 512
+    num_tokens: int = 64
+    num_heads: int = 4
+    dropout: float = 0.1
+    num_robot_tokens: int = 4
+    attention_layers: int = 1
+    width: float = 1.0
+    global_npoints: tuple[int, int] = (1024, 256)
+    floor_npoints: int = 256
+    nsample_scale: float = 1.0
+    lambda_zero: float = 0.7
+    zero_weight_prob: float = 0.5
+
+    def __post_init__(self) -> None:
+        def bad(name: str, rule: str) -> MomaError:
+            return MomaError(f"ModelConfig.{name} {rule}, got {getattr(self, name)!r}")
+
+        if self.embed_dim < 8:
+            raise bad("embed_dim", "must be >= 8")
+        if self.num_heads < 1 or self.embed_dim % self.num_heads:
+            raise bad("num_heads", f"must be >= 1 and divide embed_dim={self.embed_dim}")
+        if self.num_tokens < 1:
+            raise bad("num_tokens", "must be >= 1")
+        if not 0.0 <= self.dropout < 1.0:
+            raise bad("dropout", "must be in [0, 1)")
+        if self.num_robot_tokens < 1:
+            raise bad("num_robot_tokens", "must be >= 1")
+        if self.attention_layers < 1:
+            raise bad("attention_layers", "must be >= 1")
+        if not 0.05 <= self.width <= 8.0:
+            raise bad("width", "must be in [0.05, 8]")
+        g = tuple(self.global_npoints)
+        if len(g) != 2 or not g[0] >= g[1] >= self.num_tokens:
+            rule = f"must be two counts n1 >= n2 >= num_tokens={self.num_tokens}"
+            raise bad("global_npoints", rule)
+        object.__setattr__(self, "global_npoints", (int(g[0]), int(g[1])))
+        if self.floor_npoints < self.num_tokens:
+            raise bad("floor_npoints", f"must be >= num_tokens={self.num_tokens}")
+        if not 0.05 <= self.nsample_scale <= 4.0:
+            raise bad("nsample_scale", "must be in [0.05, 4]")
+        if self.lambda_zero < 0:
+            raise bad("lambda_zero", "must be >= 0")
+        if not 0.0 <= self.zero_weight_prob <= 1.0:
+            raise bad("zero_weight_prob", "must be in [0, 1]")
+
+    def ch(self, channels: int) -> int:
+        """A reference MLP width scaled by ``width`` (at least 8)."""
+        return max(8, round(channels * self.width))
+
+    def ns(self, nsample: int) -> int:
+        """A reference neighbour count scaled by ``nsample_scale`` (at least 4)."""
+        return max(4, round(nsample * self.nsample_scale))
+
+    def to_dict(self) -> dict[str, Any]:
+        d = asdict(self)
+        d["global_npoints"] = list(self.global_npoints)
+        return d
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> ModelConfig:
+        known = {f.name for f in fields(cls)}
+        unknown = set(data) - known
+        if unknown:
+            raise MomaError(f"unknown model config fields {sorted(unknown)}")
+        d = dict(data)
+        if "global_npoints" in d:
+            d["global_npoints"] = tuple(d["global_npoints"])
+        return cls(**d)

@@ -1,0 +1,196 @@
+"""NavAff: navigation affordance from a first-person cloud, a floor cloud and the robot.
+
+Visual alignment: the global cloud carries a per-point channel (+1 target, -1 obstacle,
+0 else) next to colour and position. PointNet++ encoders turn the global and the floor
+cloud into ``num_tokens`` tokens each (MLP tokenizers plus a positional MLP of the token
+centroid); the robot descriptor becomes ``num_robot_tokens`` tokens. Floor tokens query
+[global tokens, robot tokens] with multi-head cross-attention; feature propagation brings
+the attended floor tokens back to every floor point; a head gives a sigmoid per point.
+
+Ablations switch parts off: ``use_robot`` (robot tokens), ``use_alignment`` (the alignment
+channel), ``use_global`` (the global cloud).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import torch
+from torch import nn
+
+from momakitchen.models.base import Backbone
+from momakitchen.models.config import ModelConfig
+from momakitchen.models.pointnet2 import FeaturePropagation, PointMLP, SetAbstractionMSG
+from momakitchen.robots.spec import DESCRIPTOR_DIM
+
+
+class Tokenizer(nn.Module):
+    """Centroid features and positions to tokens.
+
+    Shapes:
+        - input: ``feats`` (B, T, C), ``xyz`` (B, T, 3); output: (B, T, E)
+    """
+
+    def __init__(self, in_channels: int, dim: int) -> None:
+        super().__init__()
+        self.feat = PointMLP(in_channels, [dim, dim], last_act=False)
+        self.pos = PointMLP(3, [dim // 2, dim], last_act=False)
+
+    def forward(self, feats: torch.Tensor, xyz: torch.Tensor) -> torch.Tensor:
+        return self.feat(feats) + self.pos(xyz)
+
+
+class CrossAttentionBlock(nn.Module):
+    """Pre-norm multi-head cross-attention + feed-forward, with key padding masks.
+
+    Shapes:
+        - input: ``query`` (B, Tq, E), ``kv`` (B, Tk, E), ``kv_pad`` (B, Tk) bool (True =
+          padding, ignored)
+        - output: (B, Tq, E)
+    """
+
+    def __init__(self, dim: int, heads: int, dropout: float) -> None:
+        super().__init__()
+        self.norm_q = nn.LayerNorm(dim)
+        self.norm_kv = nn.LayerNorm(dim)
+        self.attn = nn.MultiheadAttention(dim, heads, dropout=dropout, batch_first=True)
+        self.norm_ff = nn.LayerNorm(dim)
+        self.ff = nn.Sequential(
+            nn.Linear(dim, 2 * dim), nn.GELU(), nn.Dropout(dropout), nn.Linear(2 * dim, dim)
+        )
+        self.drop = nn.Dropout(dropout)
+
+    def forward(self, query: torch.Tensor, kv: torch.Tensor, kv_pad: torch.Tensor) -> torch.Tensor:
+        kvn = self.norm_kv(kv)
+        a, _ = self.attn(self.norm_q(query), kvn, kvn, key_padding_mask=kv_pad, need_weights=False)
+        query = query + self.drop(a)
+        return query + self.drop(self.ff(self.norm_ff(query)))
+
+
+class GlobalEncoder(nn.Module):
+    """PointNet++ (3 multi-scale set abstractions) over the global cloud to tokens.
+
+    Shapes:
+        - input: ``xyz`` (B, Ng, 3), ``feats`` (B, Ng, C), ``mask`` (B, Ng)
+        - output: tokens (B, T, E), token xyz (B, T, 3), token mask (B, T) bool
+    """
+
+    def __init__(self, cfg: ModelConfig, in_channels: int) -> None:
+        super().__init__()
+        ch, ns = cfg.ch, cfg.ns
+        g1, g2 = cfg.global_npoints
+        self.sa1 = SetAbstractionMSG(
+            g1, (0.1, 0.2, 0.4), (ns(16), ns(32), ns(64)), in_channels,
+            [[ch(32), ch(32), ch(64)], [ch(64), ch(64), ch(128)], [ch(64), ch(96), ch(128)]],
+        )
+        self.sa2 = SetAbstractionMSG(
+            g2, (0.2, 0.4, 0.8), (ns(16), ns(32), ns(64)), self.sa1.out_channels,
+            [[ch(128), ch(128), ch(256)], [ch(128), ch(196), ch(256)], [ch(128), ch(196), ch(256)]],
+        )
+        self.sa3 = SetAbstractionMSG(
+            cfg.num_tokens, (0.4, 0.8), (ns(16), ns(32)), self.sa2.out_channels,
+            [[ch(256), ch(256), ch(512)], [ch(256), ch(256), ch(512)]],
+        )
+        self.tokenizer = Tokenizer(self.sa3.out_channels, cfg.embed_dim)
+
+    def forward(
+        self, xyz: torch.Tensor, feats: torch.Tensor, mask: torch.Tensor
+    ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        x1, f1, m1 = self.sa1(xyz, feats, mask)
+        x2, f2, m2 = self.sa2(x1, f1, m1)
+        x3, f3, m3 = self.sa3(x2, f2, m2)
+        return self.tokenizer(f3, x3), x3, m3
+
+
+class RobotTokenizer(nn.Module):
+    """Robot descriptor to ``R`` tokens.
+
+    Shapes:
+        - input: (B, D); output: (B, R, E)
+    """
+
+    def __init__(self, dim: int, num_tokens: int) -> None:
+        super().__init__()
+        self.num_tokens = num_tokens
+        self.mlp = nn.Sequential(
+            nn.Linear(DESCRIPTOR_DIM, dim), nn.ReLU(inplace=True), nn.Linear(dim, dim * num_tokens)
+        )
+        self.embed = nn.Parameter(torch.randn(num_tokens, dim) * 0.02)
+
+    def forward(self, robot: torch.Tensor) -> torch.Tensor:
+        b = robot.shape[0]
+        return self.mlp(robot).view(b, self.num_tokens, -1) + self.embed
+
+
+class NavAffBackbone(Backbone):
+    """NavAff up to per-floor-point features (the head adds the sigmoid).
+
+    Shapes:
+        - input: batch with ``global_*`` (B, Ng, ...), ``floor_xyz`` (B, Nf, 3),
+          ``floor_mask`` (B, Nf), ``robot`` (B, D)
+        - output: (B, Nf, ``out_channels``)
+    """
+
+    def __init__(
+        self,
+        cfg: ModelConfig,
+        use_robot: bool = True,
+        use_alignment: bool = True,
+        use_global: bool = True,
+    ) -> None:
+        super().__init__()
+        if not (use_robot or use_global):
+            raise ValueError("NavAff needs the global cloud or the robot tokens as keys")
+        self.use_robot = use_robot
+        self.use_alignment = use_alignment
+        self.use_global = use_global
+        ch, ns, dim = cfg.ch, cfg.ns, cfg.embed_dim
+        if use_global:
+            in_ch = 3 + 3 + (1 if use_alignment else 0)  # xyz, rgb, alignment
+            self.global_encoder = GlobalEncoder(cfg, in_ch)
+        if use_robot:
+            self.robot_tokenizer = RobotTokenizer(dim, cfg.num_robot_tokens)
+        self.floor_sa1 = SetAbstractionMSG(
+            cfg.floor_npoints, (0.1, 0.2), (ns(16), ns(32)), 3,
+            [[ch(32), ch(32), ch(64)], [ch(64), ch(64), ch(128)]],
+        )
+        self.floor_sa2 = SetAbstractionMSG(
+            cfg.num_tokens, (0.2, 0.4), (ns(16), ns(32)), self.floor_sa1.out_channels,
+            [[ch(128), ch(128), ch(256)], [ch(128), ch(128), ch(256)]],
+        )
+        self.floor_tokenizer = Tokenizer(self.floor_sa2.out_channels, dim)
+        self.blocks = nn.ModuleList(
+            CrossAttentionBlock(dim, cfg.num_heads, cfg.dropout)
+            for _ in range(cfg.attention_layers)
+        )
+        self.fp2 = FeaturePropagation(
+            self.floor_sa1.out_channels + dim, [ch(256), ch(256)]
+        )
+        self.fp1 = FeaturePropagation(3 + self.fp2.out_channels, [ch(128), ch(128)])
+        self.out_channels = self.fp1.out_channels
+
+    def forward(self, batch: dict[str, Any]) -> torch.Tensor:
+        fxyz, fmask = batch["floor_xyz"], batch["floor_mask"]
+        b = fxyz.shape[0]
+        keys, pads = [], []
+        if self.use_global:
+            parts = [batch["global_xyz"], batch["global_rgb"]]
+            if self.use_alignment:
+                parts.append(batch["global_align"].unsqueeze(-1))
+            gtok, _, gm = self.global_encoder(batch["global_xyz"], torch.cat(parts, -1),
+                                              batch["global_mask"])
+            keys.append(gtok)
+            pads.append(~gm)
+        if self.use_robot:
+            rtok = self.robot_tokenizer(batch["robot"])
+            keys.append(rtok)
+            pads.append(torch.zeros(b, rtok.shape[1], dtype=torch.bool, device=fxyz.device))
+        kv, kv_pad = torch.cat(keys, 1), torch.cat(pads, 1)
+
+        x1, f1, m1 = self.floor_sa1(fxyz, fxyz, fmask)
+        x2, f2, m2 = self.floor_sa2(x1, f1, m1)
+        q = self.floor_tokenizer(f2, x2)
+        for block in self.blocks:
+            q = block(q, kv, kv_pad)
+        up1 = self.fp2(x1, x2, f1, q, m2)
+        return self.fp1(fxyz, x1, fxyz, up1, m1)

@@ -1,0 +1,86 @@
+"""The one registry of models: NavAff, its ablations and the baselines, by name."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from momakitchen.errors import MomaError
+from momakitchen.models.base import AffordanceModel, Backbone
+from momakitchen.models.baselines import H3DNetBackbone, PointNet2Backbone, VoteNetBackbone
+from momakitchen.models.config import ModelConfig
+from momakitchen.models.navaff import NavAffBackbone
+
+
+@dataclass(frozen=True)
+class ModelEntry:
+    """A registered model.
+
+    Attributes:
+        name: registry key.
+        build_backbone: ``ModelConfig -> Backbone``.
+        head_uses_robot: whether the head is conditioned on the robot descriptor (the
+            baselines; NavAff reads the robot through its attention tokens instead).
+        description: one line for listings and docs.
+    """
+
+    name: str
+    build_backbone: Callable[[ModelConfig], Backbone]
+    head_uses_robot: bool
+    description: str
+
+
+MODELS: dict[str, ModelEntry] = {}
+
+
+def register_model(entry: ModelEntry, *, replace: bool = False) -> ModelEntry:
+    """Add a model to the registry; refuses to silently replace an existing name."""
+    if entry.name in MODELS and not replace:
+        raise MomaError(f"model {entry.name!r} is already registered")
+    MODELS[entry.name] = entry
+    return entry
+
+
+def model_names() -> tuple[str, ...]:
+    return tuple(MODELS)
+
+
+def get_model_entry(name: str) -> ModelEntry:
+    try:
+        return MODELS[name]
+    except KeyError:
+        raise MomaError(f"unknown model {name!r}; known models: {', '.join(MODELS)}") from None
+
+
+def build_model(name: str, config: ModelConfig | None = None) -> AffordanceModel:
+    """Build a registered model (backbone + head + weighted-MSE loss)."""
+    entry = get_model_entry(name)
+    cfg = config if config is not None else ModelConfig()
+    return AffordanceModel(name, cfg, entry.build_backbone(cfg), entry.head_uses_robot)
+
+
+for _entry in (
+    ModelEntry("navaff", NavAffBackbone, False, "NavAff (visual alignment, global + robot keys)"),
+    ModelEntry("pointnet2", PointNet2Backbone, True, "PointNet++ segmentation baseline"),
+    ModelEntry("votenet", VoteNetBackbone, True, "VoteNet-style (voting kept, no box heads)"),
+    ModelEntry("h3dnet", H3DNetBackbone, True, "H3DNet-style (primitives kept, no box heads)"),
+    ModelEntry(
+        "navaff-no-robot",
+        lambda c: NavAffBackbone(c, use_robot=False),
+        False,
+        "NavAff without robot tokens",
+    ),
+    ModelEntry(
+        "navaff-no-vam",
+        lambda c: NavAffBackbone(c, use_alignment=False),
+        False,
+        "NavAff without the visual-alignment channel",
+    ),
+    ModelEntry(
+        "navaff-no-global",
+        lambda c: NavAffBackbone(c, use_global=False),
+        False,
+        "NavAff without the global cloud (robot tokens as keys)",
+    ),
+):
+    register_model(_entry)

@@ -1,0 +1,33 @@
+import pytest
+import torch
+
+from momakitchen.models.loss import WeightedMSELoss
+
+
+def test_weighted_mse_hand_values():
+    pred = torch.tensor([[0.5, 0.2, 0.9, 0.4]])
+    label = torch.tensor([[1.0, 0.0, 0.0, 0.7]])
+    mask = torch.tensor([[True, True, True, False]])
+    crit = WeightedMSELoss(lambda_zero=0.7, prob=1.0)
+    plain = (0.25 + 0.04 + 0.81) / 3
+    weighted = (0.25 + 0.7 * 0.04 + 0.7 * 0.81) / 3
+    crit.train()
+    out = crit(pred, label, mask)
+    assert out["loss"].item() == pytest.approx(weighted, rel=1e-6)
+    assert out["mse"].item() == pytest.approx(plain, rel=1e-6)
+    crit.eval()  # eval: plain masked MSE
+    assert crit(pred, label, mask)["loss"].item() == pytest.approx(plain, rel=1e-6)
+    never = WeightedMSELoss(lambda_zero=0.7, prob=0.0).train()
+    assert never(pred, label, mask)["loss"].item() == pytest.approx(plain, rel=1e-6)
+
+
+def test_weighting_is_applied_about_half_the_time():
+    pred = torch.full((1, 3), 0.5)
+    label = torch.tensor([[0.0, 0.0, 1.0]])
+    mask = torch.ones(1, 3, dtype=torch.bool)
+    crit = WeightedMSELoss(0.7, 0.5).train()
+    torch.manual_seed(0)
+    losses = [crit(pred, label, mask)["loss"].item() for _ in range(400)]
+    weighted = sum(abs(v - (0.7 * 0.25 * 2 + 0.25) / 3) < 1e-6 for v in losses)
+    assert 150 < weighted < 250
+    assert all(abs(v - 0.25) < 1e-6 or abs(v - 0.2) < 1e-6 for v in losses)

@@ -1,0 +1,131 @@
+import dataclasses
+
+import pytest
+import torch
+
+from momakitchen.data.batch import collate_episodes
+from momakitchen.data.synthetic import SyntheticConfig, SyntheticEpisodes
+from momakitchen.errors import MomaError
+from momakitchen.models import MODELS, ModelConfig, build_model, model_names, num_parameters
+
+EXPECTED = {
+    "navaff",
+    "pointnet2",
+    "votenet",
+    "h3dnet",
+    "navaff-no-robot",
+    "navaff-no-vam",
+    "navaff-no-global",
+}
+
+
+@pytest.fixture(scope="module")
+def samples():
+    ds = SyntheticEpisodes(SyntheticConfig(num_episodes=3, num_global=300, num_floor=120, seed=3))
+    return [ds[i] for i in range(3)]
+
+
+def _pad_with_garbage(batch, extra_g, extra_f):
+    """Append padded points carrying wild values that must not matter."""
+    out = dict(batch)
+    b = batch["global_xyz"].shape[0]
+    g = torch.Generator().manual_seed(0)
+    for key, extra, width in (
+        ("global_xyz", extra_g, 3),
+        ("global_rgb", extra_g, 3),
+        ("floor_xyz", extra_f, 3),
+    ):
+        junk = torch.randn(b, extra, width, generator=g) * 5
+        out[key] = torch.cat([batch[key], junk], 1)
+    out["global_align"] = torch.cat([batch["global_align"], torch.ones(b, extra_g)], 1)
+    out["floor_label"] = torch.cat([batch["floor_label"], torch.rand(b, extra_f, generator=g)], 1)
+    out["global_mask"] = torch.cat([batch["global_mask"], torch.zeros(b, extra_g, dtype=bool)], 1)
+    out["floor_mask"] = torch.cat([batch["floor_mask"], torch.zeros(b, extra_f, dtype=bool)], 1)
+    return out
+
+
+def test_registry_has_all_models_and_rejects_unknown_names(tiny_config):
+    assert set(model_names()) == EXPECTED == set(MODELS)
+    with pytest.raises(MomaError, match=r"unknown model 'pointnet3'.*navaff"):
+        build_model("pointnet3", tiny_config)
+
+
+def test_model_config_validation_names_the_bad_value():
+    with pytest.raises(MomaError, match=r"num_heads.*3"):
+        ModelConfig(embed_dim=32, num_heads=3)
+    with pytest.raises(MomaError, match="global_npoints"):
+        ModelConfig(num_tokens=64, global_npoints=(128, 32))
+    with pytest.raises(MomaError, match=r"dropout.*1\.5"):
+        ModelConfig(dropout=1.5)
+    cfg = ModelConfig(global_npoints=[512, 128])
+    assert ModelConfig.from_dict(cfg.to_dict()) == cfg
+
+
+@pytest.mark.parametrize("name", sorted(EXPECTED))
+def test_padding_changes_neither_outputs_nor_loss(name, tiny_config, samples):
+    torch.manual_seed(0)
+    cfg = dataclasses.replace(tiny_config, dropout=0.0)
+    model = build_model(name, cfg)
+    assert num_parameters(model) > 0
+    exact = collate_episodes(samples[:1])
+    padded = _pad_with_garbage(exact, 57, 23)
+    model.eval()
+    with torch.no_grad():
+        a = model(exact)
+        b = model(padded)
+    nf = exact["floor_xyz"].shape[1]
+    assert torch.allclose(a["pred"], b["pred"][:, :nf], atol=1e-5)
+    assert (b["pred"][:, nf:] == 0).all()
+    assert torch.allclose(a["loss"], b["loss"], atol=1e-6)
+    assert ((a["pred"] >= 0) & (a["pred"] <= 1)).all()
+    # Training-mode loss (weighted MSE draw from the same RNG state) is padding-free too.
+    model.train()
+    torch.manual_seed(5)
+    la = model(exact)["loss"]
+    torch.manual_seed(5)
+    lb = model(padded)["loss"]
+    assert torch.allclose(la, lb, atol=1e-6)
+
+
+def test_batched_episodes_equal_single_episodes(tiny_config, samples):
+    torch.manual_seed(0)
+    model = build_model("navaff", tiny_config).eval()
+    batch = collate_episodes(samples)
+    with torch.no_grad():
+        together = model(batch)["pred"]
+        for i, s in enumerate(samples):
+            alone = model(collate_episodes([s]))["pred"][0]
+            n = alone.shape[0]
+            assert torch.allclose(together[i, :n], alone, atol=1e-5)
+
+
+def test_ablations_ignore_what_they_drop(tiny_config, samples):
+    batch = collate_episodes(samples[:2])
+    other_robot = dict(batch, robot=batch["robot"].flip(0) + 0.3)
+    no_align = dict(batch, global_align=torch.zeros_like(batch["global_align"]))
+    moved = dict(batch, global_xyz=batch["global_xyz"] + 0.5, global_rgb=1 - batch["global_rgb"])
+
+    def run(name, b):
+        torch.manual_seed(0)
+        m = build_model(name, tiny_config).eval()
+        with torch.no_grad():
+            return m(b)["pred"]
+
+    base = run("navaff", batch)
+    assert not torch.allclose(base, run("navaff", other_robot))
+    assert not torch.allclose(base, run("navaff", no_align))
+    assert torch.allclose(run("navaff-no-robot", batch), run("navaff-no-robot", other_robot))
+    assert torch.allclose(run("navaff-no-vam", batch), run("navaff-no-vam", no_align))
+    assert torch.allclose(run("navaff-no-global", batch), run("navaff-no-global", moved))
+    for name in ("pointnet2", "votenet", "h3dnet"):
+        assert not torch.allclose(run(name, batch), run(name, other_robot))
+
+
+@pytest.mark.parametrize("name", sorted(EXPECTED))
+def test_every_parameter_gets_a_gradient(name, tiny_config, samples):
+    torch.manual_seed(0)
+    model = build_model(name, tiny_config).train()
+    out = model(collate_episodes(samples[:2]))
+    out["loss"].backward()
+    missing = [n for n, p in model.named_parameters() if p.grad is None]
+    assert not missing

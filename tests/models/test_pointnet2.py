@@ -1,0 +1,80 @@
+import numpy as np
+import torch
+
+from momakitchen.models.pointnet2 import (
+    ball_query,
+    farthest_point_sample,
+    square_distance,
+    three_nn_weights,
+)
+
+
+def _reference_fps(points: np.ndarray, m: int) -> list[int]:
+    """Textbook farthest point sampling (a loop over points), starting at index 0."""
+    chosen = [0]
+    dist = np.full(len(points), np.inf)
+    for _ in range(m - 1):
+        dist = np.minimum(dist, ((points - points[chosen[-1]]) ** 2).sum(1))
+        chosen.append(int(np.argmax(dist)))
+    return chosen
+
+
+def test_fps_matches_reference_and_skips_padding():
+    rng = np.random.default_rng(0)
+    pts = rng.uniform(-1, 1, (50, 3)).astype(np.float32)
+    xyz = torch.zeros(1, 80, 3)
+    mask = torch.zeros(1, 80, dtype=torch.bool)
+    # Real points scattered among padding; padding placed far away (would be chosen if used).
+    slots = np.sort(rng.choice(80, 50, replace=False))
+    xyz[0, slots] = torch.from_numpy(pts)
+    xyz[0, ~torch.isin(torch.arange(80), torch.from_numpy(slots))] = 100.0
+    mask[0, slots] = True
+    idx, valid = farthest_point_sample(xyz, mask, 10)
+    assert valid.all()
+    assert mask[0, idx[0]].all()
+    expected = slots[_reference_fps(pts, 10)]
+    assert idx[0].tolist() == expected.tolist()
+
+
+def test_fps_with_too_few_real_points_repeats_real_points_and_flags_them():
+    xyz = torch.randn(2, 20, 3)
+    mask = torch.zeros(2, 20, dtype=torch.bool)
+    mask[0, :3] = True
+    mask[1, :20] = True
+    idx, valid = farthest_point_sample(xyz, mask, 8)
+    assert valid[0].tolist() == [True] * 3 + [False] * 5
+    assert valid[1].all()
+    assert set(idx[0].tolist()) == {0, 1, 2}
+    assert len(set(idx[1].tolist())) == 8
+
+
+def test_ball_query_radius_nearest_and_mask():
+    xyz = torch.tensor([[[0.0, 0, 0], [0.05, 0, 0], [0.3, 0, 0], [0.01, 0, 0], [0.02, 0, 0]]])
+    mask = torch.tensor([[True, True, True, True, False]])  # the point at 0.02 is padding
+    centers = torch.tensor([[[0.0, 0, 0]]])
+    ((idx, gmask),) = ball_query(0.1, 4, xyz, mask, centers)
+    assert idx.shape == (1, 1, 4)
+    assert gmask[0, 0].tolist() == [True, True, True, False]
+    assert idx[0, 0, :3].tolist() == [0, 3, 1]
+    assert 4 not in idx[0, 0].tolist()  # padding never grouped
+    # several scales share one top-k and each is a prefix of the nearest neighbours
+    groups = ball_query((0.02, 0.5), (2, 4), xyz, mask, centers)
+    assert groups[0][1][0, 0].tolist() == [True, True]
+    assert groups[1][1][0, 0].tolist() == [True, True, True, True]
+
+
+def test_three_nn_weights_ignore_padding_and_sum_to_one():
+    src = torch.tensor([[[0.0, 0, 0], [1.0, 0, 0], [0.1, 0, 0], [2.0, 0, 0]]])
+    src_mask = torch.tensor([[True, True, False, True]])
+    dst = torch.tensor([[[0.2, 0, 0]]])
+    idx, w = three_nn_weights(dst, src, src_mask)
+    assert 2 not in idx[0, 0].tolist()
+    assert torch.allclose(w.sum(-1), torch.ones(1, 1))
+    d = torch.tensor([0.2, 0.8, 1.8]) ** 2
+    expected = (1 / d) / (1 / d).sum()
+    assert torch.allclose(w[0, 0], expected, atol=1e-4)
+
+
+def test_square_distance_matches_cdist():
+    a, b = torch.randn(2, 7, 3), torch.randn(2, 5, 3)
+    assert torch.allclose(square_distance(a, b), torch.cdist(a, b) ** 2, atol=1e-5)
