@@ -25,6 +25,8 @@ class RobotSpec:
         dof: number of arm joints.
         end_effector: one of ``END_EFFECTORS``.
         footprint: base footprint (length along x, width along y) in metres.
+        mount_offset_x: position of the arm mount along the base's x axis (forward) from
+            the base centre, metres.
     """
 
     name: str
@@ -33,6 +35,7 @@ class RobotSpec:
     dof: int
     end_effector: str
     footprint: tuple[float, float] = (0.55, 0.45)
+    mount_offset_x: float = 0.0
 
     def __post_init__(self) -> None:
         if not self.name or self.name != self.name.lower():
@@ -53,6 +56,11 @@ class RobotSpec:
         if any(not 0.1 <= f <= 2.0 for f in self.footprint):
             raise MomaError(
                 f"robot {self.name!r}: footprint must be in [0.1, 2] m, got {self.footprint}"
+            )
+        if abs(self.mount_offset_x) > self.footprint[0] / 2:
+            raise MomaError(
+                f"robot {self.name!r}: mount_offset_x must lie on the base (|x| <= "
+                f"{self.footprint[0] / 2}), got {self.mount_offset_x}"
             )
 
 

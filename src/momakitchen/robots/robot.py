@@ -1,0 +1,739 @@
+"""A mobile manipulator in a PyBullet client: placement, FK, IK, collisions, tools.
+
+Every PyBullet call passes the robot's ``client_id``, so robots in several independent
+DIRECT clients of one process do not interfere. The base is fixed (teleported, not
+driven): last-mile navigation only needs the stopping pose.
+
+Conventions: positions in metres (world frame), quaternions ``(x, y, z, w)`` as PyBullet
+uses them, joint vectors of shape ``(dof,)`` in the order of :attr:`Robot.joint_names`.
+The TCP frame's z axis is the approach direction; gripper fingers close along its y axis.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import pybullet as p
+
+from momakitchen.errors import MomaError
+from momakitchen.robots.arms import (
+    ParallelGripper,
+    RobotModel,
+    ShippedArm,
+    SuctionCup,
+    UserTool,
+    get_model,
+)
+from momakitchen.robots.spec import RobotSpec, get_robot_spec
+from momakitchen.robots.urdf import (
+    BASE_LINK,
+    CUP_HEIGHT,
+    FINGER_JOINTS,
+    SUCTION_LINK,
+    TCP_LINK,
+    robot_urdf_path,
+)
+
+# A few thousand random configurations give the workspace radius to within ~1 %.
+_WORKSPACE_SAMPLES = 3000
+_WORKSPACE_CACHE: dict[str, tuple[float, float]] = {}
+_SELF_PAIRS_CACHE: dict[str, list[tuple[int, int]]] = {}
+
+
+@dataclass(frozen=True)
+class IKResult:
+    """Outcome of :meth:`Robot.solve_ik`.
+
+    Attributes:
+        q: joint positions, shape ``(dof,)``, always within the joint limits.
+        position_error: TCP position residual in metres.
+        orientation_error: TCP orientation residual in radians (0 if not constrained).
+        success: both residuals within the requested tolerances.
+        calls: number of PyBullet IK calls used.
+        seconds: wall time of the solve.
+    """
+
+    q: np.ndarray
+    position_error: float
+    orientation_error: float
+    success: bool
+    calls: int
+    seconds: float
+
+
+@dataclass(frozen=True)
+class Contact:
+    """A collision found by :meth:`Robot.arm_collisions`.
+
+    Attributes:
+        link: robot link name (``"mobile_base"`` for the base).
+        body: the other body id (the robot's own id for a self-collision).
+        other_link: link index on the other body (-1 = its base).
+        distance: signed distance in metres (negative = penetration).
+    """
+
+    link: str
+    body: int
+    other_link: int
+    distance: float
+
+
+def quaternion_angle(q1: Sequence[float], q2: Sequence[float]) -> float:
+    """Angle in radians of the rotation between two unit quaternions ``(x, y, z, w)``."""
+    dot = abs(float(np.dot(np.asarray(q1, float), np.asarray(q2, float))))
+    return 2.0 * math.acos(min(1.0, dot))
+
+
+def _yaw_quaternion(yaw: float) -> tuple[float, float, float, float]:
+    return (0.0, 0.0, math.sin(yaw / 2), math.cos(yaw / 2))
+
+
+class Robot:
+    """One registered robot loaded into a PyBullet client.
+
+    Args:
+        client_id: PyBullet physics client (e.g. from ``p.connect(p.DIRECT)``).
+        name: registered robot name (``momakitchen.robots.ROBOTS``).
+        base: initial base pose ``(x, y, yaw)``.
+    """
+
+    def __init__(self, client_id: int, name: str, base: Sequence[float] = (0.0, 0.0, 0.0)):
+        self.spec: RobotSpec = get_robot_spec(name)
+        self.model: RobotModel = get_model(name)
+        self.client = int(client_id)
+        self.name = name
+        path = robot_urdf_path(name)
+        self.body = self._load(path)
+        self._index_joints()
+        if not self._ik_works():
+            # PyBullet keeps an IK solver per body id and does not drop it when a body is
+            # removed: a new body that reuses the id of a removed, different robot can get
+            # a stale solver. Load again (fresh id), then free the stale one.
+            stale, self.body = self.body, self._load(path)
+            p.removeBody(stale, physicsClientId=self.client)
+            if not self._ik_works():
+                raise MomaError(f"robot {name!r}: PyBullet IK does not work on {str(path)!r}")
+        self._attachment: tuple[int, int] | None = None
+        self.place_base(*base)
+        self.set_joint_positions(self.home)
+        if self.finger_joints:
+            for j in self.finger_joints:
+                p.changeDynamics(self.body, j, lateralFriction=1.5, spinningFriction=0.01,
+                                 physicsClientId=self.client)
+            self.set_gripper_opening(self.max_opening)
+
+    # ---------------------------------------------------------------- structure
+    def _load(self, path) -> int:
+        try:
+            return p.loadURDF(str(path), useFixedBase=True, physicsClientId=self.client)
+        except p.error as exc:
+            raise MomaError(
+                f"robot {self.name!r}: PyBullet cannot load {str(path)!r}: {exc}"
+            ) from None
+
+    def _ik_works(self) -> bool:
+        """Check PyBullet's Jacobian (which its IK uses) against finite differences."""
+        c = self.client
+        saved = self.joint_positions()
+        q = self.home if hasattr(self, "home") else saved
+        self._reset_arm(q)
+        full = [s[0] for s in p.getJointStates(self.body, self._movable, physicsClientId=c)]
+        zeros = [0.0] * len(full)
+        try:
+            jac, _ = p.calculateJacobian(self.body, self.tcp_link, (0.0, 0.0, 0.0), full, zeros,
+                                         zeros, physicsClientId=c)
+        except (p.error, SystemError):  # a stale tree raises SystemError in some versions
+            self._reset_arm(saved)
+            return False
+        jac = np.array(jac)[:, self._ik_cols]
+        x0 = self.link_pose(self.tcp_link)[0]
+        eps = 1e-5
+        ok = True
+        for k in range(self.dof):
+            dq = np.array(q, float)
+            dq[k] += eps
+            self._reset_arm(dq)
+            col = (self.link_pose(self.tcp_link)[0] - x0) / eps
+            # Loose: PyBullet's Jacobian of mesh robots is off by ~1 % (still converges).
+            if np.max(np.abs(col - jac[:, k])) > 0.02:
+                ok = False
+                break
+        self._reset_arm(saved)
+        return ok
+
+    def _index_joints(self) -> None:
+        c = self.client
+        n = p.getNumJoints(self.body, physicsClientId=c)
+        infos = [p.getJointInfo(self.body, j, physicsClientId=c) for j in range(n)]
+        self.link_names: list[str] = [info[12].decode() for info in infos]
+        self.joint_name_list: list[str] = [info[1].decode() for info in infos]
+        self._parent = [int(info[16]) for info in infos]  # parent link index of link j
+        link_index = {name: j for j, name in enumerate(self.link_names)}
+        link_index[BASE_LINK] = -1
+        self._link_index = link_index
+        ee = self.model.end_effector
+        if isinstance(ee, ParallelGripper):
+            fingers = ee.existing_fingers or FINGER_JOINTS
+        elif isinstance(ee, UserTool):
+            fingers = ee.finger_joints
+        else:
+            fingers = ()
+        jidx = {name: j for j, name in enumerate(self.joint_name_list)}
+        missing = [f for f in fingers if f not in jidx]
+        if missing:
+            raise MomaError(f"robot {self.name!r}: finger joints {missing} not in its URDF")
+        self.finger_joints: list[int] = [jidx[f] for f in fingers]
+        self.tcp_link = link_index[TCP_LINK]
+        # Arm joints: the movable joints on the chain from the root to the TCP.
+        chain, j = [], self.tcp_link
+        while j >= 0:
+            if infos[j][2] != p.JOINT_FIXED:
+                chain.append(j)
+            j = self._parent[j]
+        self.arm_joints: list[int] = chain[::-1]
+        if len(self.arm_joints) != self.spec.dof:
+            raise MomaError(
+                f"robot {self.name!r}: URDF has {len(self.arm_joints)} arm joints, "
+                f"spec says dof={self.spec.dof}"
+            )
+        self.joint_names: list[str] = [self.joint_name_list[j] for j in self.arm_joints]
+        self.lower = np.array([infos[j][8] for j in self.arm_joints])
+        self.upper = np.array([infos[j][9] for j in self.arm_joints])
+        self.max_force = np.array([max(infos[j][10], 1.0) for j in self.arm_joints])
+        # PyBullet IK works on all movable joints, in joint-index order.
+        self._movable = [j for j in range(n) if infos[j][2] != p.JOINT_FIXED]
+        self._ik_cols = [self._movable.index(j) for j in self.arm_joints]
+        lo = [infos[j][8] for j in self._movable]
+        hi = [infos[j][9] for j in self._movable]
+        self._ik_lower = lo
+        self._ik_upper = hi
+        self._ik_ranges = [max(h - l_, 1e-3) for l_, h in zip(lo, hi, strict=True)]
+        mid = (self.lower + self.upper) / 2
+        home = np.array(self.model.home, float) if self.model.home else mid
+        if home.shape != (self.spec.dof,):
+            raise MomaError(f"robot {self.name!r}: home needs {self.spec.dof} values")
+        self.home = np.clip(home, self.lower, self.upper)
+        self._ik_rest = [0.0] * len(self._movable)
+        for col, v in zip(self._ik_cols, self.home, strict=True):
+            self._ik_rest[col] = float(v)
+        if self.finger_joints:
+            self.max_opening = float(sum(infos[j][9] for j in self.finger_joints))
+            self.finger_force = float(getattr(ee, "finger_force", 40.0))
+        else:
+            self.max_opening = 0.0
+        # Flange: the model's flange link (shipped arm), "flange" (built arm), else the TCP.
+        if isinstance(self.model.arm, ShippedArm) and not isinstance(ee, UserTool):
+            self.flange_link = link_index[self.model.arm.flange_link]
+        else:
+            self.flange_link = link_index.get("flange", self.tcp_link)
+        # Shoulder: the frame of the second arm joint (where reach is measured from).
+        self.shoulder_link = self.arm_joints[1]
+        # End-effector links: everything below the last arm joint's link (tool contacts
+        # with an allowed target are intended, arm contacts are not).
+        last = self.arm_joints[-1]
+        self.ee_links = {j for j in range(n) if self._descends(j, last) and j != last}
+        if isinstance(ee, SuctionCup):
+            self.cup_link = link_index[SUCTION_LINK]
+        elif isinstance(ee, UserTool) and ee.kind == "suction":
+            self.cup_link = self._parent[self.tcp_link]
+        else:
+            self.cup_link = None
+
+    def _descends(self, j: int, ancestor: int) -> bool:
+        while j >= 0:
+            if j == ancestor:
+                return True
+            j = self._parent[j]
+        return False
+
+    def link_index(self, name: str) -> int:
+        """PyBullet link index of a link name (``mobile_base`` is -1)."""
+        try:
+            return self._link_index[name]
+        except KeyError:
+            raise MomaError(f"robot {self.name!r} has no link {name!r}") from None
+
+    @property
+    def dof(self) -> int:
+        return self.spec.dof
+
+    # ---------------------------------------------------------------- base
+    def place_base(self, x: float, y: float, yaw: float) -> None:
+        """Teleport the base to floor position ``(x, y)`` facing ``yaw`` (radians)."""
+        p.resetBasePositionAndOrientation(self.body, (float(x), float(y), 0.0),
+                                          _yaw_quaternion(float(yaw)),
+                                          physicsClientId=self.client)
+
+    def base_pose(self) -> tuple[float, float, float]:
+        """Current ``(x, y, yaw)`` of the base."""
+        pos, orn = p.getBasePositionAndOrientation(self.body, physicsClientId=self.client)
+        yaw = p.getEulerFromQuaternion(orn)[2]
+        return (pos[0], pos[1], yaw)
+
+    # ---------------------------------------------------------------- joints and FK
+    def joint_positions(self) -> np.ndarray:
+        """Arm joint positions, shape ``(dof,)``."""
+        states = p.getJointStates(self.body, self.arm_joints, physicsClientId=self.client)
+        return np.array([s[0] for s in states])
+
+    def _reset_arm(self, q: Sequence[float]) -> None:
+        for j, v in zip(self.arm_joints, q, strict=True):
+            p.resetJointState(self.body, j, float(v), physicsClientId=self.client)
+
+    def set_joint_positions(self, q: Sequence[float]) -> None:
+        """Teleport the arm to ``q`` (shape ``(dof,)``) and hold it there with the motors."""
+        q = np.asarray(q, float)
+        if q.shape != (self.dof,):
+            raise MomaError(f"robot {self.name!r}: expected {self.dof} joint values, got {q.shape}")
+        self._reset_arm(q)
+        p.setJointMotorControlArray(self.body, self.arm_joints, p.POSITION_CONTROL,
+                                    targetPositions=q.tolist(), forces=self.max_force.tolist(),
+                                    physicsClientId=self.client)
+
+    def within_limits(self, q: Sequence[float], tol: float = 1e-6) -> bool:
+        q = np.asarray(q, float)
+        return bool(np.all(q >= self.lower - tol) and np.all(q <= self.upper + tol))
+
+    def link_pose(self, link: int) -> tuple[np.ndarray, np.ndarray]:
+        """World pose ``(position (3,), quaternion (4,))`` of a link's URDF frame."""
+        if link == -1:
+            pos, orn = p.getBasePositionAndOrientation(self.body, physicsClientId=self.client)
+            return np.array(pos), np.array(orn)
+        st = p.getLinkState(self.body, link, computeForwardKinematics=True,
+                            physicsClientId=self.client)
+        return np.array(st[4]), np.array(st[5])
+
+    def tcp_pose(self, q: Sequence[float] | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Forward kinematics of the TCP: world ``(position (3,), quaternion (4,))``.
+
+        With ``q``, the pose at that configuration (the current one is restored).
+        """
+        return self._pose_at(self.tcp_link, q)
+
+    def flange_pose(self, q: Sequence[float] | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Forward kinematics of the tool flange (same conventions as :meth:`tcp_pose`)."""
+        return self._pose_at(self.flange_link, q)
+
+    def _pose_at(self, link: int, q) -> tuple[np.ndarray, np.ndarray]:
+        if q is None:
+            return self.link_pose(link)
+        saved = self.joint_positions()
+        self._reset_arm(q)
+        pose = self.link_pose(link)
+        self._reset_arm(saved)
+        return pose
+
+    def shoulder_position(self) -> np.ndarray:
+        """World position of the shoulder (second arm joint), shape ``(3,)``."""
+        return self.link_pose(self.shoulder_link)[0]
+
+    # ---------------------------------------------------------------- IK
+    def solve_ik(
+        self,
+        position: Sequence[float],
+        orientation: Sequence[float] | None = None,
+        *,
+        seed: Sequence[float] | None = None,
+        pos_tol: float = 0.005,
+        ori_tol: float = math.radians(2.0),
+        refine: int = 4,
+        restarts: int = 3,
+        rng: np.random.Generator | None = None,
+    ) -> IKResult:
+        """Joint positions placing the TCP at ``position`` (and ``orientation``).
+
+        PyBullet's damped-least-squares IK with null-space joint limits, refined from its
+        own answer ``refine`` times; if the residual is still above the tolerances it
+        restarts from random configurations (``restarts`` times). The result is clipped to
+        the joint limits and its residuals measured by forward kinematics, so
+        ``success`` never lies. The arm is left at the best configuration found.
+
+        Args:
+            position: target TCP position in the world frame, shape ``(3,)``.
+            orientation: target TCP quaternion ``(x, y, z, w)`` or None (position only).
+            seed: start configuration, shape ``(dof,)`` (default: current joints).
+        """
+        t0 = time.perf_counter()
+        c = self.client
+        target = [float(v) for v in position]
+        orn = None if orientation is None else [float(v) for v in orientation]
+        if orn is not None:
+            norm = math.sqrt(sum(v * v for v in orn))
+            if not 0.5 < norm < 2.0:
+                raise MomaError(f"IK orientation must be a unit quaternion, got {orientation}")
+            orn = [v / norm for v in orn]
+        rng = rng if rng is not None else np.random.default_rng(0)
+        q = np.clip(np.asarray(seed if seed is not None else self.joint_positions(), float),
+                    self.lower, self.upper)
+        full = [0.0] * len(self._movable)
+        if self.finger_joints:
+            states = p.getJointStates(self.body, self._movable, physicsClientId=c)
+            full = [s[0] for s in states]
+        best: tuple[float, float, np.ndarray] | None = None
+        calls = 0
+        for attempt in range(restarts + 1):
+            if attempt > 0:
+                q = rng.uniform(self.lower, self.upper)
+            for _ in range(refine):
+                for col, v in zip(self._ik_cols, q, strict=True):
+                    full[col] = float(v)
+                kwargs = dict(
+                    lowerLimits=self._ik_lower, upperLimits=self._ik_upper,
+                    jointRanges=self._ik_ranges, restPoses=self._ik_rest,
+                    currentPositions=full, maxNumIterations=30, residualThreshold=1e-5,
+                    physicsClientId=c,
+                )
+                if orn is None:
+                    sol = p.calculateInverseKinematics(self.body, self.tcp_link, target, **kwargs)
+                else:
+                    sol = p.calculateInverseKinematics(self.body, self.tcp_link, target, orn,
+                                                       **kwargs)
+                calls += 1
+                q = np.clip(np.array([sol[col] for col in self._ik_cols]), self.lower, self.upper)
+                self._reset_arm(q)
+                pos, cur = self.link_pose(self.tcp_link)
+                perr = float(np.linalg.norm(pos - target))
+                oerr = 0.0 if orn is None else quaternion_angle(cur, orn)
+                score = perr + 0.1 * oerr
+                if best is None or score < best[0] + 0.1 * best[1]:
+                    best = (perr, oerr, q.copy())
+                if perr <= pos_tol and oerr <= ori_tol:
+                    break
+            if best[0] <= pos_tol and best[1] <= ori_tol:
+                break
+        perr, oerr, q = best
+        self._reset_arm(q)
+        return IKResult(q=q, position_error=perr, orientation_error=oerr,
+                        success=perr <= pos_tol and oerr <= ori_tol, calls=calls,
+                        seconds=time.perf_counter() - t0)
+
+    # ---------------------------------------------------------------- reachability
+    def workspace(self) -> tuple[float, float]:
+        """``(max flange distance, max TCP distance)`` from the shoulder, metres.
+
+        Measured over random joint configurations within the limits (cached per robot).
+        """
+        if self.name not in _WORKSPACE_CACHE:
+            _WORKSPACE_CACHE[self.name] = measure_workspace(self, _WORKSPACE_SAMPLES)
+        return _WORKSPACE_CACHE[self.name]
+
+    def could_reach(self, position: Sequence[float], margin: float = 0.0) -> bool:
+        """Cheap necessary condition: the point lies within the TCP workspace sphere."""
+        dist = float(np.linalg.norm(np.asarray(position, float) - self.shoulder_position()))
+        return dist <= self.workspace()[1] + margin
+
+    # ---------------------------------------------------------------- collisions
+    def base_collisions(self, bodies: Iterable[int], margin: float = 0.0) -> list[int]:
+        """Bodies among ``bodies`` within ``margin`` of the base (footprint box and pillar)."""
+        hits = []
+        for b in bodies:
+            if b == self.body:
+                continue
+            if p.getClosestPoints(self.body, b, margin, linkIndexA=-1,
+                                  physicsClientId=self.client):
+                hits.append(b)
+        return hits
+
+    def arm_collisions(
+        self,
+        bodies: Iterable[int],
+        *,
+        allow: Iterable[int | tuple[int, int]] = (),
+        margin: float = 0.0,
+        self_collision: bool = True,
+    ) -> list[Contact]:
+        """Collisions of the arm and tool with ``bodies`` (and with the robot itself).
+
+        Args:
+            bodies: world bodies to test (the floor may be included; the base is not
+                tested here, see :meth:`base_collisions`).
+            allow: intended contacts: a body id or a ``(body, link)`` pair that the
+                end-effector links may touch (the target). The arm links may not.
+            margin: report pairs closer than this (metres); 0 = touching/penetrating.
+            self_collision: also test arm links against the base and non-adjacent links.
+        """
+        allowed_bodies, allowed_pairs = set(), set()
+        for a in allow:
+            if isinstance(a, tuple):
+                allowed_pairs.add((int(a[0]), int(a[1])))
+            else:
+                allowed_bodies.add(int(a))
+        out = []
+        c = self.client
+        for b in bodies:
+            if b == self.body:
+                continue
+            for pt in p.getClosestPoints(self.body, b, margin, physicsClientId=c):
+                link, other = pt[3], pt[4]
+                if link == -1:
+                    continue
+                if link in self.ee_links and (b in allowed_bodies or (b, other) in allowed_pairs):
+                    continue
+                out.append(Contact(self.link_names[link], b, other, float(pt[8])))
+        if self_collision:
+            for la, lb in self._self_pairs():
+                pts = p.getClosestPoints(self.body, self.body, margin, linkIndexA=la,
+                                         linkIndexB=lb, physicsClientId=c)
+                if pts:
+                    name = BASE_LINK if la == -1 else self.link_names[la]
+                    out.append(Contact(name, self.body, lb, float(min(x[8] for x in pts))))
+        return out
+
+    def _self_pairs(self) -> list[tuple[int, int]]:
+        """Link pairs tested for self-collision: not within two joints of each other and
+        not touching at the home configuration (like an SRDF's disabled pairs)."""
+        if self.name in _SELF_PAIRS_CACHE:
+            return _SELF_PAIRS_CACHE[self.name]
+        c = self.client
+        n = len(self.link_names)
+        links = [-1] + [j for j in range(n)
+                        if p.getCollisionShapeData(self.body, j, physicsClientId=c)]
+
+        def hops(a: int, b: int) -> int:
+            def up(j):
+                path = [j]
+                while j >= 0:
+                    j = self._parent[j]
+                    path.append(j)
+                return path
+            pa, pb = up(a), up(b)
+            common = next(x for x in pa if x in pb)
+            return pa.index(common) + pb.index(common)
+
+        saved = self.joint_positions()
+        saved_fingers = [p.getJointState(self.body, j, physicsClientId=c)[0]
+                         for j in self.finger_joints]
+        self._reset_arm(self.home)
+        pairs = []
+        for i, a in enumerate(links):
+            for b in links[i + 1:]:
+                # Fingers and palm move against each other by design.
+                if a in self.ee_links and b in self.ee_links:
+                    continue
+                if hops(a, b) <= 2:
+                    continue
+                if p.getClosestPoints(self.body, self.body, 0.0, linkIndexA=a, linkIndexB=b,
+                                      physicsClientId=c):
+                    continue
+                pairs.append((a, b))
+        self._reset_arm(saved)
+        for j, v in zip(self.finger_joints, saved_fingers, strict=True):
+            p.resetJointState(self.body, j, v, physicsClientId=c)
+        _SELF_PAIRS_CACHE[self.name] = pairs
+        return pairs
+
+    # ---------------------------------------------------------------- gripper
+    def _require_gripper(self) -> None:
+        if not self.finger_joints:
+            raise MomaError(f"robot {self.name!r} has no gripper (end-effector "
+                            f"{self.spec.end_effector!r})")
+
+    def gripper_opening(self) -> float:
+        """Distance between the finger pads in metres."""
+        self._require_gripper()
+        states = p.getJointStates(self.body, self.finger_joints, physicsClientId=self.client)
+        return float(sum(s[0] for s in states))
+
+    def set_gripper_opening(self, opening: float) -> None:
+        """Teleport the fingers to ``opening`` metres apart and hold them there."""
+        self._require_gripper()
+        half = float(np.clip(opening, 0.0, self.max_opening)) / 2
+        for j in self.finger_joints:
+            p.resetJointState(self.body, j, half, physicsClientId=self.client)
+        self._drive_fingers(half)
+
+    def _drive_fingers(self, half: float) -> None:
+        # PyBullet ignores URDF mimic joints: each finger has its own motor.
+        n = len(self.finger_joints)
+        p.setJointMotorControlArray(self.body, self.finger_joints, p.POSITION_CONTROL,
+                                    targetPositions=[half] * n,
+                                    forces=[self.finger_force] * n,
+                                    physicsClientId=self.client)
+
+    def open_gripper(self) -> None:
+        """Command the fingers fully open (takes effect as physics steps)."""
+        self._require_gripper()
+        self._drive_fingers(self.max_opening / 2)
+
+    def close_gripper(self) -> None:
+        """Command the fingers closed with their force limit (takes effect as physics
+        steps; an object between the fingers stops them)."""
+        self._require_gripper()
+        self._drive_fingers(0.0)
+
+    def is_grasping(self, body: int, min_force: float = 0.5) -> bool:
+        """Both fingers press on ``body`` with at least ``min_force`` newtons."""
+        self._require_gripper()
+        for j in self.finger_joints:
+            pts = p.getContactPoints(self.body, body, linkIndexA=j, physicsClientId=self.client)
+            if sum(pt[9] for pt in pts) < min_force:
+                return False
+        return True
+
+    # ---------------------------------------------------------------- suction
+    def _require_suction(self) -> None:
+        if self.cup_link is None:
+            raise MomaError(f"robot {self.name!r} has no suction cup")
+
+    @property
+    def attached_body(self) -> int | None:
+        """Body held by the suction cup, or None."""
+        return None if self._attachment is None else self._attachment[1]
+
+    def suction_on(self, bodies: Iterable[int] | None = None) -> int | None:
+        """Switch suction on: attach the nearest body whose surface touches the cup face.
+
+        Attaches (a fixed constraint holding the current relative pose) only if a surface
+        is within the cup's contact distance of the cup face; otherwise nothing happens.
+
+        Args:
+            bodies: candidate bodies (default: every other body in the client).
+        Returns:
+            the attached body id, or None.
+        """
+        self._require_suction()
+        if self._attachment is not None:
+            return self._attachment[1]
+        c = self.client
+        ee = self.model.end_effector
+        reach = float(getattr(ee, "contact_distance", 0.004))
+        if bodies is None:
+            bodies = [p.getBodyUniqueId(i, physicsClientId=c)
+                      for i in range(p.getNumBodies(physicsClientId=c))]
+        cup_pos, cup_orn = self.link_pose(self.cup_link)
+        rot = np.array(p.getMatrixFromQuaternion(cup_orn)).reshape(3, 3)
+        best = None
+        for b in bodies:
+            if b == self.body:
+                continue
+            for pt in p.getClosestPoints(self.body, b, reach, linkIndexA=self.cup_link,
+                                         physicsClientId=c):
+                # The contact must be on the cup face, not on its rim or side.
+                local = rot.T @ (np.array(pt[5]) - cup_pos)
+                if isinstance(ee, SuctionCup) and local[2] < CUP_HEIGHT - 0.004:
+                    continue
+                if best is None or pt[8] < best[2]:
+                    best = (b, pt[4], pt[8])
+        if best is None:
+            return None
+        body, link = best[0], best[1]
+        # Constraint frames are relative to the links' centre-of-mass frames.
+        st = p.getLinkState(self.body, self.cup_link, physicsClientId=c)
+        cup_com = (st[0], st[1])
+        if link == -1:
+            obj_com = p.getBasePositionAndOrientation(body, physicsClientId=c)
+        else:
+            s2 = p.getLinkState(body, link, physicsClientId=c)
+            obj_com = (s2[0], s2[1])
+        inv_pos, inv_orn = p.invertTransform(obj_com[0], obj_com[1])
+        rel_pos, rel_orn = p.multiplyTransforms(inv_pos, inv_orn, cup_com[0], cup_com[1])
+        cid = p.createConstraint(self.body, self.cup_link, body, link, p.JOINT_FIXED,
+                                 (0, 0, 0), (0, 0, 0), rel_pos, (0, 0, 0, 1), rel_orn,
+                                 physicsClientId=c)
+        p.changeConstraint(cid, maxForce=200.0, physicsClientId=c)
+        self._attachment = (cid, body)
+        return body
+
+    def suction_off(self) -> None:
+        """Release whatever the cup holds."""
+        self._require_suction()
+        if self._attachment is not None:
+            p.removeConstraint(self._attachment[0], physicsClientId=self.client)
+            self._attachment = None
+
+    # ---------------------------------------------------------------- motion in physics
+    def drive_to(self, q: Sequence[float], steps: int = 240, *, tol: float = 1e-3) -> bool:
+        """Drive the arm to ``q`` with position control, stepping physics.
+
+        Steps the simulation (at most ``steps`` times, fewer once the joints are within
+        ``tol`` rad of the target). Returns whether the target was reached.
+        """
+        q = np.clip(np.asarray(q, float), self.lower, self.upper)
+        p.setJointMotorControlArray(self.body, self.arm_joints, p.POSITION_CONTROL,
+                                    targetPositions=q.tolist(), forces=self.max_force.tolist(),
+                                    physicsClientId=self.client)
+        for i in range(steps):
+            p.stepSimulation(physicsClientId=self.client)
+            if i % 10 == 9 and np.max(np.abs(self.joint_positions() - q)) < tol:
+                return True
+        return bool(np.max(np.abs(self.joint_positions() - q)) < tol)
+
+    def plan_line(self, position: Sequence[float], orientation: Sequence[float] | None,
+                  n: int = 10) -> list[np.ndarray] | None:
+        """IK waypoints moving the TCP on a straight line to a pose, or None if any fails.
+
+        The physical joint state (positions and velocities) is left untouched.
+        """
+        c = self.client
+        saved = p.getJointStates(self.body, self.arm_joints, physicsClientId=c)
+        start, _ = self.tcp_pose()
+        goal = np.asarray(position, float)
+        path, q = [], np.array([s[0] for s in saved])
+        ok = True
+        for k in range(1, n + 1):
+            res = self.solve_ik(start + (goal - start) * k / n, orientation, seed=q, restarts=0)
+            if not res.success:
+                ok = False
+                break
+            q = res.q
+            path.append(q)
+        for j, s in zip(self.arm_joints, saved, strict=True):
+            p.resetJointState(self.body, j, s[0], s[1], physicsClientId=c)
+        return path if ok else None
+
+    def move_tcp(self, position: Sequence[float], orientation: Sequence[float] | None,
+                 n: int = 10, steps_per_waypoint: int = 40) -> bool:
+        """Move the TCP along a straight line in physics; False if planning fails."""
+        path = self.plan_line(position, orientation, n)
+        if path is None:
+            return False
+        for q in path:
+            self.drive_to(q, steps_per_waypoint)
+        self.drive_to(path[-1], 120)
+        return True
+
+    def remove(self) -> None:
+        """Remove the robot from its client."""
+        if self._attachment is not None:
+            self.suction_off()
+        p.removeBody(self.body, physicsClientId=self.client)
+
+
+def measure_workspace(robot: Robot, samples: int = _WORKSPACE_SAMPLES,
+                      seed: int = 0) -> tuple[float, float]:
+    """``(max flange distance, max TCP distance)`` from the shoulder, metres.
+
+    Random joint vectors within the limits, then a local random search from the best
+    few (stretched-out configurations are rare among uniform samples). The robot's
+    configuration is restored afterwards.
+    """
+    rng = np.random.default_rng(seed)
+    saved = robot.joint_positions()
+
+    def dists(q: np.ndarray) -> tuple[float, float]:
+        robot._reset_arm(q)
+        sh = robot.link_pose(robot.shoulder_link)[0]
+        return (float(np.linalg.norm(robot.link_pose(robot.flange_link)[0] - sh)),
+                float(np.linalg.norm(robot.link_pose(robot.tcp_link)[0] - sh)))
+
+    result = []
+    for which in (0, 1):
+        qs = rng.uniform(robot.lower, robot.upper, size=(samples, robot.dof))
+        scores = np.array([dists(q)[which] for q in qs])
+        best = scores.max()
+        for idx in np.argsort(scores)[-5:]:
+            q, val = qs[idx], scores[idx]
+            for sigma in (0.3, 0.1, 0.03, 0.01):
+                for _ in range(60):
+                    cand = np.clip(q + rng.normal(0, sigma, robot.dof), robot.lower, robot.upper)
+                    d = dists(cand)[which]
+                    if d > val:
+                        q, val = cand, d
+            best = max(best, val)
+        result.append(float(best))
+    robot._reset_arm(saved)
+    return result[0], result[1]

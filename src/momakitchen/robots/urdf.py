@@ -1,0 +1,392 @@
+"""Generate one URDF per robot: mobile base + arm + end-effector.
+
+The base is a box footprint with a pillar up to the mount height; the arm is attached to
+the top of the pillar with a fixed joint. Arms from a joint table get capsule/cylinder
+collision geometry; shipped arms (``pybullet_data``) are parsed and re-emitted with
+absolute mesh paths, so the file loads anywhere with plain ``p.loadURDF(path)``.
+
+Link names the rest of the package relies on: ``mobile_base`` (root, footprint and
+pillar), ``flange`` frames as given by the model, ``tcp`` (tool centre point: z = approach,
+fingers close along y), ``finger_left``/``finger_right`` (generated grippers) and
+``suction_cup`` (suction tool).
+"""
+
+from __future__ import annotations
+
+import math
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import numpy as np
+
+from momakitchen.errors import MomaError
+from momakitchen.robots.arms import (
+    BuiltArm,
+    ParallelGripper,
+    RobotModel,
+    ShippedArm,
+    SuctionCup,
+    UserTool,
+    get_model,
+)
+from momakitchen.robots.spec import RobotSpec, get_robot_spec
+
+BASE_LINK = "mobile_base"
+TCP_LINK = "tcp"
+FINGER_LINKS = ("finger_left", "finger_right")
+FINGER_JOINTS = ("finger_left_joint", "finger_right_joint")
+SUCTION_LINK = "suction_cup"
+
+BASE_CLEARANCE = 0.03  # ground clearance of the base box (wheels are below it)
+BASE_BOX_TOP = 0.33  # top of the base box; a pillar continues up to the mount height
+PILLAR_RADIUS = 0.08
+
+_MATERIALS = {
+    "mk_base": "0.25 0.27 0.30 1",
+    "mk_pillar": "0.55 0.57 0.60 1",
+    "mk_arm": "0.85 0.86 0.88 1",
+    "mk_joint": "0.20 0.35 0.65 1",
+    "mk_tool": "0.15 0.15 0.15 1",
+}
+
+
+def _fmt(values) -> str:
+    return " ".join(f"{float(v):.9g}" for v in values)
+
+
+def _origin(parent: ET.Element, xyz=(0, 0, 0), rpy=(0, 0, 0)) -> None:
+    ET.SubElement(parent, "origin", xyz=_fmt(xyz), rpy=_fmt(rpy))
+
+
+def _geometry(parent: ET.Element, kind: str, **attrs) -> None:
+    geom = ET.SubElement(parent, "geometry")
+    ET.SubElement(geom, kind, **{k: (_fmt(v) if isinstance(v, tuple) else f"{v:.9g}"
+                                    if isinstance(v, float) else str(v))
+                                 for k, v in attrs.items()})
+
+
+def _shape(link: ET.Element, kind: str, xyz, rpy, material: str | None, *, collide: bool = True,
+           **attrs) -> None:
+    """Add the same primitive as visual (with ``material``) and, if ``collide``, collision."""
+    vis = ET.SubElement(link, "visual")
+    _origin(vis, xyz, rpy)
+    _geometry(vis, kind, **attrs)
+    if material:
+        ET.SubElement(vis, "material", name=material)
+    if collide:
+        col = ET.SubElement(link, "collision")
+        _origin(col, xyz, rpy)
+        _geometry(col, kind, **attrs)
+
+
+def _inertial(link: ET.Element, mass: float, com=(0, 0, 0), inertia: float | None = None) -> None:
+    inert = ET.SubElement(link, "inertial")
+    _origin(inert, com)
+    ET.SubElement(inert, "mass", value=f"{mass:.6g}")
+    i = inertia if inertia is not None else max(1e-6, 0.002 * mass)
+    ET.SubElement(inert, "inertia", ixx=f"{i:.6g}", iyy=f"{i:.6g}", izz=f"{i:.6g}",
+                  ixy="0", ixz="0", iyz="0")
+
+
+def _joint(robot: ET.Element, name: str, kind: str, parent: str, child: str, xyz=(0, 0, 0),
+           rpy=(0, 0, 0), axis=None, limit=None) -> ET.Element:
+    joint = ET.SubElement(robot, "joint", name=name, type=kind)
+    ET.SubElement(joint, "parent", link=parent)
+    ET.SubElement(joint, "child", link=child)
+    _origin(joint, xyz, rpy)
+    if axis is not None:
+        ET.SubElement(joint, "axis", xyz=_fmt(axis))
+    if limit is not None:
+        lower, upper, effort, velocity = limit
+        ET.SubElement(joint, "limit", lower=f"{lower:.9g}", upper=f"{upper:.9g}",
+                      effort=f"{effort:.6g}", velocity=f"{velocity:.6g}")
+    return joint
+
+
+def _z_to(vec: np.ndarray) -> tuple[float, float, float]:
+    """URDF rpy of a rotation taking +z onto the direction of ``vec`` (shape (3,))."""
+    v = vec / np.linalg.norm(vec)
+    pitch = math.atan2(math.hypot(v[0], v[1]), v[2])
+    yaw = math.atan2(v[1], v[0])
+    return (0.0, pitch, yaw)
+
+
+# --------------------------------------------------------------------------------------
+# Mobile base
+
+
+def _base(robot: ET.Element, spec: RobotSpec) -> None:
+    """Root link: box footprint, pillar up to the mount height, wheels (visual only)."""
+    length, width = spec.footprint
+    top = min(BASE_BOX_TOP, spec.mount_height)
+    bottom = min(BASE_CLEARANCE, top / 2)
+    link = ET.SubElement(robot, "link", name=BASE_LINK)
+    # Inertial frame at the link frame: PyBullet places a base by its centre of mass.
+    _inertial(link, 40.0, (0, 0, 0), inertia=1.0)
+    _shape(link, "box", (0, 0, (top + bottom) / 2), (0, 0, 0), "mk_base",
+           size=(length, width, top - bottom))
+    pillar = spec.mount_height - top
+    if pillar > 0.005:
+        _shape(link, "cylinder", (spec.mount_offset_x, 0, top + pillar / 2), (0, 0, 0),
+               "mk_pillar", radius=PILLAR_RADIUS, length=pillar)
+    for sx in (-1, 1):
+        for sy in (-1, 1):
+            _shape(link, "cylinder", (sx * length * 0.32, sy * (width / 2 - 0.03), 0.05),
+                   (math.pi / 2, 0, 0), "mk_tool", collide=False, radius=0.05, length=0.04)
+
+
+# --------------------------------------------------------------------------------------
+# Arms
+
+
+def _built_arm(robot: ET.Element, arm: BuiltArm, mount_parent: str, mount_xyz) -> str:
+    """Emit a joint-table arm; returns the flange link name."""
+    root = "arm_base"
+    link = ET.SubElement(robot, "link", name=root)
+    _inertial(link, 2.0, (0, 0, arm.base_height / 2))
+    _shape(link, "cylinder", (0, 0, arm.base_height / 2), (0, 0, 0), "mk_joint",
+           radius=arm.base_radius, length=arm.base_height)
+    _joint(robot, "mount_joint", "fixed", mount_parent, root, mount_xyz, (0, 0, arm.mount_yaw))
+    parent = root
+    n = len(arm.joints)
+    for i, jd in enumerate(arm.joints):
+        child = f"arm_link{i + 1}"
+        link = ET.SubElement(robot, "link", name=child)
+        nxt = np.array(arm.joints[i + 1].xyz if i + 1 < n else arm.flange_xyz)
+        mass = arm.link_masses[i] if arm.link_masses else 1.0
+        _inertial(link, mass, tuple(nxt / 2))
+        # Joint housing: a cylinder around the joint axis.
+        _shape(link, "cylinder", (0, 0, 0), _z_to(np.array(jd.axis)), "mk_joint",
+               radius=jd.radius, length=2.2 * jd.radius)
+        # Link body: a capsule from this joint to the next one.
+        seg = float(np.linalg.norm(nxt))
+        if seg > 1e-3:
+            _shape(link, "capsule", tuple(nxt / 2), _z_to(nxt), "mk_arm",
+                   radius=0.8 * jd.radius, length=seg)
+        _joint(robot, jd.name, "revolute", parent, child, jd.xyz, jd.rpy, jd.axis,
+               (jd.lower, jd.upper, jd.effort, jd.velocity))
+        parent = child
+    flange = "flange"
+    link = ET.SubElement(robot, "link", name=flange)
+    _inertial(link, 0.01)
+    _joint(robot, "flange_joint", "fixed", parent, flange, arm.flange_xyz, arm.flange_rpy)
+    return flange
+
+
+def _resolve_mesh(filename: str, urdf_dir: Path) -> str:
+    """Absolute path of a mesh referenced from a URDF in ``urdf_dir``.
+
+    ``package://pkg/rest`` is looked up as ``rest`` or ``pkg/rest`` under the URDF's folder
+    and its ancestors (how ROS description packages sit next to their URDFs).
+    """
+    if filename.startswith("package://"):
+        rest = filename[len("package://"):]
+        candidates = [rest, rest.split("/", 1)[1] if "/" in rest else rest]
+    elif filename.startswith("file://"):
+        candidates = [filename[len("file://"):]]
+    else:
+        candidates = [filename]
+    for cand in candidates:
+        if Path(cand).is_absolute() and Path(cand).exists():
+            return cand
+        for base in (urdf_dir, *list(urdf_dir.parents)[:3]):
+            path = base / cand
+            if path.exists():
+                return str(path.resolve())
+    raise MomaError(f"mesh {filename!r} referenced by a URDF in {str(urdf_dir)!r} not found")
+
+
+def parse_urdf(path: Path) -> ET.Element:
+    """Parse a URDF file; MomaError naming the file on a missing file or malformed XML."""
+    path = Path(path)
+    try:
+        root = ET.parse(path).getroot()
+    except FileNotFoundError:
+        raise MomaError(f"URDF file {str(path)!r} not found") from None
+    except (ET.ParseError, OSError) as exc:
+        raise MomaError(f"URDF file {str(path)!r} does not parse: {exc}") from None
+    if root.tag != "robot":
+        raise MomaError(f"URDF file {str(path)!r}: root element must be <robot>, got <{root.tag}>")
+    names = [link.get("name") for link in root.findall("link")]
+    if not names or any(not n for n in names):
+        raise MomaError(f"URDF file {str(path)!r}: needs named <link> elements")
+    for joint in root.findall("joint"):
+        for tag in ("parent", "child"):
+            el = joint.find(tag)
+            if el is None or el.get("link") not in names:
+                raise MomaError(
+                    f"URDF file {str(path)!r}: joint {joint.get('name')!r} has a missing or "
+                    f"unknown {tag} link"
+                )
+    return root
+
+
+def _subtree(root: ET.Element, start: str) -> set[str]:
+    children: dict[str, list[str]] = {}
+    for joint in root.findall("joint"):
+        children.setdefault(joint.find("parent").get("link"), []).append(
+            joint.find("child").get("link"))
+    keep, stack = set(), [start]
+    while stack:
+        name = stack.pop()
+        keep.add(name)
+        stack.extend(children.get(name, []))
+    return keep
+
+
+def embed_urdf(robot: ET.Element, src: ET.Element, urdf_dir: Path, root_link: str,
+               mount_parent: str, mount_xyz, *, keep_links=None, limits=(),
+               drop_mimic: bool = True) -> None:
+    """Copy the links and joints of ``src`` under ``root_link`` into ``robot``.
+
+    Mesh paths become absolute, ``<mimic>`` tags are dropped (PyBullet ignores them; the
+    fingers are driven one by one), ``limits`` ((joint, lower, upper) triples) replace
+    the file's, and ``root_link`` is attached to ``mount_parent`` with a fixed joint.
+    """
+    names = {link.get("name") for link in src.findall("link")}
+    if root_link not in names:
+        raise MomaError(f"URDF has no link {root_link!r}")
+    keep = _subtree(src, root_link)
+    if keep_links is not None:
+        keep &= set(keep_links)
+    taken = {el.get("name") for el in robot.findall("link")}
+    clash = keep & taken
+    if clash:
+        raise MomaError(f"URDF link names clash with the mobile base: {sorted(clash)}")
+    for mat in src.findall("material"):
+        robot.append(mat)
+    for link in src.findall("link"):
+        if link.get("name") not in keep:
+            continue
+        for mesh in link.iter("mesh"):
+            mesh.set("filename", _resolve_mesh(mesh.get("filename", ""), urdf_dir))
+        robot.append(link)
+    overrides = {name: (lo, hi) for name, lo, hi in limits}
+    for joint in src.findall("joint"):
+        if joint.find("parent").get("link") not in keep or \
+                joint.find("child").get("link") not in keep:
+            continue
+        if drop_mimic:
+            for mimic in joint.findall("mimic"):
+                joint.remove(mimic)
+        if joint.get("name") in overrides:
+            lim = joint.find("limit")
+            lim.set("lower", f"{overrides[joint.get('name')][0]:.9g}")
+            lim.set("upper", f"{overrides[joint.get('name')][1]:.9g}")
+        robot.append(joint)
+    _joint(robot, "mount_joint", "fixed", mount_parent, root_link, mount_xyz)
+
+
+def _shipped_arm(robot: ET.Element, arm: ShippedArm, mount_parent: str, mount_xyz) -> str:
+    src = parse_urdf(arm.urdf)
+    embed_urdf(robot, src, arm.urdf.parent, arm.root_link, mount_parent, mount_xyz,
+               keep_links=arm.keep_links, limits=arm.limits, drop_mimic=arm.drop_mimic)
+    return arm.flange_link
+
+
+# --------------------------------------------------------------------------------------
+# End-effectors
+
+
+def _gripper(robot: ET.Element, g: ParallelGripper, flange: str) -> None:
+    if g.existing_fingers:
+        # Shipped hand: the TCP hangs off the link that carries the fingers.
+        joints = {j.get("name"): j for j in robot.findall("joint")}
+        missing = [f for f in g.existing_fingers if f not in joints]
+        if missing:
+            raise MomaError(f"gripper finger joints {missing} not in the URDF")
+        hand = joints[g.existing_fingers[0]].find("parent").get("link")
+        link = ET.SubElement(robot, "link", name=TCP_LINK)
+        _inertial(link, 0.001, inertia=1e-6)
+        _joint(robot, "tcp_joint", "fixed", hand, TCP_LINK, (0, 0, g.tcp_offset))
+        return
+    fx, fy, flen = g.finger_size
+    tip = 0.015  # fingertips reach this far beyond the TCP
+    finger_base = g.tcp_offset + tip - flen
+    palm = "gripper_palm"
+    link = ET.SubElement(robot, "link", name=palm)
+    _inertial(link, 0.6, (0, 0, finger_base / 2))
+    if g.palm_mesh is not None:
+        mesh = str(Path(g.palm_mesh).resolve())
+        _shape(link, "mesh", (0, 0, 0), (0, 0, 0), "mk_tool", filename=mesh)
+        # Fingers of this gripper sit beyond its palm mesh: a carrier block joins them.
+        gap_lo = 0.09
+        if finger_base > gap_lo + 0.005:
+            _shape(link, "box", (0, 0, (gap_lo + finger_base) / 2), (0, 0, 0), "mk_tool",
+                   size=(g.palm_size[0] * 0.6, g.max_opening + 2 * fy, finger_base - gap_lo))
+    else:
+        px, py, _ = g.palm_size
+        _shape(link, "box", (0, 0, finger_base / 2), (0, 0, 0), "mk_tool",
+               size=(px, max(py, g.max_opening + 2 * fy + 0.01), finger_base))
+    _joint(robot, "gripper_mount_joint", "fixed", flange, palm, (0, 0, 0), (0, 0, g.yaw))
+    half = g.max_opening / 2
+    for name, jname, sign in zip(FINGER_LINKS, FINGER_JOINTS, (1, -1), strict=True):
+        link = ET.SubElement(robot, "link", name=name)
+        _inertial(link, 0.05, (0, sign * fy / 2, flen / 2), inertia=1e-5)
+        _shape(link, "box", (0, sign * fy / 2, flen / 2), (0, 0, 0), "mk_joint",
+               size=(fx, fy, flen))
+        _joint(robot, jname, "prismatic", palm, name, (0, 0, finger_base), (0, 0, 0),
+               (0, sign, 0), (0.0, half, g.finger_force, 0.2))
+    link = ET.SubElement(robot, "link", name=TCP_LINK)
+    _inertial(link, 0.001, inertia=1e-6)
+    _joint(robot, "tcp_joint", "fixed", palm, TCP_LINK, (0, 0, g.tcp_offset))
+
+
+CUP_HEIGHT = 0.012
+
+
+def _suction(robot: ET.Element, s: SuctionCup, flange: str) -> None:
+    stem_len = s.tcp_offset - CUP_HEIGHT
+    link = ET.SubElement(robot, "link", name="suction_stem")
+    _inertial(link, 0.3, (0, 0, stem_len / 2))
+    _shape(link, "cylinder", (0, 0, stem_len / 2), (0, 0, 0), "mk_tool",
+           radius=s.stem_radius, length=stem_len)
+    _joint(robot, "suction_mount_joint", "fixed", flange, "suction_stem")
+    link = ET.SubElement(robot, "link", name=SUCTION_LINK)
+    _inertial(link, 0.05, (0, 0, CUP_HEIGHT / 2), inertia=1e-5)
+    _shape(link, "cylinder", (0, 0, CUP_HEIGHT / 2), (0, 0, 0), "mk_joint",
+           radius=s.cup_radius, length=CUP_HEIGHT)
+    _joint(robot, "suction_cup_joint", "fixed", "suction_stem", SUCTION_LINK, (0, 0, stem_len))
+    link = ET.SubElement(robot, "link", name=TCP_LINK)
+    _inertial(link, 0.001, inertia=1e-6)
+    _joint(robot, "tcp_joint", "fixed", SUCTION_LINK, TCP_LINK, (0, 0, CUP_HEIGHT))
+
+
+# --------------------------------------------------------------------------------------
+
+
+def build_urdf(spec: RobotSpec, model: RobotModel) -> str:
+    """URDF text of the whole robot (base + arm + end-effector); deterministic."""
+    robot = ET.Element("robot", name=f"momakitchen_{spec.name}")
+    for name, rgba in _MATERIALS.items():
+        mat = ET.SubElement(robot, "material", name=name)
+        ET.SubElement(mat, "color", rgba=rgba)
+    _base(robot, spec)
+    mount = (spec.mount_offset_x, 0.0, spec.mount_height)
+    if isinstance(model.arm, BuiltArm):
+        flange = _built_arm(robot, model.arm, BASE_LINK, mount)
+    else:
+        flange = _shipped_arm(robot, model.arm, BASE_LINK, mount)
+    if isinstance(model.end_effector, UserTool):
+        # The user's URDF carries its tool: only name its TCP frame uniformly.
+        link = ET.SubElement(robot, "link", name=TCP_LINK)
+        _inertial(link, 0.001, inertia=1e-6)
+        _joint(robot, "tcp_joint", "fixed", model.end_effector.tcp_link, TCP_LINK)
+    elif isinstance(model.end_effector, SuctionCup):
+        _suction(robot, model.end_effector, flange)
+    else:
+        _gripper(robot, model.end_effector, flange)
+    ET.indent(robot)
+    return '<?xml version="1.0"?>\n' + ET.tostring(robot, encoding="unicode") + "\n"
+
+
+def robot_urdf(name: str) -> str:
+    """URDF text of a registered robot."""
+    return build_urdf(get_robot_spec(name), get_model(name))
+
+
+def robot_urdf_path(name: str) -> Path:
+    """Path of the cached URDF file of a registered robot (written on first use)."""
+    from momakitchen.assets.cache import cached_urdf
+
+    return cached_urdf(robot_urdf(name), f"robot-{name}")
