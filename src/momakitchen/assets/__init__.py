@@ -1,7 +1,7 @@
 """Procedural assets (URDF generated from seeded parameters) and external asset folders."""
 
 # Importing the category modules registers them (one registry, populated on import).
-from momakitchen.assets import cabinets, obstacles, rigid  # noqa: F401
+from momakitchen.assets import appliances, cabinets, obstacles, rigid  # noqa: F401
 from momakitchen.assets.registry import (
     CATEGORIES,
     Articulation,

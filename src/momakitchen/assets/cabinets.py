@@ -38,14 +38,14 @@ def _fronts(p: C.CounterParams, g: C.CounterGeometry, layout: str, columns: int,
         zb = z0 if (layout == "drawers" and k == len(rows) - 1) else z - frac * span
         for c, (a, b) in enumerate(C.split(x0, x1, columns)):
             name = f"drawer_{k}_{c}" if columns > 1 else f"drawer_{k}"
-            lk, jt, ar = C.drawer(p, g, name, BASE, a, b, zb, z - C.GAP)
+            lk, jt, ar = C.counter_drawer(p, g, name, BASE, a, b, zb, z - C.GAP)
             links.append(lk), joints.append(jt), arts.append(ar)
         z = zb
     if layout in ("doors", "drawer_doors"):
         cols = C.split(x0, x1, columns)
         for c, (a, b) in enumerate(cols):
             side = hinge if columns == 1 else ("left" if c == 0 else "right")
-            lk, jt, ar = C.door(p, g, f"door_{c}", BASE, a, b, z0, z - C.GAP if rows else z,
+            lk, jt, ar = C.counter_door(p, g, f"door_{c}", BASE, a, b, z0, z - C.GAP if rows else z,
                                 side)
             links.append(lk), joints.append(jt), arts.append(ar)
     return links, joints, arts

@@ -165,80 +165,126 @@ def countertop_area(g: CounterGeometry, margin: float = 0.01) -> Rect:
                 round(g.y_top - margin, 6), round(g.height, 6))
 
 
-def _handle(p: CounterParams, kind: str, centre: tuple[float, float, float],
-            length: float | None = None) -> Handle:
-    return make_handle(kind, centre, length if length is not None else p.handle_length,
-                       p.handle_thickness, p.handle_standoff, "handle")
+@dataclass(frozen=True)
+class HandleSpec:
+    kind: str
+    length: float
+    thickness: float
+    standoff: float
+
+    def make(self, centre: tuple[float, float, float], length: float | None = None,
+             kind: str | None = None) -> Handle:
+        return make_handle(kind or self.kind, centre,
+                           self.length if length is None else length, self.thickness,
+                           self.standoff, "handle")
 
 
-def _with_density(shapes: tuple[Shape, ...], density: float) -> tuple[Shape, ...]:
+def handle_spec(p: CounterParams) -> HandleSpec:
+    return HandleSpec(p.handle_type, p.handle_length, p.handle_thickness, p.handle_standoff)
+
+
+def with_density(shapes: tuple[Shape, ...], density: float) -> tuple[Shape, ...]:
     return tuple(Shape(s.geometry, s.xyz, s.rpy, s.material, s.collision, s.visual, density)
                  for s in shapes)
 
 
-def door(p: CounterParams, g: CounterGeometry, name: str, parent: str, x0: float, x1: float,
-         z0: float, z1: float, hinge: str, *, handle_at_top: bool = True,
-         thickness: float | None = None, handle_type: str | None = None,
-         panel_material: str = "front", panel_density: float = MDF,
+def door(name: str, parent: str, y_front: float, x0: float, x1: float, z0: float, z1: float,
+         hinge: str, handle: HandleSpec, thickness: float, *, handle_at_top: bool = True,
+         material: str = "front", density: float = MDF, extra: tuple[Shape, ...] = (),
          limit: float = 1.75) -> tuple[Link, Joint, Articulation]:
-    """A side-hinged door covering ``[x0, x1] x [z0, z1]`` on the front face.
+    """A side-hinged door covering ``[x0, x1] x [z0, z1]`` with its back face at ``y_front``.
 
     The joint sits on the hinge edge at the back face of the door; both hinge sides open with
     a positive angle (the axis is flipped for right hinges), the free edge swinging to +y.
+    ``extra`` shapes (windows, trims) are given in the frame of a left-hinged door and
+    mirrored for right hinges.
     """
-    t = thickness if thickness is not None else p.front_thickness
+    t = thickness
     dw, dh = x1 - x0, z1 - z0
     left = hinge == "left"
     sx = 1.0 if left else -1.0
-    panel = box_at((min(0.0, sx * dw), 0.0, 0.0), (max(0.0, sx * dw), t, dh), panel_material,
-                   panel_density)
-    kind = handle_type or p.handle_type
-    vertical = kind in ("bar_v", "flat_v")
-    hl = min(p.handle_length, (dh if vertical else dw) * 0.6)
-    if kind in ("bar_h", "flat_h"):
-        hx = sx * (dw - 0.04 - hl / 2)
-    else:
-        hx = sx * (dw - 0.045)
+    panel = box_at((min(0.0, sx * dw), 0.0, 0.0), (max(0.0, sx * dw), t, dh), material, density)
+    vertical = handle.kind in ("bar_v", "flat_v")
+    hl = min(handle.length, (dh if vertical else dw) * 0.6)
+    hx = sx * (dw - 0.04 - hl / 2) if handle.kind in ("bar_h", "flat_h") else sx * (dw - 0.045)
     top_z = dh - 0.06 - (hl / 2 if vertical else 0.0)
-    hz = top_z if handle_at_top else dh / 2
-    h = _handle(p, kind, (hx, t, hz), hl)
-    shapes = (panel, *_with_density(h.shapes, METAL))
+    h = handle.make((hx, t, top_z if handle_at_top else dh / 2), hl)
+    mirrored = tuple(Shape(s.geometry, (sx * s.xyz[0], s.xyz[1], s.xyz[2]), s.rpy, s.material,
+                           s.collision, s.visual, s.density) for s in extra)
+    shapes = (panel, *with_density(h.shapes, METAL), *mirrored)
     link = Link(name, shapes, round(density_mass(shapes), 4))
-    joint = Joint(f"{name}_hinge", "revolute", parent, name,
-                  (x0 if left else x1, g.y_front, z0), axis=(0.0, 0.0, 1.0 if left else -1.0),
-                  lower=0.0, upper=limit, effort=50.0, velocity=3.0,
+    joint = Joint(f"{name}_hinge", "revolute", parent, name, (x0 if left else x1, y_front, z0),
+                  axis=(0.0, 0.0, 1.0 if left else -1.0), lower=0.0, upper=limit, effort=50.0,
+                  velocity=3.0, damping=DOOR_DYNAMICS[0], friction=DOOR_DYNAMICS[1])
+    art = Articulation(joint.name, "revolute", "door", handle_grasp(name, h), 1, limit)
+    return link, joint, art
+
+
+def flap(name: str, parent: str, y_front: float, x0: float, x1: float, z0: float, z1: float,
+         handle: HandleSpec, thickness: float, *, material: str, density: float,
+         extra: tuple[Shape, ...] = (), handle_length: float | None = None,
+         limit: float = 1.45) -> tuple[Link, Joint, Articulation]:
+    """A pull-down door (dishwasher, oven) hinged about a horizontal axis at its bottom edge.
+
+    The hinge runs through the middle of the door's thickness, so a closed door carries no
+    gravity torque worth speaking of; the axis is -x so that opening is a positive angle.
+    """
+    t = thickness
+    dw, dh = x1 - x0, z1 - z0
+    panel = box_at((-dw / 2, -t / 2, 0.0), (dw / 2, t / 2, dh), material, density)
+    kind = {"bar_v": "bar_h", "flat_v": "flat_h", "knob": "bar_h"}.get(handle.kind, handle.kind)
+    hl = handle_length if handle_length is not None else min(max(handle.length, 0.3), dw * 0.8)
+    h = handle.make((0.0, t / 2, dh - 0.05), hl, kind)
+    shapes = (panel, *with_density(h.shapes, METAL), *extra)
+    link = Link(name, shapes, round(density_mass(shapes), 4))
+    joint = Joint(f"{name}_hinge", "revolute", parent, name, ((x0 + x1) / 2, y_front + t / 2, z0),
+                  axis=(-1.0, 0.0, 0.0), lower=0.0, upper=limit, effort=80.0, velocity=3.0,
                   damping=DOOR_DYNAMICS[0], friction=DOOR_DYNAMICS[1])
     art = Articulation(joint.name, "revolute", "door", handle_grasp(name, h), 1, limit)
     return link, joint, art
 
 
-def drawer(p: CounterParams, g: CounterGeometry, name: str, parent: str, x0: float, x1: float,
-           z0: float, z1: float) -> tuple[Link, Joint, Articulation]:
+def drawer(name: str, parent: str, y_front: float, x0: float, x1: float, z0: float, z1: float,
+           handle: HandleSpec, thickness: float, inner_depth: float, inner_width: float, *,
+           material: str = "front", box_material: str = "carcass", density: float = MDF
+           ) -> tuple[Link, Joint, Articulation]:
     """A drawer: front panel plus a box sliding into the carcass along +y."""
-    t = p.front_thickness
+    t = thickness
     fw, fh = x1 - x0, z1 - z0
-    inner = g.y_front - p.panel - 0.02  # box depth available behind the front
     wall = 0.012
-    bw = min(fw, g.x_inner[1] - g.x_inner[0]) / 2 - 0.015
+    bw = min(fw, inner_width) / 2 - 0.015
     bh = max(0.05, fh * 0.7)
+    d = inner_depth
     shapes = [
-        box_at((-fw / 2, 0.0, 0.0), (fw / 2, t, fh), "front", MDF),
-        box_at((-bw, -inner, 0.02), (bw, 0.0, 0.02 + wall), "carcass", MDF),
-        box_at((-bw, -inner, 0.02), (-bw + wall, 0.0, 0.02 + bh), "carcass", MDF),
-        box_at((bw - wall, -inner, 0.02), (bw, 0.0, 0.02 + bh), "carcass", MDF),
-        box_at((-bw, -inner, 0.02), (bw, -inner + wall, 0.02 + bh), "carcass", MDF),
+        box_at((-fw / 2, 0.0, 0.0), (fw / 2, t, fh), material, density),
+        box_at((-bw, -d, 0.02), (bw, 0.0, 0.02 + wall), box_material, MDF),
+        box_at((-bw, -d, 0.02), (-bw + wall, 0.0, 0.02 + bh), box_material, MDF),
+        box_at((bw - wall, -d, 0.02), (bw, 0.0, 0.02 + bh), box_material, MDF),
+        box_at((-bw, -d, 0.02), (bw, -d + wall, 0.02 + bh), box_material, MDF),
     ]
-    kind = {"bar_v": "bar_h", "flat_v": "flat_h"}.get(p.handle_type, p.handle_type)
-    hl = min(p.handle_length, fw * 0.6)
-    h = _handle(p, kind, (0.0, t, fh / 2 if fh < 0.25 else fh - 0.08), hl)
-    shapes += list(_with_density(h.shapes, METAL))
+    kind = {"bar_v": "bar_h", "flat_v": "flat_h"}.get(handle.kind, handle.kind)
+    h = handle.make((0.0, t, fh / 2 if fh < 0.25 else fh - 0.08), min(handle.length, fw * 0.6),
+                    kind)
+    shapes += list(with_density(h.shapes, METAL))
     link = Link(name, tuple(shapes), round(density_mass(shapes), 4))
-    limit = round(inner * 0.8, 4)
-    joint = Joint(f"{name}_slide", "prismatic", parent, name, ((x0 + x1) / 2, g.y_front, z0),
+    limit = round(d * 0.8, 4)
+    joint = Joint(f"{name}_slide", "prismatic", parent, name, ((x0 + x1) / 2, y_front, z0),
                   axis=(0.0, 1.0, 0.0), lower=0.0, upper=limit, effort=200.0, velocity=1.0,
                   damping=DRAWER_DYNAMICS[0], friction=DRAWER_DYNAMICS[1])
     art = Articulation(joint.name, "prismatic", "drawer", handle_grasp(name, h), 1, limit)
     return link, joint, art
+
+
+def counter_door(p: CounterParams, g: CounterGeometry, name: str, parent: str, x0: float,
+                 x1: float, z0: float, z1: float, hinge: str) -> tuple[Link, Joint, Articulation]:
+    return door(name, parent, g.y_front, x0, x1, z0, z1, hinge, handle_spec(p),
+                p.front_thickness)
+
+
+def counter_drawer(p: CounterParams, g: CounterGeometry, name: str, parent: str, x0: float,
+                   x1: float, z0: float, z1: float) -> tuple[Link, Joint, Articulation]:
+    return drawer(name, parent, g.y_front, x0, x1, z0, z1, handle_spec(p), p.front_thickness,
+                  g.y_front - p.panel - 0.02, g.x_inner[1] - g.x_inner[0])
 
 
 def split(x0: float, x1: float, n: int) -> list[tuple[float, float]]:
