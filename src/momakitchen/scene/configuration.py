@@ -17,7 +17,13 @@ import numpy as np
 from momakitchen.assets import categories_of_kind, get_category
 from momakitchen.errors import MomaError
 from momakitchen.robots import ROBOTS, get_robot_spec
-from momakitchen.scene.geometry import Footprint, overlaps_any, semicircle_grid
+from momakitchen.scene.geometry import (
+    Footprint,
+    corners_of,
+    overlap_matrix,
+    overlaps_any,
+    semicircle_grid,
+)
 from momakitchen.scene.layout import Layout, Placed, _r, sample_layout, scene_rng
 from momakitchen.scene.urdf_frames import link_rest_poses
 
@@ -168,17 +174,14 @@ def _free_positions(center: np.ndarray, reach: float, blocked: list[Footprint],
                     footprint: tuple[float, float], spacing: float, room: Any) -> int:
     """Number of grid positions within 0.8 x reach whose base footprint (facing the
     target) overlaps nothing and stays inside the room."""
-    count = 0
-    for x, y in semicircle_grid((center[0], center[1]), 0.8 * reach + 0.35, spacing):
-        yaw = float(np.arctan2(center[1] - y, center[0] - x))
-        fp = Footprint(x, y, yaw, *footprint)
-        corners = fp.corners()
-        if (corners.min() < 0 or corners[:, 0].max() > room.width
-                or corners[:, 1].max() > room.depth):
-            continue
-        if not overlaps_any(fp, blocked):
-            count += 1
-    return count
+    grid = semicircle_grid((center[0], center[1]), 0.8 * reach + 0.35, spacing)
+    yaws = np.arctan2(center[1] - grid[:, 1], center[0] - grid[:, 0])
+    fps = corners_of([Footprint(x, y, yaw, *footprint)
+                      for (x, y), yaw in zip(grid, yaws, strict=True)])
+    inside = ((fps.min(axis=(1, 2)) >= 0) & (fps[..., 0].max(1) <= room.width)
+              & (fps[..., 1].max(1) <= room.depth))
+    free = inside & ~overlap_matrix(fps, corners_of(blocked)).any(1)
+    return int(free.sum())
 
 
 def _place_obstacles(layout: Layout, rng: np.random.Generator, cfg: SceneConfig, anchor: np.ndarray,
@@ -191,21 +194,22 @@ def _place_obstacles(layout: Layout, rng: np.random.Generator, cfg: SceneConfig,
         placed: list[Placed] = []
         for i in range(count):
             for _try in range(60):
-                cat = kinds[int(rng.integers(len(kinds)))]
-                params = get_category(cat).sample(rng, None)
+                if _try % 15 == 0:  # a new instance now and then, in case this one is too big
+                    cat = kinds[int(rng.integers(len(kinds)))]
+                    params = get_category(cat).sample(rng, None)
+                    sx, sy, _ = get_category(cat).build(params).size
                 # The first obstacle stands where a robot would like to park; others anywhere.
-                r_max = 0.8 * reach + 0.3 if i == 0 else reach
+                r_max = min(reach, 0.8) if i == 0 else reach
                 r = rng.uniform(0.35, r_max)
                 theta = rng.uniform(0.15, np.pi - 0.15)
-                x, y = anchor[0] + r * np.cos(theta), anchor[1] + r * np.sin(theta)
+                x, y = _r(anchor[0] + r * np.cos(theta)), _r(anchor[1] + r * np.sin(theta))
                 yaw = _r(rng.uniform(-np.pi, np.pi))
-                ob = Placed(f"o{i}", cat, params, _r(x), _r(y), 0.001, yaw)
-                fp = ob.footprint()
+                fp = Footprint(x, y, yaw, sx, sy)
                 c = fp.corners()
                 inside = (c.min() > 0.02 and c[:, 0].max() < layout.room.width - 0.02
                           and c[:, 1].max() < layout.room.depth - 0.02)
                 if inside and not overlaps_any(fp, furniture + [q.footprint(0.02) for q in placed]):
-                    placed.append(ob)
+                    placed.append(Placed(f"o{i}", cat, params, x, y, 0.001, yaw))
                     break
         blocked = furniture + [q.footprint() for q in placed]
         free = _free_positions(anchor, reach, blocked, footprint, cfg.grid_spacing, layout.room)

@@ -35,25 +35,43 @@ class Footprint:
         return Footprint(self.x, self.y, self.yaw, self.length + grow, self.width + grow)
 
 
-def _axes(corners: np.ndarray) -> np.ndarray:
-    edges = np.roll(corners, -1, axis=0) - corners
-    normals = np.stack([-edges[:, 1], edges[:, 0]], axis=1)
-    return normals[:2] / np.linalg.norm(normals[:2], axis=1, keepdims=True)
+def corners_of(footprints: list[Footprint] | tuple[Footprint, ...]) -> np.ndarray:
+    """Stacked corners of several footprints. Shape (N, 4, 2)."""
+    if not footprints:
+        return np.zeros((0, 4, 2))
+    return np.stack([f.corners() for f in footprints])
+
+
+def overlap_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Separating-axis test between every rectangle of ``a`` and every one of ``b``.
+
+    Shapes: ``a`` (N, 4, 2) and ``b`` (M, 4, 2) corners, counter-clockwise; returns (N, M)
+    bool, True where the rectangles overlap (touching counts as apart).
+    """
+    if len(a) == 0 or len(b) == 0:
+        return np.zeros((len(a), len(b)), dtype=bool)
+
+    def axes(c: np.ndarray) -> np.ndarray:  # (K, 2, 2): two edge normals per rectangle
+        e = c[:, 1:3] - c[:, 0:2]
+        return np.stack([-e[..., 1], e[..., 0]], axis=-1)
+
+    n, m = len(a), len(b)
+    ax = np.concatenate([np.broadcast_to(axes(a)[:, None], (n, m, 2, 2)),
+                         np.broadcast_to(axes(b)[None], (n, m, 2, 2))], axis=2)  # (N, M, 4, 2)
+    pa = np.einsum("nmkd,ncd->nmkc", ax, a)  # projections of a's corners on each axis
+    pb = np.einsum("nmkd,mcd->nmkc", ax, b)
+    separated = (pa.max(-1) <= pb.min(-1)) | (pb.max(-1) <= pa.min(-1))
+    return ~separated.any(-1)
 
 
 def overlaps(a: Footprint, b: Footprint) -> bool:
-    """Separating-axis test: True if the two rectangles overlap (touching counts as apart)."""
-    ca, cb = a.corners(), b.corners()
-    for axis in np.concatenate([_axes(ca), _axes(cb)]):
-        pa, pb = ca @ axis, cb @ axis
-        if pa.max() <= pb.min() or pb.max() <= pa.min():
-            return False
-    return True
+    """True if the two rectangles overlap (touching counts as apart)."""
+    return bool(overlap_matrix(a.corners()[None], b.corners()[None])[0, 0])
 
 
 def overlaps_any(a: Footprint, others: list[Footprint] | tuple[Footprint, ...]) -> bool:
     """True if ``a`` overlaps any footprint in ``others``."""
-    return any(overlaps(a, b) for b in others)
+    return bool(overlap_matrix(a.corners()[None], corners_of(others)).any())
 
 
 def semicircle_grid(
