@@ -35,8 +35,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 def view_pose(scene) -> tuple[np.ndarray, np.ndarray]:
     """A camera standing at the back of the room, looking at the counter."""
     room = scene.layout.room
-    eye = np.array([room.width * 0.62, room.depth - 0.25, 2.0])
-    target = np.array([room.width * 0.5, 0.35, 0.75])
+    eye = np.array([room.width * 0.5, room.depth - 0.2, 1.9])
+    target = np.array([room.width * 0.5, 0.3, 0.8])
     return eye, target
 
 

@@ -38,8 +38,10 @@ def draw_plan(ax, scene: Scene, cfg: Configuration) -> None:
     for unit in layout.furniture:
         _poly(ax, unit.footprint(), PLAN_COLOURS.get(unit.category, "#cccccc"), alpha=0.95)
         fp = unit.footprint()
-        ax.text(fp.x, fp.y, unit.category, ha="center", va="center", fontsize=7,
-                rotation=90 if fp.width > fp.length else 0,
+        # Base units are labelled near their front edge, so appliances on top stay readable.
+        on_floor = get_category(unit.category).kind == "furniture"
+        ty = fp.y + fp.width / 2 - 0.12 if on_floor else fp.y
+        ax.text(fp.x, ty, unit.category, ha="center", va="center", fontsize=6.5,
                 color="white" if unit.category in ("oven", "microwave") else "black")
         for i, _art in enumerate(unit.model.articulations):
             hx, hy, _ = handle_anchor(unit, i)
@@ -56,8 +58,9 @@ def draw_plan(ax, scene: Scene, cfg: Configuration) -> None:
         _poly(ax, ob.footprint(), PLAN_COLOURS.get(ob.category, "#999999"), alpha=0.9)
         ax.text(ob.x, ob.y, ob.category, ha="center", va="center", fontsize=6, color="white")
     ax.plot(tx, ty, marker="*", ms=16, color="red", markeredgecolor="k")
-    ax.set_xlim(-0.2, room.width + 0.2)
-    ax.set_ylim(-0.2, room.depth + 0.2)
+    # Seen from the room towards the wall (wall at the top), like the rendered view.
+    ax.set_xlim(room.width + 0.2, -0.2)
+    ax.set_ylim(room.depth + 0.2, -0.2)
     ax.set_aspect("equal")
     ax.set_xlabel("x (m, along the wall)")
     ax.set_ylabel("y (m, into the room)")
