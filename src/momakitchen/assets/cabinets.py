@@ -122,17 +122,19 @@ class Sink(AssetCategory):
 
     @classmethod
     def sample(cls, rng: np.random.Generator, envelope: Envelope | None = None) -> Params:
+        C.check_envelope(cls.name, envelope, (0.5, 0.5, 0.6))
         base = C.sample_counter(rng, envelope, cls.name)
         w, d = base["width"], base["depth"]
-        bw = u(rng, 0.34, min(0.55, w - 0.16))
-        room = (w - bw) / 2 - 0.08
+        # leave at least ~0.1 m of countertop on one side of the basin
+        bw = u(rng, min(0.34, w - 0.3), min(0.55, w - 0.3))
+        room = max(0.0, (w - bw) / 2 - 0.12)
         steel = rng.random() < 0.7
         basin = (0.78, 0.79, 0.8) if steel else pick_colour(rng)
         return cls.Params(
             **base, front=pick(rng, ("doors", "doors", "panel")),
             columns=1 if w < 0.6 else 2, hinge=pick(rng, ("left", "right")),
             basin_width=bw, basin_depth=u(rng, 0.32, min(0.42, d - 0.22)),
-            basin_height=u(rng, 0.15, 0.2), basin_offset=u(rng, -room, room) if room > 0 else 0.0,
+            basin_height=u(rng, 0.15, 0.2), basin_offset=u(rng, -room, room),
             faucet_height=u(rng, 0.18, 0.32), spout_length=u(rng, 0.14, 0.2),
             lever_length=u(rng, 0.08, 0.12), lever_side=pick(rng, ("left", "right")),
             basin_rgba=jitter(rng, basin, 0.03),

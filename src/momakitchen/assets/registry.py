@@ -98,6 +98,10 @@ class AssetModel:
     (joints closed). ``placement_areas`` are free horizontal surfaces (countertop) where
     rigid objects may stand. ``grasps`` are grasp frames of a rigid target;
     ``articulations`` are the functional parts of an articulated asset.
+
+    External assets (``momakitchen.assets.external``) set ``path``: load that URDF file (its
+    meshes are relative to it) with PyBullet's ``globalScaling=scale`` instead of writing
+    ``urdf`` to the cache; ``urdf`` then holds the file's text and ``size`` is already scaled.
     """
 
     category: str
@@ -107,6 +111,8 @@ class AssetModel:
     grasps: tuple[GraspFrame, ...] = ()
     articulations: tuple[Articulation, ...] = ()
     placement_areas: tuple[Rect, ...] = ()
+    path: str | None = None
+    scale: float = 1.0
 
 
 class AssetCategory:

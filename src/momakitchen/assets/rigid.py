@@ -58,9 +58,11 @@ def top_grasp(z_top: float, width: float, closing: tuple[float, float, float] = 
 
 
 def flat_base(radius: float, height: float = 0.004) -> Shape:
-    """A thin disc under a round object so it rests on a small flat patch instead of a point
-    (a real apple or tomato does not roll away when put down)."""
-    return Shape(Cylinder(radius, height), (0.0, 0.0, height / 2), material="body")
+    """A thin disc inside the bottom of a sphere of ``radius`` (resting on z = 0), so the
+    object stands on a small flat patch instead of a point (a real apple or tomato does not
+    roll away when put down). The disc's top rim lies on the sphere surface."""
+    rim = (2 * radius * height - height * height) ** 0.5
+    return Shape(Cylinder(rim, height), (0.0, 0.0, height / 2), material="body")
 
 
 # ----------------------------------------------------------------------------- bottle
@@ -263,8 +265,7 @@ class Fruit(AssetCategory):
     @classmethod
     def build(cls, p: Params) -> AssetModel:
         r = p.radius
-        sink = 0.003  # the flat patch the fruit rests on
-        zc = r - sink
+        zc = r
         shapes = [Shape(Sphere(r), (0.0, 0.0, zc), material="body")]
         top = zc + r
         if p.fruit == "lemon":  # lies on its side: two tips along x
@@ -281,7 +282,7 @@ class Fruit(AssetCategory):
                      collision=False)
         if p.fruit in ("apple", "pear"):
             shapes.append(stem)
-        shapes.append(flat_base(math.sqrt(max(r * r - (r - sink) ** 2, 1e-6))))
+        shapes.append(flat_base(r))
         volume = 4 / 3 * math.pi * r**3
         if p.fruit == "pear":
             volume *= 1.3
@@ -400,10 +401,8 @@ class Vegetable(AssetCategory):
         r, v = p.radius, p.vegetable
         grasps: tuple[GraspFrame, ...]
         if v == "tomato":
-            sink = 0.003
-            shapes = [Shape(Sphere(r), (0.0, 0.0, r - sink), material="body"),
-                      flat_base(math.sqrt(r * r - (r - sink) ** 2))]
-            grasps = (*side_grasps(r - sink, r), top_grasp(2 * r - sink, 2 * r))
+            shapes = [Shape(Sphere(r), (0.0, 0.0, r), material="body"), flat_base(r)]
+            grasps = (*side_grasps(r, r), top_grasp(2 * r, 2 * r))
         elif v == "bell_pepper":
             shapes = [Shape(Cylinder(r, p.length), (0.0, 0.0, p.length / 2), material="body"),
                       Shape(Cylinder(0.004, 0.02), (0.0, 0.0, p.length + 0.01), material="stem",
