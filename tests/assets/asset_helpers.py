@@ -53,7 +53,8 @@ def load(model, client: int, fixed: bool, pos=(0.0, 0.0, 0.0), inertia: bool = T
 
 def body_aabb(body: int, client: int) -> tuple[np.ndarray, np.ndarray]:
     n = pb.getNumJoints(body, physicsClientId=client)
-    boxes = [pb.getAABB(body, k, physicsClientId=client) for k in range(-1, n)]
+    boxes = [pb.getAABB(body, k, physicsClientId=client) for k in range(-1, n)
+             if pb.getCollisionShapeData(body, k, physicsClientId=client)]
     return np.min([b[0] for b in boxes], axis=0), np.max([b[1] for b in boxes], axis=0)
 
 

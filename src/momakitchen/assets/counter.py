@@ -44,6 +44,9 @@ GAP = 0.003  # clearance between neighbouring fronts and around them (no contact
 # pull-down door shut under its own weight yet yields to a pull of a few newtons.
 DOOR_DYNAMICS = (0.3, 0.3)
 DRAWER_DYNAMICS = (2.0, 1.0)
+# Pull-down doors: real ones have counterbalance springs; the extra friction stands in for
+# them, holding the door shut against the weight of its handle.
+FLAP_DYNAMICS = (0.5, 1.5)
 MIN_ENVELOPE = (0.3, 0.45, 0.6)
 
 
@@ -239,7 +242,7 @@ def flap(name: str, parent: str, y_front: float, x0: float, x1: float, z0: float
     link = Link(name, shapes, round(density_mass(shapes), 4))
     joint = Joint(f"{name}_hinge", "revolute", parent, name, ((x0 + x1) / 2, y_front + t / 2, z0),
                   axis=(-1.0, 0.0, 0.0), lower=0.0, upper=limit, effort=80.0, velocity=3.0,
-                  damping=DOOR_DYNAMICS[0], friction=DOOR_DYNAMICS[1])
+                  damping=FLAP_DYNAMICS[0], friction=FLAP_DYNAMICS[1])
     art = Articulation(joint.name, "revolute", "door", handle_grasp(name, h), 1, limit)
     return link, joint, art
 

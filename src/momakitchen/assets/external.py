@@ -165,7 +165,12 @@ def _measure(urdf_path: Path, label: str) -> _Measure:
         except pb.error as exc:
             raise MomaError(f"external asset {label!r}: PyBullet cannot load it ({exc})") from None
         n = pb.getNumJoints(body, physicsClientId=client)
-        boxes = [pb.getAABB(body, k, physicsClientId=client) for k in range(-1, n)]
+        # links without collision shapes (our wrapper root, PartNet's empty base) report a
+        # box around their origin: leave them out
+        boxes = [pb.getAABB(body, k, physicsClientId=client) for k in range(-1, n)
+                 if pb.getCollisionShapeData(body, k, physicsClientId=client)]
+        if not boxes:
+            raise MomaError(f"external asset {label!r}: has no collision geometry")
         lo = np.min([b[0] for b in boxes], axis=0)
         hi = np.max([b[1] for b in boxes], axis=0)
         mass = sum(pb.getDynamicsInfo(body, k, physicsClientId=client)[0] for k in range(-1, n))
