@@ -258,6 +258,10 @@ def embed_urdf(robot: ET.Element, src: ET.Element, urdf_dir: Path, root_link: st
     for link in src.findall("link"):
         if link.get("name") not in keep:
             continue
+        # Massless links (frames such as panda_link8) upset PyBullet's Jacobian.
+        for mass in link.iter("mass"):
+            if float(mass.get("value", "0")) <= 0.0:
+                mass.set("value", "0.001")
         for mesh in link.iter("mesh"):
             mesh.set("filename", _resolve_mesh(mesh.get("filename", ""), urdf_dir))
         robot.append(link)

@@ -1,0 +1,106 @@
+"""Measurements of the robot models: workspace radius and IK round trips.
+
+Run ``python -m momakitchen.robots.bench [--poses N] [--runs R]``; it prints Markdown
+tables (the ones in ``docs/ROBOTS.md`` and ``docs/bench/robots.md``).
+
+IK round trip: a random joint vector within the limits gives a reachable TCP pose (FK);
+IK is solved for that pose starting from the home configuration (as labelling does), and
+FK of the answer must be within 5 mm and 2 degrees of the pose.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import platform
+import statistics
+from dataclasses import dataclass
+
+import numpy as np
+import pybullet as p
+
+from momakitchen.robots.robot import Robot, measure_workspace
+from momakitchen.robots.spec import ROBOTS
+
+BUILTIN = ("panda", "flexiv", "ur5e", "xarm6", "realman", "elephant")
+
+
+@dataclass(frozen=True)
+class IKStats:
+    """IK round-trip figures of one robot over ``n`` poses."""
+
+    name: str
+    n: int
+    success_rate: float
+    median_ms: float
+    p90_ms: float
+    median_position_mm: float
+    median_orientation_deg: float
+    max_success_position_mm: float
+    max_success_orientation_deg: float
+
+
+def ik_round_trip(robot: Robot, n: int = 200, seed: int = 0) -> IKStats:
+    """FK -> IK -> FK on ``n`` random reachable poses (IK seeded at home)."""
+    rng = np.random.default_rng(seed)
+    times, perr, oerr, ok = [], [], [], []
+    for _ in range(n):
+        q = rng.uniform(robot.lower, robot.upper)
+        pos, orn = robot.tcp_pose(q)
+        res = robot.solve_ik(pos, orn, seed=robot.home, rng=rng)
+        # Independent check of the answer by FK.
+        got_pos, got_orn = robot.tcp_pose(res.q)
+        e_pos = float(np.linalg.norm(got_pos - pos))
+        e_ori = 2 * math.acos(min(1.0, abs(float(np.dot(got_orn, orn)))))
+        success = res.success and e_pos <= 0.005 and e_ori <= math.radians(2)
+        times.append(res.seconds * 1e3)
+        perr.append(e_pos * 1e3)
+        oerr.append(math.degrees(e_ori))
+        ok.append(success)
+    good_p = [e for e, s in zip(perr, ok, strict=True) if s] or [float("nan")]
+    good_o = [e for e, s in zip(oerr, ok, strict=True) if s] or [float("nan")]
+    return IKStats(
+        robot.name, n, float(np.mean(ok)), float(np.median(times)),
+        float(np.percentile(times, 90)), float(np.median(perr)), float(np.median(oerr)),
+        max(good_p), max(good_o),
+    )
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--poses", type=int, default=200, help="IK poses per robot and run")
+    parser.add_argument("--runs", type=int, default=3, help="runs (medians are reported)")
+    parser.add_argument("--robots", nargs="*", default=list(BUILTIN))
+    args = parser.parse_args(argv)
+    client = p.connect(p.DIRECT)
+    print(f"machine: {platform.machine()}, {os.cpu_count()} CPUs, Python "
+          f"{platform.python_version()}")
+    print("\n| robot | manufacturer reach (m) | measured flange reach (m) | ratio "
+          "| TCP reach (m) |")
+    print("| --- | --- | --- | --- | --- |")
+    robots = {}
+    for name in args.robots:
+        robot = Robot(client, name)
+        robots[name] = robot
+        flange, tcp = measure_workspace(robot, 4000)
+        reach = ROBOTS[name].reach
+        print(f"| {name} | {reach:.3f} | {flange:.3f} | {flange / reach:.3f} | {tcp:.3f} |")
+    print(f"\nIK round trip: {args.poses} random poses per run, {args.runs} runs, medians")
+    print("\n| robot | success rate | median solve (ms) | p90 solve (ms) | "
+          "median pos. err (mm) | median ori. err (deg) |")
+    print("| --- | --- | --- | --- | --- | --- |")
+    for name, robot in robots.items():
+        runs = [ik_round_trip(robot, args.poses, seed=run) for run in range(args.runs)]
+
+        def med(attr: str, runs=runs) -> float:
+            return statistics.median(getattr(r, attr) for r in runs)
+
+        print(f"| {name} | {med('success_rate'):.3f} | {med('median_ms'):.2f} | "
+              f"{med('p90_ms'):.2f} | {med('median_position_mm'):.3f} | "
+              f"{med('median_orientation_deg'):.3f} |")
+    p.disconnect(client)
+
+
+if __name__ == "__main__":
+    main()
