@@ -1,4 +1,11 @@
-"""Mobile manipulators: registry of robot specifications (one source of truth)."""
+"""Mobile manipulators: specifications (one registry), models, and the Robot API.
+
+``ROBOTS`` (``spec.py``) is the single source of truth for names, reach, mount height,
+DoF and end-effector; ``arms.py`` holds how each robot is built (published joint tables
+or shipped URDFs); ``urdf.py`` writes one URDF per robot (mobile base + arm + tool);
+``robot.py`` drives it in PyBullet (placement, FK, IK, collisions, gripper, suction);
+``user.py`` registers user robots from URDF + YAML.
+"""
 
 from momakitchen.robots.spec import (
     DESCRIPTOR_DIM,
@@ -16,8 +23,30 @@ __all__ = [
     "DESCRIPTOR_NAMES",
     "DESCRIPTOR_VERSION",
     "ROBOTS",
+    "Contact",
+    "IKResult",
+    "Robot",
     "RobotSpec",
     "get_robot_spec",
     "register_robot",
+    "register_user_robot",
     "robot_descriptor",
+    "robot_urdf_path",
 ]
+
+
+def __getattr__(name: str):
+    # Lazy: importing the registry must not import PyBullet (sampling code stays light).
+    if name in ("Robot", "IKResult", "Contact"):
+        from momakitchen.robots import robot
+
+        return getattr(robot, name)
+    if name == "register_user_robot":
+        from momakitchen.robots.user import register_user_robot
+
+        return register_user_robot
+    if name == "robot_urdf_path":
+        from momakitchen.robots.urdf import robot_urdf_path
+
+        return robot_urdf_path
+    raise AttributeError(f"module 'momakitchen.robots' has no attribute {name!r}")

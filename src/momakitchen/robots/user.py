@@ -252,3 +252,17 @@ def load_env_robots() -> list[RobotSpec]:
     """Register the robots listed in ``$MOMAKITCHEN_ROBOT_YAML`` (os.pathsep-separated)."""
     paths = [s for s in os.environ.get(ENV_VAR, "").split(os.pathsep) if s.strip()]
     return [register_user_robot(s) for s in paths]
+
+
+def unregister_user_robot(name: str) -> None:
+    """Remove a user robot from the registries (built-in robots cannot be removed)."""
+    from momakitchen.robots import robot as robot_module
+
+    if name not in _LOADED.values():
+        raise MomaError(f"{name!r} is not a registered user robot")
+    for key in [k for k, v in _LOADED.items() if v == name]:
+        del _LOADED[key]
+    ROBOTS.pop(name, None)
+    MODELS.pop(name, None)
+    robot_module._WORKSPACE_CACHE.pop(name, None)
+    robot_module._SELF_PAIRS_CACHE.pop(name, None)
