@@ -18,10 +18,9 @@ from momakitchen.assets import categories_of_kind, get_category
 from momakitchen.errors import MomaError
 from momakitchen.robots import ROBOTS, get_robot_spec
 from momakitchen.scene.geometry import (
-    Footprint,
+    box_corners,
     corners_of,
     overlap_matrix,
-    overlaps_any,
     semicircle_grid,
 )
 from momakitchen.scene.layout import Layout, Placed, _r, sample_layout, scene_rng
@@ -41,9 +40,10 @@ class SceneConfig:
         rigid_target_prob: probability that the target is a rigid object rather than an
             articulated part.
         grid_spacing: spacing (m) of the trial grid in the semicircle.
-        min_free_positions: a configuration is resampled until at least this many grid
-            positions within 0.8 x reach of the target have a collision-free base footprint
-            (solvable in general, but obstacles still block some of the best spots).
+        min_free_positions: obstacles are resampled until at least this many grid
+            positions within 0.8 x reach + 0.35 m of the target (or 40 % of those clear of
+            the furniture, if fewer) leave the base footprint free: solvable in general,
+            but the first obstacle still blocks some of the best spots.
         robots: robot names assigned round-robin over configurations (``()`` = all).
     """
 
@@ -52,7 +52,7 @@ class SceneConfig:
     obstacles: tuple[int, int] = (1, 3)
     rigid_target_prob: float = 0.5
     grid_spacing: float = 0.1
-    min_free_positions: int = 4
+    min_free_positions: int = 12
     robots: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
@@ -144,6 +144,18 @@ def articulated_targets(layout: Layout) -> list[tuple[str, int]]:
     return [(p.uid, i) for p in layout.furniture for i in range(len(p.model.articulations))]
 
 
+# Shoulders sit about this far above the arm mount (Panda 0.333 m, xArm6 0.267 m, UR5e
+# 0.163 m): used only to skip parts that are plainly out of a robot's reach.
+SHOULDER_ABOVE_MOUNT = 0.25
+
+
+def within_height_band(z: float, mount_height: float, reach: float) -> bool:
+    """Whether a grasp point at height ``z`` is plausibly reachable: from 0.8 x reach below
+    to 0.6 x reach above the approximate shoulder height."""
+    shoulder = mount_height + SHOULDER_ABOVE_MOUNT
+    return shoulder - 0.8 * reach <= z <= shoulder + 0.6 * reach
+
+
 def _place_objects(layout: Layout, rng: np.random.Generator, count: int) -> list[Placed]:
     """Stand ``count`` rigid objects on the free countertop, towards its front edge."""
     areas = layout.placement_areas()
@@ -159,7 +171,8 @@ def _place_objects(layout: Layout, rng: np.random.Generator, count: int) -> list
             if area.x1 - area.x0 < 2 * radius or area.y1 - area.y0 < 2 * radius + 0.03:
                 continue
             x = rng.uniform(area.x0 + radius, area.x1 - radius)
-            y_lo = max(area.y0 + radius, area.y1 - 0.38)
+            # Objects stand towards the front edge, where people put things down.
+            y_lo = max(area.y0 + radius, area.y1 - 0.30)
             y = rng.uniform(y_lo, max(y_lo, area.y1 - radius - 0.03))
             if any(np.hypot(x - q.x, y - q.y) < radius + 0.5 * np.hypot(*q.model.size[:2]) + 0.02
                    for q in placed):
@@ -170,50 +183,62 @@ def _place_objects(layout: Layout, rng: np.random.Generator, count: int) -> list
     return placed
 
 
-def _free_positions(center: np.ndarray, reach: float, blocked: list[Footprint],
-                    footprint: tuple[float, float], spacing: float, room: Any) -> int:
-    """Number of grid positions within 0.8 x reach whose base footprint (facing the
-    target) overlaps nothing and stays inside the room."""
+def _candidate_bases(center: np.ndarray, reach: float, furniture: np.ndarray,
+                     footprint: tuple[float, float], spacing: float, room: Any) -> np.ndarray:
+    """Corners (N, 4, 2) of base footprints (facing the target) on the grid within
+    0.8 x reach + 0.35 m of the target that fit in the room and clear the furniture."""
     grid = semicircle_grid((center[0], center[1]), 0.8 * reach + 0.35, spacing)
     yaws = np.arctan2(center[1] - grid[:, 1], center[0] - grid[:, 0])
-    fps = corners_of([Footprint(x, y, yaw, *footprint)
-                      for (x, y), yaw in zip(grid, yaws, strict=True)])
-    inside = ((fps.min(axis=(1, 2)) >= 0) & (fps[..., 0].max(1) <= room.width)
-              & (fps[..., 1].max(1) <= room.depth))
-    free = inside & ~overlap_matrix(fps, corners_of(blocked)).any(1)
-    return int(free.sum())
+    fps = box_corners(grid[:, 0], grid[:, 1], yaws, *footprint)
+    fps = fps[_inside_room(fps, room, 0.0)]
+    return fps[~overlap_matrix(fps, furniture).any(1)]
 
 
-def _place_obstacles(layout: Layout, rng: np.random.Generator, cfg: SceneConfig, anchor: np.ndarray,
-                     reach: float, footprint: tuple[float, float]) -> tuple[Placed, ...]:
-    furniture = layout.footprints(margin=0.02)
+def _inside_room(corners: np.ndarray, room: Any, margin: float) -> np.ndarray:
+    """(N,) bool: rectangles (N, 4, 2) at least ``margin`` inside the walls."""
+    return ((corners.min(axis=(1, 2)) >= margin) & (corners[..., 0].max(1) <= room.width - margin)
+            & (corners[..., 1].max(1) <= room.depth - margin))
+
+
+def _place_obstacles(layout: Layout, rng: np.random.Generator, cfg: SceneConfig,
+                     anchor: np.ndarray, reach: float, footprint: tuple[float, float]
+                     ) -> tuple[Placed, ...]:
+    """1-3 obstacles in the semicircle, resampled until enough base positions stay free."""
+    furniture = corners_of(layout.footprints(margin=0.02))
+    bases = _candidate_bases(anchor, reach, corners_of(layout.footprints()), footprint,
+                             cfg.grid_spacing, layout.room)
     kinds = categories_of_kind("obstacle")
+    # Where few positions exist at all (a tight corner), keep a good part of them.
+    needed = min(cfg.min_free_positions, int(0.4 * len(bases)))
     best: tuple[Placed, ...] = ()
-    for _attempt in range(30):
+    for _attempt in range(10):
         count = int(rng.integers(cfg.obstacles[0], cfg.obstacles[1] + 1))
         placed: list[Placed] = []
+        blocked = furniture
         for i in range(count):
-            for _try in range(60):
-                if _try % 15 == 0:  # a new instance now and then, in case this one is too big
-                    cat = kinds[int(rng.integers(len(kinds)))]
-                    params = get_category(cat).sample(rng, None)
-                    sx, sy, _ = get_category(cat).build(params).size
+            for _instance in range(4):  # a new instance if this one fits nowhere
+                cat = kinds[int(rng.integers(len(kinds)))]
+                params = get_category(cat).sample(rng, None)
+                sx, sy, _ = get_category(cat).build(params).size
                 # The first obstacle stands where a robot would like to park; others anywhere.
-                r_max = min(reach, 0.8) if i == 0 else reach
-                r = rng.uniform(0.35, r_max)
-                theta = rng.uniform(0.15, np.pi - 0.15)
-                x, y = _r(anchor[0] + r * np.cos(theta)), _r(anchor[1] + r * np.sin(theta))
-                yaw = _r(rng.uniform(-np.pi, np.pi))
-                fp = Footprint(x, y, yaw, sx, sy)
-                c = fp.corners()
-                inside = (c.min() > 0.02 and c[:, 0].max() < layout.room.width - 0.02
-                          and c[:, 1].max() < layout.room.depth - 0.02)
-                if inside and not overlaps_any(fp, furniture + [q.footprint(0.02) for q in placed]):
-                    placed.append(Placed(f"o{i}", cat, params, x, y, 0.001, yaw))
+                n = 48
+                r = rng.uniform(0.5, min(reach, 0.9) if i == 0 else reach, n)
+                theta = rng.uniform(0.15, np.pi - 0.15, n)
+                yaw = np.round(rng.uniform(-np.pi, np.pi, n), 4)
+                x = np.round(anchor[0] + r * np.cos(theta), 4)
+                y = np.round(anchor[1] + r * np.sin(theta), 4)
+                c = box_corners(x, y, yaw, sx, sy)
+                ok = _inside_room(c, layout.room, 0.02) & ~overlap_matrix(c, blocked).any(1)
+                if ok.any():
+                    k = int(np.argmax(ok))
+                    ob = Placed(f"o{i}", cat, params, float(x[k]), float(y[k]), 0.001,
+                                float(yaw[k]))
+                    placed.append(ob)
+                    blocked = np.concatenate([blocked, ob.footprint(0.02).corners()[None]])
                     break
-        blocked = furniture + [q.footprint() for q in placed]
-        free = _free_positions(anchor, reach, blocked, footprint, cfg.grid_spacing, layout.room)
-        if free >= cfg.min_free_positions and len(placed) >= cfg.obstacles[0]:
+        obstacles = corners_of([q.footprint() for q in placed])
+        free = int((~overlap_matrix(bases, obstacles).any(1)).sum())
+        if free >= needed and len(placed) >= cfg.obstacles[0]:
             return tuple(placed)
         if len(placed) > len(best):
             best = tuple(placed)
@@ -233,7 +258,9 @@ def sample_configuration(
     names = cfg.robot_names
     robot = get_robot_spec(names[(layout.scene_id * 7 + index) % len(names)])
     objects = _place_objects(layout, rng, int(rng.integers(cfg.objects[0], cfg.objects[1] + 1)))
-    parts = articulated_targets(layout)
+    parts = [(uid, art) for uid, art in articulated_targets(layout)
+             if within_height_band(handle_anchor(layout.unit(uid), art)[2], robot.mount_height,
+                                   robot.reach)]
     if objects and (not parts or rng.random() < cfg.rigid_target_prob):
         obj = objects[int(rng.integers(len(objects)))]
         grasp = obj.model.grasps[0]

@@ -23,16 +23,25 @@ class Footprint:
 
     def corners(self) -> np.ndarray:
         """Corner coordinates, counter-clockwise. Shape (4, 2)."""
-        c, s = np.cos(self.yaw), np.sin(self.yaw)
-        hx, hy = self.length / 2, self.width / 2
-        local = np.array([[hx, hy], [-hx, hy], [-hx, -hy], [hx, -hy]])
-        rot = np.array([[c, -s], [s, c]])
-        return local @ rot.T + np.array([self.x, self.y])
+        return box_corners(self.x, self.y, self.yaw, self.length, self.width)[0]
 
     def inflated(self, margin: float) -> Footprint:
         """The same rectangle grown by ``margin`` on every side."""
         grow = 2 * margin
         return Footprint(self.x, self.y, self.yaw, self.length + grow, self.width + grow)
+
+
+def box_corners(x, y, yaw, length, width) -> np.ndarray:
+    """Corners of oriented rectangles, counter-clockwise; arguments broadcast.
+
+    Shapes: scalars or (N,) arrays in; (N, 4, 2) out.
+    """
+    x, y, yaw, length, width = np.broadcast_arrays(*(np.atleast_1d(np.asarray(v, float))
+                                                     for v in (x, y, yaw, length, width)))
+    c, s = np.cos(yaw)[:, None], np.sin(yaw)[:, None]
+    lx = np.stack([length, -length, -length, length], axis=1) / 2  # (N, 4)
+    ly = np.stack([width, width, -width, -width], axis=1) / 2
+    return np.stack([x[:, None] + c * lx - s * ly, y[:, None] + s * lx + c * ly], axis=-1)
 
 
 def corners_of(footprints: list[Footprint] | tuple[Footprint, ...]) -> np.ndarray:

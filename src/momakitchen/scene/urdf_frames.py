@@ -7,6 +7,7 @@ root-link frame is the product of the joint origins along its chain.
 
 from __future__ import annotations
 
+import functools
 import xml.etree.ElementTree as ET
 
 import numpy as np
@@ -36,8 +37,10 @@ def _origin(elem: ET.Element | None) -> np.ndarray:
     return tf
 
 
+@functools.lru_cache(maxsize=256)
 def link_rest_poses(urdf: str) -> dict[str, np.ndarray]:
-    """Pose of every link in the root-link frame with all joints at 0.
+    """Pose of every link in the root-link frame with all joints at 0 (cached: do not
+    modify the returned arrays).
 
     Returns:
         Mapping link name -> homogeneous transform of shape (4, 4).

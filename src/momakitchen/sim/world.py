@@ -235,6 +235,15 @@ class World:
         """Body ids of the bodies of the given kinds (all if None), in load order."""
         return [b.body_id for b in self.bodies.values() if kinds is None or b.kind in kinds]
 
+    def aabb(self, body_id: int) -> np.ndarray:
+        """Axis-aligned bounding box of a whole body (all links). Shape (2, 3): min, max."""
+        c = self.client
+        boxes = [p.getAABB(body_id, link, physicsClientId=c)
+                 for link in range(-1, p.getNumJoints(body_id, physicsClientId=c))]
+        lo = np.min([b[0] for b in boxes], axis=0)
+        hi = np.max([b[1] for b in boxes], axis=0)
+        return np.stack([lo, hi])
+
     def penetrations(self, tolerance: float = 1e-3) -> list[tuple[str, str, float]]:
         """Pairs of bodies that interpenetrate by more than ``tolerance`` (m), with depth.
 
