@@ -17,7 +17,6 @@ from momakitchen.assets.urdf import (
     Joint,
     Link,
     Shape,
-    Sphere,
     Vec3,
     bounding_box,
     rgba,
@@ -176,5 +175,3 @@ def box_at(lo: Vec3, hi: Vec3, material: str, density: float = 1.0,
     return Shape(Box(size), centre, material=material, density=density,  # type: ignore[arg-type]
                  collision=collision)
 
-
-__all__ = ["Sphere", "box_at", "finish", "make_handle"]

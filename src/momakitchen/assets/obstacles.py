@@ -55,13 +55,15 @@ def _legs(x: float, y: float, h: float, t: float, mat: str, round_legs: bool) ->
 
 @register_category
 class Chair(AssetCategory):
-    """Kitchen chair: four legs, seat, backrest on the -x side (the front faces +x)."""
+    """Kitchen chair (four legs, seat, backrest on the -x side; the front faces +x) or a high
+    kitchen stool (no backrest, foot rails)."""
 
     name = "chair"
     kind = "obstacle"
 
     @dataclass(frozen=True)
     class Params:
+        style: str  # chair | stool
         seat_width: float
         seat_depth: float
         seat_height: float
@@ -78,8 +80,15 @@ class Chair(AssetCategory):
         wood = rng.random() < 0.6
         frame = _colour(rng, WOODS if wood else METALS)
         seat = frame if rng.random() < 0.5 else _colour(rng, PAINTS)
+        if rng.random() < 0.3:
+            return cls.Params(
+                style="stool", seat_width=u(rng, 0.34, 0.42), seat_depth=u(rng, 0.34, 0.42),
+                seat_height=u(rng, 0.62, 0.76), seat_thickness=u(rng, 0.025, 0.045),
+                leg=u(rng, 0.025, 0.035), back_height=0.0, round_legs=int(rng.random() < 0.5),
+                mass=u(rng, 3.0, 6.0, 3), frame_rgba=frame, seat_rgba=seat,
+            )
         return cls.Params(
-            seat_width=u(rng, 0.4, 0.5), seat_depth=u(rng, 0.4, 0.48),
+            style="chair", seat_width=u(rng, 0.4, 0.5), seat_depth=u(rng, 0.4, 0.48),
             seat_height=u(rng, 0.43, 0.48), seat_thickness=u(rng, 0.025, 0.045),
             leg=u(rng, 0.025, 0.04), back_height=u(rng, 0.35, 0.5),
             round_legs=int(rng.random() < 0.4), mass=u(rng, 3.5, 7.5, 3),
@@ -92,6 +101,18 @@ class Chair(AssetCategory):
         z0 = p.seat_height - p.seat_thickness
         shapes = _legs(hx, hy, z0, p.leg, "frame", bool(p.round_legs))
         shapes.append(box_at((-hx, -hy, z0), (hx, hy, p.seat_height), "seat"))
+        if p.style == "stool":
+            # foot rails between the legs, a third of the way up
+            zr, t = p.seat_height * 0.33, p.leg * 0.6
+            for s in (-1.0, 1.0):
+                shapes.append(box_at((-hx + p.leg, s * (hy - p.leg / 2) - t / 2, zr - t / 2),
+                                     (hx - p.leg, s * (hy - p.leg / 2) + t / 2, zr + t / 2),
+                                     "frame"))
+                shapes.append(box_at((s * (hx - p.leg / 2) - t / 2, -hy + p.leg, zr - t / 2),
+                                     (s * (hx - p.leg / 2) + t / 2, hy - p.leg, zr + t / 2),
+                                     "frame"))
+            link = Link(BODY, tuple(shapes), p.mass, FLOOR_CONTACT)
+            return finish(cls.name, [link], [], {"frame": p.frame_rgba, "seat": p.seat_rgba})
         top = p.seat_height + p.back_height
         # back posts continue the rear legs; a backrest board near the top
         for sy in (-1.0, 1.0):
@@ -288,13 +309,15 @@ class Trolley(AssetCategory):
 
 @register_category
 class Cart(AssetCategory):
-    """Platform hand cart: low deck on four wheels with a U-shaped push handle at -x."""
+    """Platform hand cart (low deck, U-shaped push handle at -x) or a two-tier utility cart
+    (trays with raised lips on four posts, push handle at -x), both on four wheels."""
 
     name = "cart"
     kind = "obstacle"
 
     @dataclass(frozen=True)
     class Params:
+        style: str  # platform | utility
         length: float
         width: float
         deck_height: float
@@ -306,8 +329,11 @@ class Cart(AssetCategory):
 
     @classmethod
     def sample(cls, rng: np.random.Generator, envelope: Envelope | None = None) -> Params:
+        utility = rng.random() < 0.4
         return cls.Params(
-            length=u(rng, 0.7, 1.0), width=u(rng, 0.45, 0.62),
+            style="utility" if utility else "platform",
+            length=u(rng, 0.7, 1.0) if not utility else u(rng, 0.75, 1.05),
+            width=u(rng, 0.45, 0.62),
             deck_height=u(rng, 0.16, 0.25), handle_height=u(rng, 0.85, 1.0),
             wheel_radius=u(rng, 0.05, 0.075), mass=u(rng, 9.0, 22.0, 3),
             deck_rgba=_colour(rng, PLASTICS + METALS), handle_rgba=_colour(rng, METALS),
@@ -336,6 +362,19 @@ class Cart(AssetCategory):
         shapes.append(Shape(Cylinder(tube, p.width - 2 * wt), (-hx + tube, 0.0,
                                                                p.handle_height - tube),
                             ALONG_Y, material="handle"))
+        if p.style == "utility":
+            # a second tray below the handle height, on four posts; lips around both trays
+            z_top = p.handle_height - 0.12
+            x0, x1, y0, y1 = -hx + 2 * tube, hx, -hy + wt, hy - wt
+            shapes.append(box_at((x0, y0, z_top - 0.03), (x1, y1, z_top), "deck"))
+            for sx in (x0, x1 - 0.025):
+                for sy in (y0, y1 - 0.025):
+                    shapes.append(box_at((sx, sy, p.deck_height), (sx + 0.025, sy + 0.025,
+                                                                   z_top - 0.03), "handle"))
+            for z in (p.deck_height, z_top):
+                shapes.append(box_at((x1 - 0.015, y0, z), (x1, y1, z + 0.04), "deck"))
+                shapes.append(box_at((x0, y0, z), (x1, y0 + 0.015, z + 0.04), "deck"))
+                shapes.append(box_at((x0, y1 - 0.015, z), (x1, y1, z + 0.04), "deck"))
         link = Link(BODY, tuple(shapes), p.mass, FLOOR_CONTACT)
         mats = {"deck": p.deck_rgba, "handle": p.handle_rgba, "wheel": (0.08, 0.08, 0.08, 1.0)}
         return finish(cls.name, [link], [], mats)

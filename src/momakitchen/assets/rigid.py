@@ -158,6 +158,7 @@ class Pot(AssetCategory):
         handle_length: float
         handle_width: float
         handle_thickness: float
+        lid: int  # 1: a lid with a knob rests on the rim
         mass: float
         friction: float
         body_rgba: RGBA
@@ -181,7 +182,8 @@ class Pot(AssetCategory):
             hw, mass = u(rng, 0.02, 0.03), u(rng, 1.2, 2.5, 3)
         return cls.Params(
             style=style, radius=r, height=h, wall=u(rng, 0.003, 0.005), handle_length=hl,
-            handle_width=hw, handle_thickness=u(rng, 0.01, 0.016), mass=mass,
+            handle_width=hw, handle_thickness=u(rng, 0.01, 0.016),
+            lid=int(rng.random() < 0.4), mass=mass,
             friction=u(rng, 0.4, 0.6, 3), body_rgba=jitter(rng, colour, 0.04),
             handle_rgba=jitter(rng, handle, 0.03),
         )
@@ -217,6 +219,11 @@ class Pot(AssetCategory):
                                                                        6)),
                                      (0.0, 0.0, 1.0), (0.0, 1.0, 0.0), p.handle_width,
                                      f"handle{'+' if sgn > 0 else '-'}x"))
+        if p.lid:
+            shapes.append(Shape(Cylinder(p.radius, 0.005), (cx, 0.0, p.height + 0.0025),
+                                material="body"))
+            shapes.append(Shape(Cylinder(0.014, 0.022), (cx, 0.0, p.height + 0.016),
+                                material="handle"))
         link = Link(BODY, tuple(shapes), p.mass, Contact(p.friction, 0.001, 0.002))
         mats = {"body": p.body_rgba, "handle": p.handle_rgba}
         return finish(cls.name, [link], [], mats, grasps=tuple(grasps))
@@ -304,7 +311,8 @@ class MedicineBottle(AssetCategory):
 
     @dataclass(frozen=True)
     class Params:
-        radius: float
+        style: str  # round | square (a square tablet bottle)
+        radius: float  # half width for square bottles
         height: float
         cap_height: float
         mass: float
@@ -325,22 +333,32 @@ class MedicineBottle(AssetCategory):
         r, h = u(rng, 0.016, 0.027), u(rng, 0.05, 0.1)
         fill = u(rng, 0.3, 0.9, 3)  # tablets/syrup fill fraction
         mass = round(0.02 + fill * 1100.0 * math.pi * r * r * h * 0.7, 4)
-        return cls.Params(radius=r, height=h, cap_height=u(rng, 0.014, 0.024), mass=mass,
+        return cls.Params(style="square" if rng.random() < 0.3 else "round", radius=r, height=h,
+                          cap_height=u(rng, 0.014, 0.024), mass=mass,
                           friction=u(rng, 0.5, 0.8, 3), body_rgba=jitter(rng, colour, 0.05),
                           cap_rgba=jitter(rng, cap_c, 0.03),
                           label_rgba=jitter(rng, (0.95, 0.95, 0.9), 0.05))
 
     @classmethod
     def build(cls, p: Params) -> AssetModel:
-        cap_r = p.radius + 0.0015
         top = p.height + p.cap_height
-        shapes = (
-            Shape(Cylinder(p.radius, p.height), (0.0, 0.0, p.height / 2), material="body"),
-            Shape(Cylinder(cap_r, p.cap_height), (0.0, 0.0, p.height + p.cap_height / 2),
-                  material="cap"),
-            Shape(Cylinder(p.radius + 0.0006, p.height * 0.6), (0.0, 0.0, p.height * 0.45),
-                  material="label", collision=False),
-        )
+        if p.style == "square":
+            cap_r = p.radius * 0.8
+            w = 2 * p.radius
+            shapes: tuple[Shape, ...] = (
+                Shape(Box((w, w, p.height)), (0.0, 0.0, p.height / 2), material="body"),
+                Shape(Box((0.0012 + w, w * 0.9, p.height * 0.6)), (0.0, 0.0, p.height * 0.45),
+                      material="label", collision=False),
+            )
+        else:
+            cap_r = p.radius + 0.0015
+            shapes = (
+                Shape(Cylinder(p.radius, p.height), (0.0, 0.0, p.height / 2), material="body"),
+                Shape(Cylinder(p.radius + 0.0006, p.height * 0.6), (0.0, 0.0, p.height * 0.45),
+                      material="label", collision=False),
+            )
+        shapes += (Shape(Cylinder(cap_r, p.cap_height), (0.0, 0.0, p.height + p.cap_height / 2),
+                         material="cap"),)
         link = Link(BODY, shapes, p.mass, Contact(p.friction, 0.0005, 0.001))
         grasps = (*side_grasps(p.height * 0.5, p.radius), top_grasp(top, 2 * cap_r))
         mats = {"body": p.body_rgba, "cap": p.cap_rgba, "label": p.label_rgba}
