@@ -1,0 +1,140 @@
+"""``momakitchen robots``: listing, JSON, export-urdf, user robots, one-line errors."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pybullet as p
+import pybullet_data
+import pytest
+
+from momakitchen.cli.main import main
+from momakitchen.robots.spec import ROBOTS
+from momakitchen.robots.user import ENV_VAR, unregister_user_robot
+
+MANUFACTURER_REACH = {"panda": 0.85, "flexiv": 0.78, "ur5e": 0.85, "xarm6": 0.70,
+                      "realman": 0.90, "elephant": 0.63}
+MOUNT_HEIGHT = {"panda": 1.03, "flexiv": 1.03, "ur5e": 1.03, "xarm6": 0.33,
+                "realman": 1.03, "elephant": 1.03}
+
+KUKA = Path(pybullet_data.getDataPath()) / "kuka_iiwa" / "model.urdf"
+
+
+def kuka_yaml(tmp_path: Path, name: str, **extra) -> Path:
+    """A user robot: the KUKA iiwa shipped with pybullet_data, with a suction flange."""
+    lines = [f"name: {name}", f"urdf: {KUKA}", "mount_height: 0.9",
+             "end_effector_link: lbr_iiwa_link_7", "end_effector: suction"]
+    lines += [f"{k}: {v}" for k, v in extra.items()]
+    path = tmp_path / f"{name}.yaml"
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+@pytest.fixture
+def cleanup():
+    names: list[str] = []
+    yield names
+    for name in names:
+        if name in ROBOTS:
+            unregister_user_robot(name)
+
+
+def test_json_lists_manufacturer_reach(capsys):
+    assert main(["robots", "--json"]) == 0
+    rows = {r["name"]: r for r in json.loads(capsys.readouterr().out)}
+    for name, reach in MANUFACTURER_REACH.items():
+        assert rows[name]["reach_m"] == reach
+        assert rows[name]["mount_height_m"] == MOUNT_HEIGHT[name]
+        assert rows[name]["descriptor"]["reach_m"] == reach
+    assert rows["panda"]["dof"] == 7 and rows["ur5e"]["end_effector"] == "suction"
+    assert rows["xarm6"]["descriptor_version"] == 1
+
+
+def test_table(capsys):
+    assert main(["robots"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[0].split()[:2] == ["name", "reach"]
+    realman = next(line for line in out if line.startswith("realman"))
+    assert realman.split() == ["realman", "0.900", "1.03", "6", "parallel_gripper"]
+
+
+@pytest.mark.parametrize("name", sorted(MANUFACTURER_REACH))
+def test_export_urdf_loads_in_plain_pybullet(tmp_path, capsys, name):
+    out = tmp_path / f"{name}.urdf"
+    assert main(["robots", "export-urdf", name, "--out", str(out)]) == 0
+    text = out.read_text()
+    # Every mesh reference is an absolute path that exists.
+    for chunk in text.split('filename="')[1:]:
+        path = Path(chunk.split('"', 1)[0])
+        assert path.is_absolute() and path.exists(), path
+    client = p.connect(p.DIRECT)
+    try:
+        body = p.loadURDF(str(out), physicsClientId=client)
+        names = {p.getJointInfo(body, j, physicsClientId=client)[12].decode()
+                 for j in range(p.getNumJoints(body, physicsClientId=client))}
+        assert "tcp" in names
+        assert ("suction_cup" in names) == (name == "ur5e")
+    finally:
+        p.disconnect(client)
+
+
+def test_unknown_robot_one_line_exit_2(tmp_path, capsys):
+    code = main(["robots", "export-urdf", "nope", "--out", str(tmp_path / "x.urdf")])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert err.count("\n") == 1 and "unknown robot 'nope'" in err
+    assert not (tmp_path / "x.urdf").exists()
+
+
+def test_export_to_missing_directory(tmp_path, capsys):
+    code = main(["robots", "export-urdf", "ur5e", "--out", str(tmp_path / "no" / "x.urdf")])
+    assert code == 2 and "does not exist" in capsys.readouterr().err
+
+
+def test_user_robot_yaml_option(tmp_path, capsys, cleanup):
+    cleanup.append("kuka")
+    path = kuka_yaml(tmp_path, "kuka", reach=0.8)
+    assert main(["robots", "--json", "--robot-yaml", str(path)]) == 0
+    rows = {r["name"]: r for r in json.loads(capsys.readouterr().out)}
+    assert rows["kuka"]["reach_m"] == 0.8 and rows["kuka"]["dof"] == 7
+    assert rows["kuka"]["end_effector"] == "suction"
+    out = tmp_path / "kuka.urdf"
+    assert main(["robots", "export-urdf", "kuka", "--out", str(out),
+                 "--robot-yaml", str(path)]) == 0
+    client = p.connect(p.DIRECT)
+    try:
+        p.loadURDF(str(out), physicsClientId=client)
+    finally:
+        p.disconnect(client)
+
+
+def test_user_robot_env_var(tmp_path, capsys, cleanup, monkeypatch):
+    cleanup.append("kuka_env")
+    monkeypatch.setenv(ENV_VAR, str(kuka_yaml(tmp_path, "kuka_env", reach=0.8)))
+    assert main(["robots"]) == 0
+    assert any(line.startswith("kuka_env") for line in capsys.readouterr().out.splitlines())
+
+
+def test_yaml_missing_field_one_line_exit_2(tmp_path, capsys):
+    path = tmp_path / "bad.yaml"
+    path.write_text(f"name: bad\nurdf: {KUKA}\nend_effector_link: lbr_iiwa_link_7\n"
+                    "end_effector: suction\n")
+    assert main(["robots", "--robot-yaml", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1
+    assert str(path) in err and "missing required field 'mount_height'" in err
+    assert "bad" not in ROBOTS
+
+
+def test_urdf_that_does_not_parse_one_line_exit_2(tmp_path, capsys):
+    urdf = tmp_path / "broken.urdf"
+    urdf.write_text("<robot name='broken'><link name='a'>")
+    path = tmp_path / "broken.yaml"
+    path.write_text(f"name: broken\nurdf: {urdf}\nmount_height: 1.0\n"
+                    "end_effector_link: a\nend_effector: suction\n")
+    assert main(["robots", "--robot-yaml", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1
+    assert str(urdf) in err and "does not parse" in err
+    assert "broken" not in ROBOTS

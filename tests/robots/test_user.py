@@ -1,0 +1,131 @@
+"""User robots from URDF + YAML: registration, measured reach, errors naming the file."""
+
+from __future__ import annotations
+
+import numpy as np
+import pybullet as p
+import pytest
+import yaml
+
+from momakitchen.errors import MomaError
+from momakitchen.robots import ROBOTS, robot_descriptor
+from momakitchen.robots.robot import Robot
+from momakitchen.robots.user import (
+    ENV_VAR,
+    load_config,
+    load_env_robots,
+    register_user_robot,
+    unregister_user_robot,
+)
+
+# Farthest tool0 distance from the shoulder of the fixture arm: 0.3 + 0.25 + 0.1.
+TINY_ARM_REACH = 0.65
+
+
+@pytest.fixture
+def registered(tiny_robot_files):
+    _, yaml_path = tiny_robot_files
+    spec = register_user_robot(yaml_path)
+    yield spec, yaml_path
+    unregister_user_robot(spec.name)
+
+
+def test_register_measures_reach_and_works_in_pybullet(registered):
+    spec, yaml_path = registered
+    assert spec.name in ROBOTS
+    assert spec.dof == 4 and spec.end_effector == "parallel_gripper"
+    assert spec.mount_height == 0.8
+    # Measured: farthest tool0 distance from the shoulder, sampled (a little below the max).
+    assert TINY_ARM_REACH * 0.97 <= spec.reach <= TINY_ARM_REACH + 1e-3
+    assert robot_descriptor(spec)[:2] == (spec.reach, 0.8)
+    assert register_user_robot(yaml_path) is ROBOTS[spec.name]  # idempotent
+    client = p.connect(p.DIRECT)
+    try:
+        robot = Robot(client, spec.name)
+        assert robot.joint_names == ["j1", "j2", "j3", "j4"]
+        assert len(robot.finger_joints) == 2 and robot.max_opening == pytest.approx(0.08)
+        # Mounted on the mobile base at the mount height.
+        assert robot.link_pose(robot.link_index("base"))[0][2] == pytest.approx(0.8)
+        sh = robot.shoulder_position()
+        res = robot.solve_ik(sh + np.array([0.35, 0.1, -0.2]))
+        assert res.success
+    finally:
+        p.disconnect(client)
+
+
+def test_explicit_reach_is_kept(tiny_robot_files, tmp_path):
+    _, yaml_path = tiny_robot_files
+    data = yaml.safe_load(yaml_path.read_text())
+    data.update(reach=0.6, name="tiny_explicit", finger_joints=["fl_joint", "fr_joint"],
+                home=[0, 0.3, 0.8, 0])
+    other = tmp_path / "explicit.yaml"
+    other.write_text(yaml.safe_dump(data))
+    spec = register_user_robot(other)
+    try:
+        assert spec.reach == 0.6
+    finally:
+        unregister_user_robot(spec.name)
+
+
+def _write(tmp_path, text, name="bad.yaml"):
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+@pytest.mark.parametrize(
+    ("mutate", "message"),
+    [
+        (lambda d: d.pop("mount_height"), "missing required field 'mount_height'"),
+        (lambda d: d.pop("end_effector_link"), "missing required field 'end_effector_link'"),
+        (lambda d: d.update(mount_height="high"), "field 'mount_height' must be a number"),
+        (lambda d: d.update(end_effector="magnet"), "end_effector must be"),
+        (lambda d: d.update(end_effector_link="nowhere"), "no link 'nowhere'"),
+        (lambda d: d.update(colour="red"), "unknown field"),
+        (lambda d: d.update(home=[0, 1]), "home needs 4 values"),
+        (lambda d: d.update(mount_height=7.0), "mount_height must be in"),
+        (lambda d: d.update(name="Tiny"), "lower-case"),
+    ],
+)
+def test_bad_yaml_names_file_and_problem(tiny_robot_files, tmp_path, mutate, message):
+    _, yaml_path = tiny_robot_files
+    data = yaml.safe_load(yaml_path.read_text())
+    mutate(data)
+    bad = _write(tmp_path, yaml.safe_dump(data))
+    with pytest.raises(MomaError, match=message) as info:
+        register_user_robot(bad)
+    assert str(bad) in str(info.value) or "tiny.urdf" in str(info.value)
+    assert "\n" not in str(info.value)
+
+
+def test_unparsable_yaml_and_urdf(tiny_robot_files, tmp_path):
+    urdf, yaml_path = tiny_robot_files
+    bad_yaml = _write(tmp_path, "name: [unclosed\n")
+    with pytest.raises(MomaError, match="does not parse") as info:
+        load_config(bad_yaml)
+    assert str(bad_yaml) in str(info.value)
+    with pytest.raises(MomaError, match="not found"):
+        load_config(tmp_path / "missing.yaml")
+    urdf.write_text("<robot name='x'><link name='a'></robot>")  # malformed XML
+    with pytest.raises(MomaError, match="does not parse") as info:
+        register_user_robot(yaml_path)
+    assert str(urdf) in str(info.value) and "\n" not in str(info.value)
+
+
+def test_name_clash_with_builtin(tiny_robot_files, tmp_path):
+    _, yaml_path = tiny_robot_files
+    data = yaml.safe_load(yaml_path.read_text())
+    data["name"] = "panda"
+    with pytest.raises(MomaError, match="already registered"):
+        register_user_robot(_write(tmp_path, yaml.safe_dump(data)))
+    assert ROBOTS["panda"].dof == 7
+
+
+def test_env_var_registers(tiny_robot_files, monkeypatch):
+    _, yaml_path = tiny_robot_files
+    monkeypatch.setenv(ENV_VAR, str(yaml_path))
+    (spec,) = load_env_robots()
+    try:
+        assert spec.name in ROBOTS
+    finally:
+        unregister_user_robot(spec.name)
