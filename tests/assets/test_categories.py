@@ -12,6 +12,7 @@ import pytest
 from asset_helpers import body_aabb, envelope_for, load
 
 from momakitchen.assets import CATEGORIES, categories_of_kind, get_category
+from momakitchen.assets.rigid import MAX_GRASP_WIDTH
 from momakitchen.errors import MomaError
 
 EXPECTED = {
@@ -104,6 +105,7 @@ def test_rigid_targets_have_grasps_and_realistic_mass(name):
     for _, p in _instances(name, 30, seed=3):
         m = cat.build(p)
         assert m.grasps, name
+        assert max(g.width for g in m.grasps) <= MAX_GRASP_WIDTH + 1e-9, name
         assert 0.02 <= m.mass <= 3.0, (name, m.mass)
         assert "<lateral_friction" in m.urdf
 
@@ -132,3 +134,29 @@ def test_articulated_categories_have_the_expected_parts():
 def test_handle_types_vary_across_cabinets():
     kinds = {p.handle_type for _, p in _instances("cabinet", 40, seed=2)}
     assert {"bar_h", "bar_v", "knob"} <= kinds
+
+
+# Envelope maxima used to probe the whole range a layout might grant.
+ENVELOPE_MAX = {"cabinet": (1.2, 0.8, 1.0), "sink": (1.2, 0.8, 1.0),
+                "dishwasher": (0.65, 0.8, 1.0), "oven": (0.9, 0.8, 1.0),
+                "fridge": (0.95, 0.85, 2.2), "microwave": (0.8, 0.6, 0.6)}
+
+
+@pytest.mark.parametrize("name", sorted(ENVELOPE_MAX))
+def test_any_envelope_from_minimum_to_generous_is_filled_and_respected(name):
+    from momakitchen.assets import Envelope
+
+    cat = get_category(name)
+    lo, hi = np.asarray(cat.MIN_ENVELOPE), np.asarray(ENVELOPE_MAX[name])
+    rng = np.random.default_rng(4)
+    for k in range(60):
+        # the corners of the range first, then random envelopes
+        pick = lo if k == 0 else hi if k == 1 else rng.uniform(lo, hi)
+        env = Envelope(*(round(float(v), 4) for v in pick))
+        model = cat.build(cat.sample(rng, env))
+        w, d, h = model.size
+        assert w <= env.width + 1e-6 and d <= env.depth + 1e-6, (name, env, model.size)
+        if cat.kind == "furniture":
+            assert w == pytest.approx(env.width)  # units fill their slot along the wall
+        if name != "sink":  # the faucet stands on the countertop
+            assert h <= env.height + 1e-6, (name, env, model.size)

@@ -50,6 +50,7 @@ class Dishwasher(AssetCategory):
     name = "dishwasher"
     kind = "furniture"
     width_range: ClassVar[tuple[float, float]] = (0.44, 0.65)
+    MIN_ENVELOPE: ClassVar[tuple[float, float, float]] = (0.4, 0.5, 0.75)
 
     @dataclass(frozen=True)
     class Params(C.CounterParams):
@@ -59,6 +60,7 @@ class Dishwasher(AssetCategory):
 
     @classmethod
     def sample(cls, rng: np.random.Generator, envelope: Envelope | None = None) -> Params:
+        check_envelope(cls.name, envelope, cls.MIN_ENVELOPE)
         base = C.sample_counter(rng, envelope, cls.name, BAR_HANDLES)
         base["front_thickness"] = u(rng, 0.04, 0.06)
         base["handle_length"] = u(rng, 0.25, 0.45)
@@ -99,6 +101,7 @@ class Oven(AssetCategory):
     name = "oven"
     kind = "furniture"
     width_range: ClassVar[tuple[float, float]] = (0.5, 0.9)
+    MIN_ENVELOPE: ClassVar[tuple[float, float, float]] = (0.45, 0.5, 0.82)  # fits a 45 cm oven
 
     @dataclass(frozen=True)
     class Params(C.CounterParams):
@@ -111,6 +114,7 @@ class Oven(AssetCategory):
 
     @classmethod
     def sample(cls, rng: np.random.Generator, envelope: Envelope | None = None) -> Params:
+        check_envelope(cls.name, envelope, cls.MIN_ENVELOPE)
         base = C.sample_counter(rng, envelope, cls.name, BAR_HANDLES)
         base["front_thickness"] = u(rng, 0.04, 0.055)
         base["handle_standoff"] = u(rng, 0.03, 0.045)
@@ -203,10 +207,11 @@ class Fridge(AssetCategory):
         handle_rgba: RGBA
 
     MAX_HEIGHT: ClassVar[float] = 2.05
+    MIN_ENVELOPE: ClassVar[tuple[float, float, float]] = (0.5, 0.5, 1.4)
 
     @classmethod
     def sample(cls, rng: np.random.Generator, envelope: Envelope | None = None) -> Params:
-        env = check_envelope(cls.name, envelope, (0.5, 0.5, 1.4))
+        env = check_envelope(cls.name, envelope, cls.MIN_ENVELOPE)
         hi = min(env.height, cls.MAX_HEIGHT)
         return cls.Params(
             width=round(env.width, 4), depth=round(env.depth, 4),
@@ -286,6 +291,7 @@ class Microwave(AssetCategory):
     name = "microwave"
     kind = "appliance"
     MIN_SIZE: ClassVar[tuple[float, float, float]] = (0.36, 0.28, 0.22)
+    MIN_ENVELOPE = MIN_SIZE
 
     @dataclass(frozen=True)
     class Params:
@@ -305,7 +311,7 @@ class Microwave(AssetCategory):
 
     @classmethod
     def sample(cls, rng: np.random.Generator, envelope: Envelope | None = None) -> Params:
-        env = check_envelope(cls.name, envelope, cls.MIN_SIZE)
+        env = check_envelope(cls.name, envelope, cls.MIN_ENVELOPE)
         w = u(rng, max(cls.MIN_SIZE[0], min(0.42, env.width) - 0.04), min(0.56, env.width))
         d = u(rng, max(cls.MIN_SIZE[1], min(0.33, env.depth) - 0.03), min(0.42, env.depth))
         h = u(rng, max(cls.MIN_SIZE[2], min(0.26, env.height) - 0.03), min(0.33, env.height))

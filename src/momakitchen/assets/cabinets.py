@@ -59,6 +59,7 @@ class Cabinet(AssetCategory):
     name = "cabinet"
     kind = "furniture"
     width_range: ClassVar[tuple[float, float]] = (0.3, 1.2)
+    MIN_ENVELOPE: ClassVar[tuple[float, float, float]] = C.MIN_ENVELOPE
 
     @dataclass(frozen=True)
     class Params(C.CounterParams):
@@ -103,6 +104,7 @@ class Sink(AssetCategory):
     name = "sink"
     kind = "furniture"
     width_range: ClassVar[tuple[float, float]] = (0.55, 1.2)
+    MIN_ENVELOPE: ClassVar[tuple[float, float, float]] = (0.5, 0.55, 0.6)
 
     @dataclass(frozen=True)
     class Params(C.CounterParams):
@@ -122,7 +124,7 @@ class Sink(AssetCategory):
 
     @classmethod
     def sample(cls, rng: np.random.Generator, envelope: Envelope | None = None) -> Params:
-        C.check_envelope(cls.name, envelope, (0.5, 0.5, 0.6))
+        C.check_envelope(cls.name, envelope, cls.MIN_ENVELOPE)
         base = C.sample_counter(rng, envelope, cls.name)
         w, d = base["width"], base["depth"]
         # leave at least ~0.1 m of countertop on one side of the basin

@@ -38,6 +38,9 @@ from momakitchen.assets.urdf import (
 )
 
 BODY = "body"
+# Widest grasp of any target: 5 mm less than the 8 cm opening of a two-finger gripper, so
+# the fingers clear the object while closing around it.
+MAX_GRASP_WIDTH = 0.075
 
 
 def side_grasps(z: float, radius: float, name: str = "side") -> tuple[GraspFrame, ...]:
@@ -93,7 +96,7 @@ class Bottle(AssetCategory):
     def sample(cls, rng: np.random.Generator, envelope: Envelope | None = None) -> Params:
         style = pick(rng, ("wine", "water", "oil", "soda"))
         if style == "wine":
-            r, hb, glass = u(rng, 0.036, 0.0385), u(rng, 0.17, 0.2), (0.12, 0.25, 0.12, 1.0)
+            r, hb, glass = u(rng, 0.035, 0.0375), u(rng, 0.17, 0.2), (0.12, 0.25, 0.12, 1.0)
             mass, mu, cap = u(rng, 1.1, 1.35, 3), u(rng, 0.5, 0.65, 3), (0.45, 0.08, 0.1)
         elif style == "water":
             r, hb, glass = u(rng, 0.03, 0.036), u(rng, 0.15, 0.2), (0.72, 0.85, 0.95, 1.0)
@@ -238,8 +241,8 @@ FRUIT_COLOURS = {
     "peach": ((0.95, 0.6, 0.4),),
     "pear": ((0.7, 0.75, 0.25), (0.75, 0.6, 0.3)),
 }
-FRUIT_RADIUS = {  # m, so that the diameter stays under the 8 cm gripper opening
-    "apple": (0.033, 0.039), "orange": (0.032, 0.039), "lemon": (0.026, 0.032),
+FRUIT_RADIUS = {  # m: diameters stay <= MAX_GRASP_WIDTH
+    "apple": (0.033, 0.0375), "orange": (0.032, 0.0375), "lemon": (0.026, 0.032),
     "peach": (0.03, 0.037), "pear": (0.03, 0.036),
 }
 FRUIT_DENSITY = {"apple": 800.0, "orange": 900.0, "lemon": 950.0, "peach": 950.0, "pear": 900.0}
@@ -394,9 +397,9 @@ class Vegetable(AssetCategory):
 
     RANGES: ClassVar[dict[str, tuple[tuple[float, float], tuple[float, float]]]] = {
         # (radius, length) in m
-        "tomato": ((0.025, 0.036), (0.0, 0.0)), "bell_pepper": ((0.033, 0.039), (0.07, 0.1)),
+        "tomato": ((0.025, 0.036), (0.0, 0.0)), "bell_pepper": ((0.033, 0.0375), (0.07, 0.1)),
         "carrot": ((0.012, 0.019), (0.14, 0.2)), "cucumber": ((0.018, 0.025), (0.17, 0.24)),
-        "potato": ((0.024, 0.032), (0.07, 0.11)), "eggplant": ((0.03, 0.037), (0.16, 0.22)),
+        "potato": ((0.024, 0.032), (0.07, 0.11)), "eggplant": ((0.03, 0.0375), (0.16, 0.22)),
     }
     DENSITY: ClassVar[dict[str, float]] = {  # kg/m^3
         "tomato": 950.0, "bell_pepper": 450.0, "carrot": 1030.0, "cucumber": 960.0,
