@@ -15,6 +15,7 @@ import math
 import os
 import platform
 import statistics
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -67,6 +68,27 @@ def ik_round_trip(robot: Robot, n: int = 200, seed: int = 0) -> IKStats:
     )
 
 
+def label_sweep(robot: Robot, grid: float = 0.1) -> tuple[int, int, float]:
+    """A labelling-like workload: one target, the base on a grid in the semicircle of
+    radius ``reach`` in front of it, facing it; IK to a top-down grasp at each point.
+
+    The target sits 0.1 m below the mount height, 0.15 m above a counter edge at the
+    origin. Returns ``(grid points, IK successes, seconds)``.
+    """
+    reach = ROBOTS[robot.name].reach
+    target = np.array([0.0, 0.0, ROBOTS[robot.name].mount_height - 0.1])
+    ticks = np.arange(-reach, reach + 1e-9, grid)
+    points = [(x, y) for x in ticks for y in ticks
+              if x < -0.3 and math.hypot(x, y) <= reach]  # in front of the counter
+    t0 = time.perf_counter()
+    ok = 0
+    for x, y in points:
+        robot.place_base(x, y, math.atan2(-y, -x))
+        res = robot.solve_ik(target, (1.0, 0.0, 0.0, 0.0), seed=robot.home)
+        ok += res.success
+    return len(points), ok, time.perf_counter() - t0
+
+
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--poses", type=int, default=200, help="IK poses per robot and run")
@@ -99,6 +121,15 @@ def main(argv: list[str] | None = None) -> None:
         print(f"| {name} | {med('success_rate'):.3f} | {med('median_ms'):.2f} | "
               f"{med('p90_ms'):.2f} | {med('median_position_mm'):.3f} | "
               f"{med('median_orientation_deg'):.3f} |")
+    print("\nLabelling-like sweep: base on a 10 cm grid within reach of one target, facing "
+          "it; top-down IK from home at each point (median of runs)")
+    print("\n| robot | grid points | IK successes | seconds per sweep | ms per point |")
+    print("| --- | --- | --- | --- | --- |")
+    for name, robot in robots.items():
+        sweeps = [label_sweep(robot) for _ in range(args.runs)]
+        n, ok = sweeps[0][0], sweeps[0][1]
+        sec = statistics.median(s[2] for s in sweeps)
+        print(f"| {name} | {n} | {ok} | {sec:.2f} | {1e3 * sec / max(n, 1):.2f} |")
     p.disconnect(client)
 
 

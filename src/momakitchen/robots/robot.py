@@ -42,6 +42,7 @@ from momakitchen.robots.urdf import (
 _WORKSPACE_SAMPLES = 1500
 _WORKSPACE_CACHE: dict[str, tuple[float, float]] = {}
 _SELF_PAIRS_CACHE: dict[str, list[tuple[int, int]]] = {}
+_SEED_LIBRARY: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
 _EYE3, _EYE6 = np.eye(3), np.eye(6)
 
 
@@ -399,7 +400,7 @@ class Robot:
                             orientation_error=oerr, success=False, calls=0,
                             seconds=time.perf_counter() - t0)
         seeds = [np.asarray(seed if seed is not None else self.joint_positions(), float),
-                 self.home]
+                 self.home, *self._library_seeds(target, target_rot, restarts)]
         best: tuple[float, float, np.ndarray] | None = None
         calls = 0
         for attempt in range(restarts + 1):
@@ -415,6 +416,40 @@ class Robot:
         return IKResult(q=q, position_error=perr, orientation_error=oerr,
                         success=perr <= pos_tol and oerr <= ori_tol, calls=calls,
                         seconds=time.perf_counter() - t0)
+
+    def _library_seeds(self, target: np.ndarray, target_rot: np.ndarray | None,
+                       k: int) -> list[np.ndarray]:
+        """The ``k`` configurations of a sampled library whose TCP pose is nearest the
+        target (in the base frame): far better restarts than uniform random ones."""
+        if k <= 0:
+            return []
+        if self.name not in _SEED_LIBRARY:
+            _SEED_LIBRARY[self.name] = self._build_library()
+        qs, pos, zax = _SEED_LIBRARY[self.name]
+        bpos, born = p.getBasePositionAndOrientation(self.body, physicsClientId=self.client)
+        brot = np.array(p.getMatrixFromQuaternion(born)).reshape(3, 3)
+        local = brot.T @ (target - np.array(bpos))
+        dist = np.linalg.norm(pos - local, axis=1)
+        if target_rot is not None:
+            # Approach direction matters most for the wrist: compare the TCP z axes.
+            dist = dist + 0.15 * np.linalg.norm(zax - brot.T @ target_rot[:, 2], axis=1)
+        return list(qs[np.argsort(dist)[:k]])
+
+    def _build_library(self, n: int = 1500) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Random configurations with their TCP position and z axis in the base frame."""
+        rng = np.random.default_rng(1)
+        saved = self.joint_positions()
+        bpos, born = p.getBasePositionAndOrientation(self.body, physicsClientId=self.client)
+        brot = np.array(p.getMatrixFromQuaternion(born)).reshape(3, 3)
+        qs = rng.uniform(self.lower, self.upper, size=(n, self.dof))
+        pos, zax = np.empty((n, 3)), np.empty((n, 3))
+        for i, q in enumerate(qs):
+            self._reset_arm(q)
+            wp, wq = self.link_pose(self.tcp_link)
+            pos[i] = brot.T @ (wp - np.array(bpos))
+            zax[i] = brot.T @ np.array(p.getMatrixFromQuaternion(wq)).reshape(3, 3)[:, 2]
+        self._reset_arm(saved)
+        return qs, pos, zax
 
     def _lm(self, q: np.ndarray, target: np.ndarray, target_rot: np.ndarray | None,
             iterations: int, pos_tol: float, ori_tol: float

@@ -266,3 +266,4 @@ def unregister_user_robot(name: str) -> None:
     MODELS.pop(name, None)
     robot_module._WORKSPACE_CACHE.pop(name, None)
     robot_module._SELF_PAIRS_CACHE.pop(name, None)
+    robot_module._SEED_LIBRARY.pop(name, None)
