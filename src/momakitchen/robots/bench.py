@@ -36,6 +36,7 @@ class IKStats:
     success_rate: float
     median_ms: float
     p90_ms: float
+    median_cpu_ms: float
     median_position_mm: float
     median_orientation_deg: float
     max_success_position_mm: float
@@ -45,11 +46,13 @@ class IKStats:
 def ik_round_trip(robot: Robot, n: int = 200, seed: int = 0) -> IKStats:
     """FK -> IK -> FK on ``n`` random reachable poses (IK seeded at home)."""
     rng = np.random.default_rng(seed)
-    times, perr, oerr, ok = [], [], [], []
+    times, cpu, perr, oerr, ok = [], [], [], [], []
     for _ in range(n):
         q = rng.uniform(robot.lower, robot.upper)
         pos, orn = robot.tcp_pose(q)
+        c0 = time.process_time()
         res = robot.solve_ik(pos, orn, seed=robot.home, rng=rng)
+        cpu.append((time.process_time() - c0) * 1e3)
         # Independent check of the answer by FK.
         got_pos, got_orn = robot.tcp_pose(res.q)
         e_pos = float(np.linalg.norm(got_pos - pos))
@@ -63,12 +66,13 @@ def ik_round_trip(robot: Robot, n: int = 200, seed: int = 0) -> IKStats:
     good_o = [e for e, s in zip(oerr, ok, strict=True) if s] or [float("nan")]
     return IKStats(
         robot.name, n, float(np.mean(ok)), float(np.median(times)),
-        float(np.percentile(times, 90)), float(np.median(perr)), float(np.median(oerr)),
+        float(np.percentile(times, 90)), float(np.median(cpu)), float(np.median(perr)),
+        float(np.median(oerr)),
         max(good_p), max(good_o),
     )
 
 
-def label_sweep(robot: Robot, grid: float = 0.1) -> tuple[int, int, float]:
+def label_sweep(robot: Robot, grid: float = 0.1) -> tuple[int, int, float, float]:
     """A labelling-like workload: one target, the base on a grid in the semicircle of
     radius ``reach`` in front of it, facing it; IK to a top-down grasp at each point.
 
@@ -81,12 +85,13 @@ def label_sweep(robot: Robot, grid: float = 0.1) -> tuple[int, int, float]:
     points = [(x, y) for x in ticks for y in ticks
               if x < -0.3 and math.hypot(x, y) <= reach]  # in front of the counter
     t0 = time.perf_counter()
+    c0 = time.process_time()
     ok = 0
     for x, y in points:
         robot.place_base(x, y, math.atan2(-y, -x))
         res = robot.solve_ik(target, (1.0, 0.0, 0.0, 0.0), seed=robot.home)
         ok += res.success
-    return len(points), ok, time.perf_counter() - t0
+    return len(points), ok, time.perf_counter() - t0, time.process_time() - c0
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -109,9 +114,9 @@ def main(argv: list[str] | None = None) -> None:
         reach = ROBOTS[name].reach
         print(f"| {name} | {reach:.3f} | {flange:.3f} | {flange / reach:.3f} | {tcp:.3f} |")
     print(f"\nIK round trip: {args.poses} random poses per run, {args.runs} runs, medians")
-    print("\n| robot | success rate | median solve (ms) | p90 solve (ms) | "
-          "median pos. err (mm) | median ori. err (deg) |")
-    print("| --- | --- | --- | --- | --- | --- |")
+    print("\n| robot | success rate | median solve (ms) | p90 solve (ms) | median CPU (ms) "
+          "| median pos. err (mm) | median ori. err (deg) |")
+    print("| --- | --- | --- | --- | --- | --- | --- |")
     for name, robot in robots.items():
         runs = [ik_round_trip(robot, args.poses, seed=run) for run in range(args.runs)]
 
@@ -119,17 +124,20 @@ def main(argv: list[str] | None = None) -> None:
             return statistics.median(getattr(r, attr) for r in runs)
 
         print(f"| {name} | {med('success_rate'):.3f} | {med('median_ms'):.2f} | "
-              f"{med('p90_ms'):.2f} | {med('median_position_mm'):.3f} | "
+              f"{med('p90_ms'):.2f} | {med('median_cpu_ms'):.2f} | "
+              f"{med('median_position_mm'):.3f} | "
               f"{med('median_orientation_deg'):.3f} |")
     print("\nLabelling-like sweep: base on a 10 cm grid within reach of one target, facing "
           "it; top-down IK from home at each point (median of runs)")
-    print("\n| robot | grid points | IK successes | seconds per sweep | ms per point |")
-    print("| --- | --- | --- | --- | --- |")
+    print("\n| robot | grid points | IK successes | seconds per sweep | CPU seconds | "
+          "ms per point |")
+    print("| --- | --- | --- | --- | --- | --- |")
     for name, robot in robots.items():
         sweeps = [label_sweep(robot) for _ in range(args.runs)]
         n, ok = sweeps[0][0], sweeps[0][1]
         sec = statistics.median(s[2] for s in sweeps)
-        print(f"| {name} | {n} | {ok} | {sec:.2f} | {1e3 * sec / max(n, 1):.2f} |")
+        cpu = statistics.median(s[3] for s in sweeps)
+        print(f"| {name} | {n} | {ok} | {sec:.2f} | {cpu:.2f} | {1e3 * sec / max(n, 1):.2f} |")
     p.disconnect(client)
 
 
