@@ -160,12 +160,16 @@ class Oven(AssetCategory):
                         "glass", collision=False)
         lk, jt, ar = C.flap("door", BASE, g.y_front, x0, x1, zd, zp - C.GAP, C.handle_spec(p),
                             t, material="body", density=450.0, extra=(window,))
-        links.append(lk), joints.append(jt), arts.append(ar)
+        links.append(lk)
+        joints.append(jt)
+        arts.append(ar)
         if p.drawer:
             lk, jt, ar = C.drawer("drawer", BASE, g.y_front, x0, x1, z0, zd - C.GAP,
                                   C.handle_spec(p), t, g.y_front - p.panel - 0.02,
                                   g.x_inner[1] - g.x_inner[0], material="body", density=450.0)
-            links.append(lk), joints.append(jt), arts.append(ar)
+            links.append(lk)
+            joints.append(jt)
+            arts.append(ar)
         else:
             shapes.append(box_at((x0, g.y_front, z0), (x1, g.y_front + t, zd - C.GAP), "body"))
         base = Link(BASE, tuple(shapes), round(density_mass(shapes), 3))
@@ -262,19 +266,25 @@ class Fridge(AssetCategory):
         lk, jt, ar = C.door("door", BASE, y_front, x0, x1, zs if p.layout != "single" else z0,
                             z1, p.hinge, spec, p.door_thickness, handle_at_top=False,
                             material="body", density=220.0, limit=1.9)
-        links.append(lk), joints.append(jt), arts.append(ar)
+        links.append(lk)
+        joints.append(jt)
+        arts.append(ar)
         if p.layout == "freezer_door":
             short = C.HandleSpec(p.handle_type, min(p.handle_length, (zs - z0) * 0.5),
                                  p.handle_thickness, p.handle_standoff)
             lk, jt, ar = C.door("freezer_door", BASE, y_front, x0, x1, z0, zs - C.GAP, p.hinge,
                                 short, p.door_thickness, material="body", density=220.0,
                                 limit=1.9)
-            links.append(lk), joints.append(jt), arts.append(ar)
+            links.append(lk)
+            joints.append(jt)
+            arts.append(ar)
         elif p.layout == "freezer_drawer":
             lk, jt, ar = C.drawer("freezer_drawer", BASE, y_front, x0, x1, z0, zs - C.GAP, spec,
                                   p.door_thickness, y_front - w - 0.03, p.width - 2 * w,
                                   material="body", box_material="liner", density=220.0)
-            links.append(lk), joints.append(jt), arts.append(ar)
+            links.append(lk)
+            joints.append(jt)
+            arts.append(ar)
         mats = {"body": p.body_rgba, "handle": p.handle_rgba, "liner": (0.95, 0.95, 0.95, 1.0),
                 "shelf": (0.85, 0.9, 0.92, 1.0)}
         return finish(cls.name, [base, *links], joints, mats, articulations=tuple(arts))

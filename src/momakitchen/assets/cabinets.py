@@ -25,12 +25,11 @@ BASE = "carcass"
 
 
 def _fronts(p: C.CounterParams, g: C.CounterGeometry, layout: str, columns: int, hinge: str,
-            drawer_fracs: tuple[float, ...], z_top: float | None = None
-            ) -> tuple[list[Link], list[Joint], list[Articulation]]:
+            drawer_fracs: tuple[float, ...]) -> tuple[list[Link], list[Joint], list[Articulation]]:
     """Doors and drawers filling the front area (drawer rows from the top, doors below)."""
     links, joints, arts = [], [], []
     x0, x1 = -p.width / 2 + C.GAP, p.width / 2 - C.GAP
-    z0, z1 = g.z_fronts[0], z_top if z_top is not None else g.z_fronts[1]
+    z0, z1 = g.z_fronts
     span = z1 - z0
     z = z1
     rows = drawer_fracs if layout in ("drawers", "drawer_doors") else ()
@@ -39,7 +38,9 @@ def _fronts(p: C.CounterParams, g: C.CounterGeometry, layout: str, columns: int,
         for c, (a, b) in enumerate(C.split(x0, x1, columns)):
             name = f"drawer_{k}_{c}" if columns > 1 else f"drawer_{k}"
             lk, jt, ar = C.counter_drawer(p, g, name, BASE, a, b, zb, z - C.GAP)
-            links.append(lk), joints.append(jt), arts.append(ar)
+            links.append(lk)
+            joints.append(jt)
+            arts.append(ar)
         z = zb
     if layout in ("doors", "drawer_doors"):
         cols = C.split(x0, x1, columns)
@@ -47,7 +48,9 @@ def _fronts(p: C.CounterParams, g: C.CounterGeometry, layout: str, columns: int,
             side = hinge if columns == 1 else ("left" if c == 0 else "right")
             lk, jt, ar = C.counter_door(p, g, f"door_{c}", BASE, a, b, z0, z - C.GAP if rows else z,
                                 side)
-            links.append(lk), joints.append(jt), arts.append(ar)
+            links.append(lk)
+            joints.append(jt)
+            arts.append(ar)
     return links, joints, arts
 
 
