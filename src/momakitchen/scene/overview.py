@@ -13,6 +13,7 @@ from momakitchen.assets import get_category
 from momakitchen.robots import get_robot_spec
 from momakitchen.scene.configuration import Configuration, Scene, handle_anchor
 from momakitchen.scene.geometry import semicircle_grid
+from momakitchen.scene.layout import Layout
 
 # Display colour of each category in plans (one place, shared by every figure).
 PLAN_COLOURS = {
@@ -29,41 +30,59 @@ def _poly(ax, footprint, colour, **kw) -> None:
                          linewidth=0.8, **kw))
 
 
-def draw_plan(ax, scene: Scene, cfg: Configuration) -> None:
-    """Top-down plan: furniture, handles, objects, the target, its semicircle, obstacles."""
-    layout = scene.layout
+def draw_kitchen(ax, layout: Layout, cfg: Configuration, *, handles: bool = True,
+                 alpha: float = 0.95) -> None:
+    """Room, furniture (with handles), objects on the counter and obstacles, top down."""
     room = layout.room
     ax.add_patch(Polygon([[0, 0], [room.width, 0], [room.width, room.depth], [0, room.depth]],
-                         closed=True, facecolor="#f4efe6", edgecolor="k", linewidth=2))
+                         closed=True, facecolor="#f4efe6", edgecolor="k", linewidth=2,
+                         zorder=0))
     for unit in layout.furniture:
-        _poly(ax, unit.footprint(), PLAN_COLOURS.get(unit.category, "#cccccc"), alpha=0.95)
         fp = unit.footprint()
+        _poly(ax, fp, PLAN_COLOURS.get(unit.category, "#cccccc"), alpha=alpha)
         # Base units are labelled near their front edge, so appliances on top stay readable.
         on_floor = get_category(unit.category).kind == "furniture"
         ty = fp.y + fp.width / 2 - 0.12 if on_floor else fp.y
-        ax.text(fp.x, ty, unit.category, ha="center", va="center", fontsize=6.5,
+        ax.text(fp.x, ty, unit.category, ha="center", va="center", fontsize=6.5, clip_on=True,
                 color="white" if unit.category in ("oven", "microwave") else "black")
-        for i, _art in enumerate(unit.model.articulations):
-            hx, hy, _ = handle_anchor(unit, i)
-            ax.plot(hx, hy, marker="s", ms=3, color="k")
+        if handles:
+            for i in range(len(unit.model.articulations)):
+                hx, hy, _ = handle_anchor(unit, i)
+                ax.plot(hx, hy, marker="s", ms=3, color="k")
     for obj in cfg.objects:
         _poly(ax, obj.footprint(), PLAN_COLOURS.get(obj.category, "#999999"))
+    for ob in cfg.obstacles:
+        _poly(ax, ob.footprint(), PLAN_COLOURS.get(ob.category, "#999999"), alpha=0.9 * alpha)
+        ax.text(ob.x, ob.y, ob.category, ha="center", va="center", fontsize=6, color="white",
+                clip_on=True)
+
+
+def frame_plan(ax, xlim: tuple[float, float], ylim: tuple[float, float]) -> None:
+    """Axes seen from the room towards the wall (wall at the top), like the rendered view."""
+    ax.set_xlim(max(xlim), min(xlim))
+    ax.set_ylim(max(ylim), min(ylim))
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m, along the wall)")
+    ax.set_ylabel("y (m, into the room)")
+
+
+def draw_target(ax, cfg: Configuration) -> None:
+    tx, ty, _ = cfg.target.anchor
+    ax.plot(tx, ty, marker="*", ms=16, color="red", markeredgecolor="k", zorder=5)
+
+
+def draw_plan(ax, scene: Scene, cfg: Configuration) -> None:
+    """Top-down plan: furniture, handles, objects, the target, its semicircle, obstacles."""
+    room = scene.layout.room
+    draw_kitchen(ax, scene.layout, cfg)
     robot = get_robot_spec(cfg.robot)
     tx, ty, _ = cfg.target.anchor
     ax.add_patch(Wedge((tx, ty), robot.reach, 0, 180, facecolor="#3b82f6", alpha=0.12,
                        edgecolor="#1d4ed8", linewidth=1.2))
     grid = semicircle_grid((tx, ty), robot.reach, scene.config.grid_spacing)
     ax.scatter(grid[:, 0], grid[:, 1], s=2, color="#1d4ed8", alpha=0.5, linewidths=0)
-    for ob in cfg.obstacles:
-        _poly(ax, ob.footprint(), PLAN_COLOURS.get(ob.category, "#999999"), alpha=0.9)
-        ax.text(ob.x, ob.y, ob.category, ha="center", va="center", fontsize=6, color="white")
-    ax.plot(tx, ty, marker="*", ms=16, color="red", markeredgecolor="k")
-    # Seen from the room towards the wall (wall at the top), like the rendered view.
-    ax.set_xlim(room.width + 0.2, -0.2)
-    ax.set_ylim(room.depth + 0.2, -0.2)
-    ax.set_aspect("equal")
-    ax.set_xlabel("x (m, along the wall)")
-    ax.set_ylabel("y (m, into the room)")
+    draw_target(ax, cfg)
+    frame_plan(ax, (-0.2, room.width + 0.2), (-0.2, room.depth + 0.2))
 
 
 def plan_legend(ax, scene: Scene, cfg: Configuration) -> None:

@@ -1,0 +1,207 @@
+"""Affordance labels: trials on the semicircle grid (sparse) and the dense floor map.
+
+Sparse labels are trial outcomes at the grid positions of the sampling semicircle (radius
+= the robot's reach, in front of the target). The dense map spreads them over arbitrary
+floor points: each floor point is associated with the trial positions within ``theta``
+of it, and takes the Gaussian-weighted mean outcome of its ``k`` nearest associated
+positions (weights ``exp(-d^2 / (2 sigma^2))``); a point with no trial within ``theta``
+gets 0. Values lie in [0, 1].
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import pybullet as p
+from scipy.spatial import cKDTree
+
+from momakitchen.errors import MomaError
+from momakitchen.robots import get_robot_spec
+from momakitchen.scene.configuration import Configuration
+from momakitchen.scene.geometry import semicircle_grid
+from momakitchen.sim.trials import STAGE_NAMES, Stage, TrialConfig, TrialRunner
+from momakitchen.sim.world import World
+
+
+@dataclass(frozen=True)
+class DenseMapConfig:
+    """Dense-map interpolation (metres).
+
+    Attributes:
+        theta: association threshold: trial positions farther than this from a floor
+            point do not contribute to it (default 1.5 x the 10 cm grid spacing).
+        k: number of nearest associated trial positions averaged.
+        sigma: Gaussian weighting scale.
+    """
+
+    theta: float = 0.15
+    k: int = 8
+    sigma: float = 0.07
+
+    def __post_init__(self) -> None:
+        if not 0.0 < self.theta <= 2.0:
+            raise MomaError(f"DenseMapConfig.theta must be in (0, 2] m, got {self.theta}")
+        if not 1 <= self.k <= 64:
+            raise MomaError(f"DenseMapConfig.k must be in [1, 64], got {self.k}")
+        if not 0.0 < self.sigma <= 2.0:
+            raise MomaError(f"DenseMapConfig.sigma must be in (0, 2] m, got {self.sigma}")
+
+
+def dense_map(positions: np.ndarray, outcomes: np.ndarray, query: np.ndarray,
+              config: DenseMapConfig | None = None) -> np.ndarray:
+    """Interpolate trial outcomes onto floor points.
+
+    Shapes: ``positions`` (P, 2) trial positions, ``outcomes`` (P,) in {0, 1} (or [0, 1]),
+    ``query`` (M, 2) floor points in the same frame; returns (M,) float32 in [0, 1].
+    """
+    cfg = config or DenseMapConfig()
+    positions = np.asarray(positions, float).reshape(-1, 2)
+    outcomes = np.asarray(outcomes, float).reshape(-1)
+    query = np.asarray(query, float).reshape(-1, 2)
+    if len(positions) != len(outcomes):
+        raise MomaError(f"{len(positions)} trial positions but {len(outcomes)} outcomes")
+    values = np.zeros(len(query), dtype=np.float32)
+    if len(positions) == 0 or len(query) == 0:
+        return values
+    k = min(cfg.k, len(positions))
+    dist, idx = cKDTree(positions).query(query, k=k, distance_upper_bound=cfg.theta)
+    dist, idx = dist.reshape(len(query), k), idx.reshape(len(query), k)
+    valid = np.isfinite(dist)  # missing neighbours come back as inf / index P
+    w = np.where(valid, np.exp(-np.square(np.where(valid, dist, 0.0)) / (2 * cfg.sigma**2)), 0)
+    o = np.where(valid, outcomes[np.minimum(idx, len(outcomes) - 1)], 0.0)
+    wsum = w.sum(axis=1)
+    out = np.zeros(len(query))
+    np.divide((w * o).sum(axis=1), wsum, out=out, where=wsum > 0)
+    return np.clip(out, 0.0, 1.0).astype(np.float32)
+
+
+def world_to_base(points: np.ndarray, base: tuple[float, float, float]) -> np.ndarray:
+    """Express world floor points in a robot base frame (x forward, y left).
+
+    Shapes: ``points`` (N, 2) or (N, 3) world; ``base`` = (x, y, yaw); returns same shape.
+    """
+    pts = np.asarray(points, float)
+    x, y, yaw = base
+    c, s = np.cos(yaw), np.sin(yaw)
+    out = pts.copy()
+    dx, dy = pts[:, 0] - x, pts[:, 1] - y
+    out[:, 0] = c * dx + s * dy
+    out[:, 1] = -s * dx + c * dy
+    return out
+
+
+@dataclass(frozen=True)
+class Labels:
+    """Sparse labels of one configuration.
+
+    Shapes: ``positions`` (P, 2) world xy of the trial grid; ``yaws`` (P,) base yaw (facing
+    the target); ``stages`` (P,) :class:`Stage` codes (0 = success); ``moved`` (P,) object
+    rise (m) or joint opening (rad or m) reached in physics (0 where no physics ran).
+    ``seconds`` splits the wall time: check, ik, physics, total.
+    """
+
+    scene_id: int
+    config_index: int
+    robot: str
+    target: str
+    anchor: tuple[float, float, float]
+    grid_spacing: float
+    positions: np.ndarray
+    yaws: np.ndarray
+    stages: np.ndarray
+    moved: np.ndarray
+    seconds: dict[str, float]
+
+    @property
+    def outcomes(self) -> np.ndarray:
+        """(P,) uint8: 1 where the trial succeeded."""
+        return (self.stages == Stage.SUCCESS).astype(np.uint8)
+
+    def stage_counts(self) -> dict[str, int]:
+        return {name: int((self.stages == s).sum()) for s, name in zip(Stage, STAGE_NAMES,
+                                                                        strict=True)}
+
+    def summary(self) -> dict:
+        n = len(self.stages)
+        physics = int(((self.stages == Stage.SUCCESS) | (self.stages == Stage.EXECUTION_FAILED))
+                      .sum())
+        return {
+            "scene_id": self.scene_id, "config_index": self.config_index, "robot": self.robot,
+            "target": self.target, "anchor": list(self.anchor), "positions": n,
+            "grid_spacing": self.grid_spacing, "successes": int(self.outcomes.sum()),
+            "success_rate": float(self.outcomes.mean()) if n else 0.0,
+            "physics_trials": physics, "stages": self.stage_counts(),
+            "seconds": {k: round(v, 4) for k, v in self.seconds.items()},
+        }
+
+
+def target_name(world: World) -> str:
+    """Target category, with the part for articulated targets (e.g. ``fridge/door``)."""
+    t = world.target
+    return t.category if t.part == "object" else f"{t.category}/{t.part}"
+
+
+def set_target_dynamics(world: World, mass: float | None = None,
+                        friction: float | None = None) -> None:
+    """Change the target's mass (kg) and/or lateral friction coefficient (what-if studies:
+    a 50 kg bottle cannot be lifted, a frictionless one slips out of the fingers)."""
+    t = world.target
+    kwargs = {}
+    if mass is not None:
+        if not mass > 0:
+            raise MomaError(f"target mass must be > 0 kg, got {mass}")
+        kwargs["mass"] = float(mass)
+    if friction is not None:
+        if not friction >= 0:
+            raise MomaError(f"target friction must be >= 0, got {friction}")
+        kwargs["lateralFriction"] = float(friction)
+    if kwargs:
+        p.changeDynamics(t.body_id, t.link_index, physicsClientId=world.client, **kwargs)
+
+
+def label_configuration(
+    world: World,
+    cfg: Configuration,
+    *,
+    trial_config: TrialConfig | None = None,
+    grid_spacing: float = 0.1,
+    target_mass: float | None = None,
+    target_friction: float | None = None,
+    progress: Callable[[int, int], None] | None = None,
+) -> Labels:
+    """Run the trials of ``cfg`` on its sampling grid and return the sparse labels.
+
+    The world is reset to ``cfg`` first (``World.load_configuration``), the robot of the
+    configuration is loaded for the trials and removed afterwards.
+    """
+    t0 = time.perf_counter()
+    world.load_configuration(cfg)
+    set_target_dynamics(world, target_mass, target_friction)
+    spec = get_robot_spec(cfg.robot)
+    grid = semicircle_grid(cfg.target.anchor[:2], spec.reach, grid_spacing)
+    runner = TrialRunner(world, cfg.robot, trial_config)
+    results = []
+    try:
+        for i, (x, y) in enumerate(grid):
+            results.append(runner.run(float(x), float(y)))
+            if progress is not None:
+                progress(i + 1, len(grid))
+    finally:
+        runner.close()
+    ax, ay = cfg.target.anchor[:2]
+    seconds = {
+        "check": sum(r.t_check for r in results), "ik": sum(r.t_ik for r in results),
+        "physics": sum(r.t_physics for r in results), "total": time.perf_counter() - t0,
+    }
+    return Labels(
+        scene_id=cfg.scene_id, config_index=cfg.index, robot=cfg.robot,
+        target=target_name(world), anchor=tuple(cfg.target.anchor), grid_spacing=grid_spacing,
+        positions=grid.astype(np.float64),
+        yaws=np.arctan2(ay - grid[:, 1], ax - grid[:, 0]),
+        stages=np.array([int(r.stage) for r in results], dtype=np.uint8),
+        moved=np.array([r.moved for r in results], dtype=np.float32),
+        seconds=seconds,
+    )

@@ -1,0 +1,420 @@
+"""Manipulation trials executed in PyBullet physics: one trial per base position.
+
+A trial runs in stages and records the first that failed:
+
+1. the base footprint collides with the scene -> ``BASE_COLLISION``;
+2. the grasp point lies outside the arm's workspace sphere (kinematic pre-filter)
+   -> ``OUT_OF_REACH``;
+3. IK for the pre-grasp and grasp poses (end-effector aligned with the target's surface
+   normal or handle) misses -> ``IK_FAILED``;
+4. the arm at either pose collides with the scene -> ``ARM_COLLISION``;
+5. the manipulation is executed in physics: grasp and lift (grippers), touch, attach and
+   lift (suction), or grasp the handle and pull it open (articulated targets). Outcome 1
+   only if the object really moved as intended, else ``EXECUTION_FAILED``.
+
+The world is restored to the same saved state before every trial, so trials do not leak
+state into each other and any subset of positions gives the same outcomes.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+from enum import IntEnum
+
+import numpy as np
+import pybullet as p
+
+from momakitchen.assets import GraspFrame
+from momakitchen.errors import MomaError
+from momakitchen.robots.robot import Robot
+from momakitchen.sim.world import TargetInfo, World
+
+PARKING = (-20.0, -20.0, 0.0)  # where the robot waits between trials, far from the room
+
+
+class Stage(IntEnum):
+    """Outcome of a trial: success or the stage that failed."""
+
+    SUCCESS = 0
+    BASE_COLLISION = 1
+    OUT_OF_REACH = 2
+    IK_FAILED = 3
+    ARM_COLLISION = 4
+    EXECUTION_FAILED = 5
+
+
+STAGE_NAMES = tuple(s.name.lower() for s in Stage)
+
+
+@dataclass(frozen=True)
+class TrialConfig:
+    """Parameters of a trial (distances in metres, durations in seconds).
+
+    Attributes:
+        pregrasp_offset: distance of the pre-grasp pose from the grasp point along the
+            surface normal.
+        lift_height: how far grippers and suction lift a rigid object.
+        min_lift: a rigid trial succeeds if the object rose at least this much...
+        hold_seconds: ...and is still held after this long.
+        open_angle_deg, open_distance: an articulated trial succeeds if the joint opened
+            at least this much (revolute / prismatic).
+        pull_angle_deg, pull_distance: how far the arm tries to open the part.
+        max_grasp_depth: a gripper's TCP (the centre between the finger pads) goes this
+            far behind the grasp surface at most, and never deeper than half the grasp
+            width: to the axis of a bottle, around a handle bar, over the top of a fruit.
+        max_grasp_candidates: rigid targets offer several grasp frames; this many, the
+            best aligned with the robot first, are tried.
+        ik_restarts: random restarts of the IK solver for the pre-grasp pose.
+        solver_iterations: PyBullet constraint-solver iterations per step during trials
+            (PyBullet's default is 50; 30 gives the same outcomes on our scenes, faster).
+    """
+
+    pregrasp_offset: float = 0.08
+    lift_height: float = 0.10
+    min_lift: float = 0.05
+    hold_seconds: float = 1.0
+    open_angle_deg: float = 20.0
+    open_distance: float = 0.10
+    pull_angle_deg: float = 35.0
+    pull_distance: float = 0.16
+    max_grasp_depth: float = 0.03
+    max_grasp_candidates: int = 3
+    ik_restarts: int = 2
+    solver_iterations: int = 30
+
+    def __post_init__(self) -> None:
+        positive = ("pregrasp_offset", "lift_height", "min_lift", "open_angle_deg",
+                    "open_distance", "pull_angle_deg", "pull_distance")
+        for name in positive:
+            if not getattr(self, name) > 0:
+                raise MomaError(f"TrialConfig.{name} must be > 0, got {getattr(self, name)}")
+        if self.min_lift > self.lift_height:
+            raise MomaError(f"TrialConfig.min_lift ({self.min_lift}) exceeds lift_height "
+                            f"({self.lift_height})")
+        if self.pull_angle_deg < self.open_angle_deg or self.pull_distance < self.open_distance:
+            raise MomaError("TrialConfig: the commanded pull must exceed the success threshold")
+        if not 0 <= self.hold_seconds <= 10:
+            raise MomaError(f"TrialConfig.hold_seconds must be in [0, 10], got {self.hold_seconds}")
+        if not 5 <= self.solver_iterations <= 500:
+            raise MomaError("TrialConfig.solver_iterations must be in [5, 500], got "
+                            f"{self.solver_iterations}")
+        if not 1 <= self.max_grasp_candidates <= 10:
+            raise MomaError("TrialConfig.max_grasp_candidates must be in [1, 10], got "
+                            f"{self.max_grasp_candidates}")
+
+
+@dataclass(frozen=True)
+class TrialResult:
+    """One trial: stage reached, outcome and measurements.
+
+    ``moved`` is the object's rise (m) for rigid targets or the joint opening (rad or m)
+    for articulated ones; ``grasp`` names the grasp frame used. ``t_check``, ``t_ik``
+    and ``t_physics`` split the trial's wall time (s).
+    """
+
+    stage: Stage
+    moved: float = 0.0
+    grasp: str = ""
+    t_check: float = 0.0
+    t_ik: float = 0.0
+    t_physics: float = 0.0
+
+    @property
+    def success(self) -> bool:
+        return self.stage == Stage.SUCCESS
+
+
+def tcp_quaternion(normal: np.ndarray, closing: np.ndarray) -> np.ndarray:
+    """TCP orientation approaching along ``-normal`` with fingers closing along ``closing``.
+
+    TCP convention (robots module): z = approach direction, y = finger closing axis.
+    """
+    z = -normal / np.linalg.norm(normal)
+    y = closing - (closing @ z) * z
+    y /= np.linalg.norm(y)
+    x = np.cross(y, z)
+    rot = np.stack([x, y, z], axis=1)
+    # Rotation matrix to quaternion (x, y, z, w).
+    w = math.sqrt(max(0.0, 1.0 + rot[0, 0] + rot[1, 1] + rot[2, 2])) / 2
+    if w > 1e-3:
+        return np.array([(rot[2, 1] - rot[1, 2]) / (4 * w), (rot[0, 2] - rot[2, 0]) / (4 * w),
+                         (rot[1, 0] - rot[0, 1]) / (4 * w), w])
+    i = int(np.argmax(np.diag(rot)))
+    j, k = (i + 1) % 3, (i + 2) % 3
+    s = math.sqrt(max(0.0, 1.0 + rot[i, i] - rot[j, j] - rot[k, k])) * 2
+    q = np.zeros(4)
+    q[i] = s / 4
+    q[j] = (rot[j, i] + rot[i, j]) / s
+    q[k] = (rot[k, i] + rot[i, k]) / s
+    q[3] = (rot[k, j] - rot[j, k]) / s
+    return q
+
+
+@dataclass(frozen=True)
+class _Plan:
+    grasp: GraspFrame
+    q_pre: np.ndarray
+    q_grasp: np.ndarray
+    position: np.ndarray  # grasp point (world)
+    normal: np.ndarray
+    quat: np.ndarray
+
+
+class TrialRunner:
+    """Runs trials of one robot on the loaded configuration of a :class:`World`.
+
+    Loads the robot (parked outside the room), saves the world state, and restores it
+    before every trial.
+    """
+
+    def __init__(self, world: World, robot_name: str, config: TrialConfig | None = None):
+        if world.configuration is None:
+            raise MomaError("load a configuration into the world before running trials")
+        self.world = world
+        self.config = config or TrialConfig()
+        self.robot = Robot(world.client, robot_name, base=PARKING)
+        self.target: TargetInfo = world.target
+        c = world.client
+        floor = world.bodies["floor"].body_id
+        self._scene_bodies = np.array([b for b in world.body_ids() if b != floor])
+        # Bounding boxes of the static scene, to query PyBullet only about nearby bodies.
+        self._boxes = np.stack([world.aabb(int(b)) for b in self._scene_bodies])
+        self._floor = floor
+        self._allow: list[int | tuple[int, int]] = [self.target.body_id]
+        if self.target.is_articulated:
+            # The tool may touch the moving part and its handle, not the carcass.
+            self._allow = [(self.target.body_id, self.target.link_index),
+                           (self.target.body_id, self.target.joint_index)]
+        self._suction = self.robot.cup_link is not None
+        # Free bodies away from the target rest until something touches them (Bullet's
+        # deactivation): they cost no solver time, and contact wakes them as usual.
+        grasp_point = world.grasp_in_world()[0]
+        for info in world.bodies.values():
+            if info.kind in ("rigid", "obstacle") and info.body_id != self.target.body_id:
+                lo, hi = world.aabb(info.body_id)
+                if np.linalg.norm(np.maximum(np.maximum(lo - grasp_point, grasp_point - hi),
+                                             0)) > 0.25:
+                    p.changeDynamics(info.body_id, -1,
+                                     activationState=p.ACTIVATION_STATE_SLEEP,
+                                     physicsClientId=c)
+        self._solver_before = p.getPhysicsEngineParameters(physicsClientId=c)[
+            "numSolverIterations"]
+        p.setPhysicsEngineParameter(numSolverIterations=self.config.solver_iterations,
+                                    physicsClientId=c)
+        self._state = world.save_state()
+        self._dirty = False  # True once physics has run since the last restore
+        self._client = c
+
+    def close(self) -> None:
+        """Remove the robot and the saved state from the world."""
+        p.removeState(self._state, physicsClientId=self._client)
+        p.setPhysicsEngineParameter(numSolverIterations=self._solver_before,
+                                    physicsClientId=self._client)
+        self.robot.remove()
+
+    # ---------------------------------------------------------------- planning
+    def _grasp_candidates(self, base_xy: np.ndarray) -> list[GraspFrame]:
+        t = self.target
+        if t.is_articulated:
+            return [t.grasp]
+        info = next(b for b in self.world.bodies.values() if b.body_id == t.body_id)
+        _, rot = self.world.link_pose(t.body_id, t.link_index)
+        to_robot = np.append(base_xy, 0.0) - self.world.grasp_in_world()[0]
+        to_robot[2] = 0.0
+        to_robot /= max(np.linalg.norm(to_robot), 1e-9)
+
+        def score(g: GraspFrame) -> float:
+            n = rot @ np.asarray(g.normal)
+            # Top grasps rank as a side grasp facing the robot at 45 degrees would.
+            return 0.7 if n[2] > 0.7 else float(n @ to_robot)
+
+        grasps = sorted(info.model.grasps, key=score, reverse=True)
+        grasps = [g for g in grasps if score(g) > -0.2]
+        return grasps[: self.config.max_grasp_candidates]
+
+    def _plan(self, base_xy: np.ndarray) -> tuple[Stage, _Plan | None, float]:
+        """IK for pre-grasp and grasp poses over the grasp candidates; (stage, plan, t_ik)."""
+        robot, cfg = self.robot, self.config
+        t_ik = 0.0
+        reachable = False
+        collided = False
+        pos_l, rot_l = self.world.link_pose(self.target.body_id, self.target.link_index)
+        for g in self._grasp_candidates(base_xy):
+            normal = rot_l @ np.asarray(g.normal)
+            pos = rot_l @ np.asarray(g.position) + pos_l
+            if not self._suction:  # fingers close around the part, not on its surface
+                pos = pos - min(g.width / 2, cfg.max_grasp_depth) * normal
+            closing = rot_l @ np.asarray(g.closing_axis)
+            if not robot.could_reach(pos):
+                continue
+            reachable = True
+            for sign in (1.0, -1.0):  # a two-finger grasp is symmetric about the closing axis
+                quat = tcp_quaternion(normal, sign * closing)
+                t0 = time.perf_counter()
+                pre = robot.solve_ik(pos + cfg.pregrasp_offset * normal, quat, seed=robot.home,
+                                     restarts=cfg.ik_restarts)
+                grasp = robot.solve_ik(pos, quat, seed=pre.q, restarts=0) if pre.success else None
+                t_ik += time.perf_counter() - t0
+                if grasp is None or not grasp.success:
+                    continue
+                if self._arm_collides(pre.q) or self._arm_collides(grasp.q):
+                    collided = True
+                    continue
+                return Stage.SUCCESS, _Plan(g, pre.q, grasp.q, pos, normal, quat), t_ik
+        if not reachable:
+            return Stage.OUT_OF_REACH, None, t_ik
+        return (Stage.ARM_COLLISION if collided else Stage.IK_FAILED), None, t_ik
+
+    def _near(self, x: float, y: float, radius: float) -> list[int]:
+        """Scene bodies whose bounding box comes within ``radius`` of (x, y) in the plane."""
+        lo, hi = self._boxes[:, 0, :2], self._boxes[:, 1, :2]
+        gap = np.maximum(np.maximum(lo - [x, y], [x, y] - hi), 0.0)
+        return self._scene_bodies[np.hypot(gap[:, 0], gap[:, 1]) <= radius].tolist()
+
+    def _arm_collides(self, q: np.ndarray) -> bool:
+        self.robot.set_joint_positions(q)
+        return bool(self.robot.arm_collisions(self._arm_bodies, allow=self._allow))
+
+    # ---------------------------------------------------------------- execution
+    def _drive(self, q_from: np.ndarray, q_to: np.ndarray, waypoints: int, steps: int) -> None:
+        for k in range(1, waypoints + 1):
+            self.robot.drive_to(q_from + (q_to - q_from) * k / waypoints, steps, tol=2e-3)
+
+    def _object_height(self) -> float:
+        pos = p.getBasePositionAndOrientation(self.target.body_id, physicsClientId=self._client)
+        return float(pos[0][2])
+
+    def _execute(self, plan: _Plan) -> tuple[bool, float]:
+        """Run the manipulation in physics; return (success, amount moved)."""
+        robot, world = self.robot, self.world
+        if not self._suction:
+            robot.set_gripper_opening(robot.max_opening)
+        robot.set_joint_positions(plan.q_pre)
+        world.step(5)
+        if self._suction:
+            # Press 5 mm into the surface so that the cup face is in contact.
+            res = robot.solve_ik(plan.position - 0.005 * plan.normal, plan.quat,
+                                 seed=plan.q_grasp, restarts=0)
+            self._drive(plan.q_pre, res.q, 3, 15)
+            world.step(5)
+            if robot.suction_on([self.target.body_id]) != self.target.body_id:
+                return False, 0.0
+            q_held = res.q
+        else:
+            self._drive(plan.q_pre, plan.q_grasp, 3, 15)
+            robot.close_gripper()
+            self._settle_fingers()
+            if not robot.is_grasping(self.target.body_id):
+                return False, 0.0  # the fingers closed on nothing (or on something else)
+            q_held = robot.joint_positions()
+        if self.target.is_articulated:
+            return self._pull(plan, q_held)
+        return self._lift(plan, q_held)
+
+    def _settle_fingers(self, max_steps: int = 60) -> None:
+        """Step until the closing fingers have stopped (an object stops them early)."""
+        c, robot = self._client, self.robot
+        for _ in range(max_steps // 5):
+            self.world.step(5)
+            speeds = [abs(s[1]) for s in p.getJointStates(robot.body, robot.finger_joints,
+                                                           physicsClientId=c)]
+            if max(speeds) < 1e-3:
+                break
+
+    def _lift(self, plan: _Plan, q_held: np.ndarray) -> tuple[bool, float]:
+        robot, cfg, world = self.robot, self.config, self.world
+        z0 = self._object_height()
+        tcp_pos, tcp_quat = robot.tcp_pose()
+        up = robot.solve_ik(tcp_pos + np.array([0, 0, cfg.lift_height]), tcp_quat, seed=q_held,
+                            restarts=0, pos_tol=0.01, ori_tol=math.radians(5))
+        if not up.success:
+            return False, 0.0
+        robot.set_joint_positions(q_held)  # solve_ik leaves the arm at its solution
+        self._drive(q_held, up.q, 4, 15)
+        if self._object_height() - z0 < cfg.min_lift:
+            return False, self._object_height() - z0  # it did not come up: no need to hold
+        world.step(round(cfg.hold_seconds * 240))
+        rise = self._object_height() - z0
+        held = (robot.attached_body == self.target.body_id if self._suction
+                else robot.is_grasping(self.target.body_id))
+        return bool(rise >= cfg.min_lift and held), rise
+
+    def _handle_tcp_path(self, plan: _Plan, n: int) -> list[tuple[np.ndarray, np.ndarray]]:
+        """TCP poses that follow the handle as the part opens (kinematic preview)."""
+        t, c, cfg = self.target, self._client, self.config
+        amount = (math.radians(cfg.pull_angle_deg) if t.joint_type == "revolute"
+                  else cfg.pull_distance)
+        amount = min(amount, t.limit) if t.limit > 0 else amount
+        q0, v0 = p.getJointState(t.body_id, t.joint_index, physicsClientId=c)[:2]
+        link_pos, link_quat = p.getLinkState(t.body_id, t.link_index,
+                                             computeForwardKinematics=True,
+                                             physicsClientId=c)[4:6]
+        inv = p.invertTransform(link_pos, link_quat)
+        tcp_in_link = p.multiplyTransforms(*inv, plan.position.tolist(), plan.quat.tolist())
+        path = []
+        for k in range(1, n + 1):
+            p.resetJointState(t.body_id, t.joint_index, q0 + t.open_direction * amount * k / n,
+                              physicsClientId=c)
+            lp, lq = p.getLinkState(t.body_id, t.link_index, computeForwardKinematics=True,
+                                    physicsClientId=c)[4:6]
+            pos, quat = p.multiplyTransforms(lp, lq, *tcp_in_link)
+            path.append((np.array(pos), np.array(quat)))
+        p.resetJointState(t.body_id, t.joint_index, q0, v0, physicsClientId=c)
+        return path
+
+    def _pull(self, plan: _Plan, q_held: np.ndarray) -> tuple[bool, float]:
+        robot, cfg, world, t = self.robot, self.config, self.world, self.target
+        q_start = world.joint_position(t)
+        qs, seed = [], q_held
+        for pos, quat in self._handle_tcp_path(plan, 6):
+            res = robot.solve_ik(pos, quat, seed=seed, restarts=0, pos_tol=0.01,
+                                 ori_tol=math.radians(6))
+            if not res.success:
+                break
+            qs.append(res.q)
+            seed = res.q
+        robot.set_joint_positions(q_held)
+        if not qs:
+            return False, 0.0
+        prev = q_held
+        for q in qs:
+            self._drive(prev, q, 1, 25)
+            prev = q
+        world.step(20)
+        opened = (world.joint_position(t) - q_start) * t.open_direction
+        need = (math.radians(cfg.open_angle_deg) if t.joint_type == "revolute"
+                else cfg.open_distance)
+        return bool(opened >= need), float(opened)
+
+    # ---------------------------------------------------------------- trial
+    def run(self, x: float, y: float, yaw: float | None = None) -> TrialResult:
+        """One trial with the base at ``(x, y)`` facing the target (or ``yaw``)."""
+        t0 = time.perf_counter()
+        world, robot = self.world, self.robot
+        if robot.cup_link is not None:
+            robot.suction_off()
+        if self._dirty:  # checks only teleport the robot; physics may have moved anything
+            world.restore_state(self._state)
+            self._dirty = False
+        anchor = world.configuration.target.anchor
+        if yaw is None:
+            yaw = math.atan2(anchor[1] - y, anchor[0] - x)
+        robot.place_base(x, y, yaw)
+        robot.set_joint_positions(robot.home)
+        half_diagonal = 0.5 * float(np.hypot(*robot.spec.footprint))
+        if robot.base_collisions(self._near(x, y, half_diagonal + 0.02)):
+            return TrialResult(Stage.BASE_COLLISION, t_check=time.perf_counter() - t0)
+        self._arm_bodies = [self._floor, *self._near(x, y, robot.workspace()[1] + 0.5)]
+        stage, plan, t_ik = self._plan(np.array([x, y]))
+        t1 = time.perf_counter()
+        if plan is None:
+            return TrialResult(stage, t_check=t1 - t0 - t_ik, t_ik=t_ik)
+        self._dirty = True
+        ok, moved = self._execute(plan)
+        t2 = time.perf_counter()
+        if robot.cup_link is not None:
+            robot.suction_off()
+        return TrialResult(Stage.SUCCESS if ok else Stage.EXECUTION_FAILED, moved,
+                           plan.grasp.name, t1 - t0 - t_ik, t_ik, t2 - t1)
