@@ -143,12 +143,15 @@ def test_ik_position_only_and_unreachable(client):
         robot.solve_ik(sh, (0, 0, 0, 0))
 
 
-def test_workspace_exceeds_manufacturer_reach_modestly(client):
-    robot = Robot(client, "xarm6")
+@pytest.mark.parametrize("name", NAMES)
+def test_workspace_exceeds_manufacturer_reach_modestly(client, name):
+    """Measured flange reach within 0.95-1.25 x the manufacturer's figure."""
+    robot = Robot(client, name)
     flange, tcp = robot.workspace()
-    reach = get_robot_spec("xarm6").reach
+    reach = get_robot_spec(name).reach
     assert 0.95 * reach <= flange <= 1.25 * reach
-    assert tcp == pytest.approx(flange + 0.172, abs=0.02)
+    tool = float(np.linalg.norm(robot.tcp_pose()[0] - robot.flange_pose()[0]))
+    assert tcp == pytest.approx(flange + tool, abs=0.03)
 
 
 def test_base_collisions(client):
