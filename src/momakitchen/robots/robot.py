@@ -55,7 +55,7 @@ class IKResult:
         position_error: TCP position residual in metres.
         orientation_error: TCP orientation residual in radians (0 if not constrained).
         success: both residuals within the requested tolerances.
-        calls: number of PyBullet IK calls used.
+        calls: Levenberg-Marquardt iterations used (over all attempts).
         seconds: wall time of the solve.
     """
 
@@ -218,26 +218,21 @@ class Robot:
         self.joint_names: list[str] = [self.joint_name_list[j] for j in self.arm_joints]
         self.lower = np.array([infos[j][8] for j in self.arm_joints])
         self.upper = np.array([infos[j][9] for j in self.arm_joints])
+        # PyBullet reports continuous joints as upper < lower: one turn covers them.
+        free = self.upper < self.lower
+        self.lower[free], self.upper[free] = -math.pi, math.pi
         self.max_force = np.array([max(infos[j][10], 1.0) for j in self.arm_joints])
         # Joint axes in the child link frame (PyBullet's convention) for the Jacobian.
         self._axes_local = np.array([infos[j][13] for j in self.arm_joints], float)
         self._prismatic = np.array([infos[j][2] == p.JOINT_PRISMATIC for j in self.arm_joints])
-        # PyBullet IK works on all movable joints, in joint-index order.
+        # PyBullet's Jacobian covers all movable joints, in joint-index order.
         self._movable = [j for j in range(n) if infos[j][2] != p.JOINT_FIXED]
         self._ik_cols = [self._movable.index(j) for j in self.arm_joints]
-        lo = [infos[j][8] for j in self._movable]
-        hi = [infos[j][9] for j in self._movable]
-        self._ik_lower = lo
-        self._ik_upper = hi
-        self._ik_ranges = [max(h - l_, 1e-3) for l_, h in zip(lo, hi, strict=True)]
         mid = (self.lower + self.upper) / 2
         home = np.array(self.model.home, float) if self.model.home else mid
         if home.shape != (self.spec.dof,):
             raise MomaError(f"robot {self.name!r}: home needs {self.spec.dof} values")
         self.home = np.clip(home, self.lower, self.upper)
-        self._ik_rest = [0.0] * len(self._movable)
-        for col, v in zip(self._ik_cols, self.home, strict=True):
-            self._ik_rest[col] = float(v)
         if self.finger_joints:
             self.max_opening = float(sum(infos[j][9] for j in self.finger_joints))
             self.finger_force = float(getattr(ee, "finger_force", 40.0))
