@@ -10,10 +10,13 @@ import numpy as np
 import pytest
 from asset_helpers import body_aabb, load
 
+from momakitchen.assets import get_category
 from momakitchen.assets.external import (
     ExternalParams,
     build_external,
+    clear_external_assets,
     load_folder,
+    register_external_assets,
     sample_external,
     scan_folder,
 )
@@ -123,3 +126,61 @@ def test_missing_folder_is_a_moma_error(tmp_path):
 def test_unknown_category_for_sampling(tmp_path):
     with pytest.raises(MomaError, match="no external asset"):
         sample_external(scan_folder(_folder(tmp_path)), "fridge", np.random.default_rng(0))
+
+
+@pytest.fixture
+def registered_folder(tmp_path):
+    register_external_assets(_folder(tmp_path), share=0.5)
+    yield tmp_path
+    clear_external_assets()
+
+
+def test_registered_folder_feeds_the_categories(registered_folder, client):
+    cat = get_category("cabinet")
+    rng = np.random.default_rng(3)
+    drawn = [cat.sample(rng, Envelope(0.6, 0.6, 0.9)) for _ in range(40)]
+    external = [p for p in drawn if isinstance(p, ExternalParams)]
+    assert 8 <= len(external) <= 32  # about half
+    for p in (external[0], next(p for p in drawn if not isinstance(p, ExternalParams))):
+        data = json.loads(json.dumps(dataclasses.asdict(p)))
+        assert cat.params_from_dict(data) == p
+        model = cat.build(p)
+        assert max(np.asarray(model.size) - (0.6, 0.6, 0.9)) <= 1e-6
+        load(model, client, fixed=True)
+    # objects are scaled to a size typical of their category, not PartNet's unit scale
+    bottle = get_category("bottle")
+    rng = np.random.default_rng(0)
+    ext = next(p for p in (bottle.sample(rng) for _ in range(40)) if isinstance(p, ExternalParams))
+    model = bottle.build(ext)
+    assert 0.22 <= model.size[2] <= 0.34
+    assert model.size[2] == pytest.approx(ext.target, abs=0.003)
+
+
+def test_procedural_streams_unchanged_without_registration(tmp_path):
+    cat = get_category("cabinet")
+    env = Envelope(0.6, 0.6, 0.9)
+    before = [cat.sample(np.random.default_rng(5), env) for _ in range(3)]
+    register_external_assets(_folder(tmp_path))
+    clear_external_assets()
+    after = [cat.sample(np.random.default_rng(5), env) for _ in range(3)]
+    assert before == after
+    # and categories without external assets never consume extra random numbers
+    register_external_assets(tmp_path)
+    try:
+        fridge = get_category("fridge")
+        env = Envelope(0.8, 0.7, 1.9)
+        assert fridge.sample(np.random.default_rng(1), env) == fridge.sample_procedural(
+            np.random.default_rng(1), env)
+    finally:
+        clear_external_assets()
+
+
+def test_registering_a_broken_or_empty_folder_fails_naming_it(tmp_path):
+    d = tmp_path / "broken" / "Refrigerator" / "3"
+    d.mkdir(parents=True)
+    (d / "mobility.urdf").write_text("<robot name='x'><link name='a'>")
+    with pytest.raises(MomaError, match=r"Refrigerator/3/mobility\.urdf"):
+        register_external_assets(tmp_path / "broken")
+    (tmp_path / "empty" / "Spaceship" / "1").mkdir(parents=True)
+    with pytest.raises(MomaError, match="no <category>"):
+        register_external_assets(tmp_path / "empty")

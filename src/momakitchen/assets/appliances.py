@@ -14,6 +14,7 @@ from momakitchen.assets.common import (
     GLASS,
     HANDLE_COLOURS,
     STEEL_SHEET,
+    ProceduralCategory,
     box_at,
     check_envelope,
     finish,
@@ -23,7 +24,6 @@ from momakitchen.assets.common import (
 )
 from momakitchen.assets.registry import (
     Articulation,
-    AssetCategory,
     AssetModel,
     Envelope,
     register_category,
@@ -44,7 +44,7 @@ def _knobs(x0: float, x1: float, y: float, z: float, n: int, r: float = 0.018) -
 
 
 @register_category
-class Dishwasher(AssetCategory):
+class Dishwasher(ProceduralCategory):
     """Built-in dishwasher under the countertop: pull-down door hinged at the bottom."""
 
     name = "dishwasher"
@@ -59,7 +59,8 @@ class Dishwasher(AssetCategory):
         panel_height: float  # control strip at the top of the door
 
     @classmethod
-    def sample(cls, rng: np.random.Generator, envelope: Envelope | None = None) -> Params:
+    def sample_procedural(cls, rng: np.random.Generator, envelope: Envelope | None = None
+                          ) -> Params:
         check_envelope(cls.name, envelope, cls.MIN_ENVELOPE)
         base = C.sample_counter(rng, envelope, cls.name, BAR_HANDLES)
         base["front_thickness"] = u(rng, 0.04, 0.06)
@@ -70,7 +71,7 @@ class Dishwasher(AssetCategory):
                           panel_height=u(rng, 0.06, 0.1))
 
     @classmethod
-    def build(cls, p: Params) -> AssetModel:
+    def build_procedural(cls, p: Params) -> AssetModel:
         g = C.geometry(p)
         shapes = C.carcass_shapes(p, g)
         base = Link(BASE, tuple(shapes), round(density_mass(shapes), 3))
@@ -94,7 +95,7 @@ class Dishwasher(AssetCategory):
 
 
 @register_category
-class Oven(AssetCategory):
+class Oven(ProceduralCategory):
     """Oven counter: control panel, pull-down oven door with a window, an optional storage
     drawer below, a cooktop on the countertop."""
 
@@ -113,7 +114,8 @@ class Oven(AssetCategory):
         body_rgba: RGBA
 
     @classmethod
-    def sample(cls, rng: np.random.Generator, envelope: Envelope | None = None) -> Params:
+    def sample_procedural(cls, rng: np.random.Generator, envelope: Envelope | None = None
+                          ) -> Params:
         check_envelope(cls.name, envelope, cls.MIN_ENVELOPE)
         base = C.sample_counter(rng, envelope, cls.name, BAR_HANDLES)
         base["front_thickness"] = u(rng, 0.04, 0.055)
@@ -130,7 +132,7 @@ class Oven(AssetCategory):
                           body_rgba=palette_colour(rng, APPLIANCE_COLOURS))
 
     @classmethod
-    def build(cls, p: Params) -> AssetModel:
+    def build_procedural(cls, p: Params) -> AssetModel:
         g = C.geometry(p)
         shapes = C.carcass_shapes(p, g)
         t = p.front_thickness
@@ -183,7 +185,7 @@ class Oven(AssetCategory):
 
 
 @register_category
-class Fridge(AssetCategory):
+class Fridge(ProceduralCategory):
     """Tall fridge: insulated shell, side-hinged door with a vertical handle, optionally a
     freezer door or a freezer drawer below. Its top is not a placement area."""
 
@@ -214,7 +216,8 @@ class Fridge(AssetCategory):
     MIN_ENVELOPE: ClassVar[tuple[float, float, float]] = (0.5, 0.5, 1.4)
 
     @classmethod
-    def sample(cls, rng: np.random.Generator, envelope: Envelope | None = None) -> Params:
+    def sample_procedural(cls, rng: np.random.Generator, envelope: Envelope | None = None
+                          ) -> Params:
         env = check_envelope(cls.name, envelope, cls.MIN_ENVELOPE)
         hi = min(env.height, cls.MAX_HEIGHT)
         return cls.Params(
@@ -231,7 +234,7 @@ class Fridge(AssetCategory):
         )
 
     @classmethod
-    def build(cls, p: Params) -> AssetModel:
+    def build_procedural(cls, p: Params) -> AssetModel:
         hw = p.width / 2
         hdepth = p.handle_standoff + p.handle_thickness
         y_front = p.depth - hdepth - p.door_thickness
@@ -294,7 +297,7 @@ class Fridge(AssetCategory):
 
 
 @register_category
-class Microwave(AssetCategory):
+class Microwave(ProceduralCategory):
     """Countertop microwave: hollow cavity, door hinged on the left with a handle on its free
     edge, control panel on the right."""
 
@@ -320,7 +323,8 @@ class Microwave(AssetCategory):
         handle_rgba: RGBA
 
     @classmethod
-    def sample(cls, rng: np.random.Generator, envelope: Envelope | None = None) -> Params:
+    def sample_procedural(cls, rng: np.random.Generator, envelope: Envelope | None = None
+                          ) -> Params:
         env = check_envelope(cls.name, envelope, cls.MIN_ENVELOPE)
         w = u(rng, max(cls.MIN_SIZE[0], min(0.42, env.width) - 0.04), min(0.56, env.width))
         d = u(rng, max(cls.MIN_SIZE[1], min(0.33, env.depth) - 0.03), min(0.42, env.depth))
@@ -338,7 +342,7 @@ class Microwave(AssetCategory):
         )
 
     @classmethod
-    def build(cls, p: Params) -> AssetModel:
+    def build_procedural(cls, p: Params) -> AssetModel:
         hw = p.width / 2
         hdepth = p.handle_standoff + p.handle_thickness
         yf = p.depth - hdepth - p.door_thickness

@@ -9,10 +9,9 @@ from typing import ClassVar
 import numpy as np
 
 from momakitchen.assets import counter as C
-from momakitchen.assets.common import METAL, box_at, finish, jitter, pick, u
+from momakitchen.assets.common import METAL, ProceduralCategory, box_at, finish, jitter, pick, u
 from momakitchen.assets.registry import (
     Articulation,
-    AssetCategory,
     AssetModel,
     Envelope,
     GraspFrame,
@@ -55,7 +54,7 @@ def _fronts(p: C.CounterParams, g: C.CounterGeometry, layout: str, columns: int,
 
 
 @register_category
-class Cabinet(AssetCategory):
+class Cabinet(ProceduralCategory):
     """Counter cabinet: ``doors`` (1-2), ``drawer_doors`` (a drawer row above doors) or
     ``drawers`` (a stack of 2-4), randomised handles, countertop on top."""
 
@@ -73,7 +72,8 @@ class Cabinet(AssetCategory):
         shelf: int
 
     @classmethod
-    def sample(cls, rng: np.random.Generator, envelope: Envelope | None = None) -> Params:
+    def sample_procedural(cls, rng: np.random.Generator, envelope: Envelope | None = None
+                          ) -> Params:
         base = C.sample_counter(rng, envelope, cls.name)
         layout = pick(rng, ("doors", "drawer_doors", "drawers"))
         w = base["width"]
@@ -90,7 +90,7 @@ class Cabinet(AssetCategory):
                           shelf=int(layout != "drawers" and rng.random() < 0.7))
 
     @classmethod
-    def build(cls, p: Params) -> AssetModel:
+    def build_procedural(cls, p: Params) -> AssetModel:
         g = C.geometry(p)
         shapes = C.carcass_shapes(p, g, shelf=bool(p.shelf))
         base = Link(BASE, tuple(shapes), round(C.density_mass(shapes), 3))
@@ -100,7 +100,7 @@ class Cabinet(AssetCategory):
 
 
 @register_category
-class Sink(AssetCategory):
+class Sink(ProceduralCategory):
     """Sink counter: a basin in the countertop, a faucet behind it whose lever lifts (revolute,
     part ``lever``), doors or a fixed front below."""
 
@@ -126,7 +126,8 @@ class Sink(AssetCategory):
         faucet_rgba: RGBA
 
     @classmethod
-    def sample(cls, rng: np.random.Generator, envelope: Envelope | None = None) -> Params:
+    def sample_procedural(cls, rng: np.random.Generator, envelope: Envelope | None = None
+                          ) -> Params:
         C.check_envelope(cls.name, envelope, cls.MIN_ENVELOPE)
         base = C.sample_counter(rng, envelope, cls.name)
         w, d = base["width"], base["depth"]
@@ -148,7 +149,7 @@ class Sink(AssetCategory):
         )
 
     @classmethod
-    def build(cls, p: Params) -> AssetModel:
+    def build_procedural(cls, p: Params) -> AssetModel:
         g = C.geometry(p)
         shapes = C.carcass_shapes(p, g, countertop=False)
         hw = p.width / 2

@@ -4,10 +4,19 @@ and the step from link/joint lists to an :class:`AssetModel`."""
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
-from momakitchen.assets.registry import Articulation, AssetModel, Envelope, GraspFrame, Rect
+from momakitchen.assets import external
+from momakitchen.assets.registry import (
+    Articulation,
+    AssetCategory,
+    AssetModel,
+    Envelope,
+    GraspFrame,
+    Rect,
+)
 from momakitchen.assets.urdf import (
     ALONG_X,
     ALONG_Y,
@@ -23,6 +32,44 @@ from momakitchen.assets.urdf import (
     robot_urdf,
 )
 from momakitchen.errors import MomaError
+
+
+class ProceduralCategory(AssetCategory):
+    """A category generated from code that can also draw instances from external URDF
+    folders (``external.register_external_assets``).
+
+    Subclasses implement ``sample_procedural`` and ``build_procedural``. ``sample`` returns
+    an :class:`external.ExternalParams` for a share of the draws when external assets of
+    this category are registered, and consumes no random numbers for that otherwise, so the
+    procedural streams are unchanged by the feature.
+    """
+
+    @classmethod
+    def sample(cls, rng: np.random.Generator, envelope: Envelope | None = None) -> Any:
+        drawn = external.maybe_sample(cls.name, rng, envelope)
+        return drawn if drawn is not None else cls.sample_procedural(rng, envelope)
+
+    @classmethod
+    def build(cls, params: Any) -> AssetModel:
+        if isinstance(params, external.ExternalParams):
+            return external.build_external(params)
+        return cls.build_procedural(params)
+
+    @classmethod
+    def params_from_dict(cls, data: dict[str, Any]) -> Any:
+        if data.get("source") == external.SOURCE:
+            return external.ExternalParams.from_dict(data)
+        return super().params_from_dict(data)
+
+    @classmethod
+    def sample_procedural(cls, rng: np.random.Generator, envelope: Envelope | None = None
+                          ) -> Any:
+        raise NotImplementedError
+
+    @classmethod
+    def build_procedural(cls, params: Any) -> AssetModel:
+        raise NotImplementedError
+
 
 # Densities (kg/m^3) used to derive masses from geometry.
 MDF = 720.0  # carcass panels and fronts

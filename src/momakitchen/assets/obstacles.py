@@ -10,8 +10,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from momakitchen.assets.common import box_at, finish, jitter, pick, u
-from momakitchen.assets.registry import AssetCategory, AssetModel, Envelope, register_category
+from momakitchen.assets.common import ProceduralCategory, box_at, finish, jitter, pick, u
+from momakitchen.assets.registry import AssetModel, Envelope, register_category
 from momakitchen.assets.urdf import (
     ALONG_Y,
     RGBA,
@@ -54,7 +54,7 @@ def _legs(x: float, y: float, h: float, t: float, mat: str, round_legs: bool) ->
 
 
 @register_category
-class Chair(AssetCategory):
+class Chair(ProceduralCategory):
     """Kitchen chair (four legs, seat, backrest on the -x side; the front faces +x) or a high
     kitchen stool (no backrest, foot rails)."""
 
@@ -76,7 +76,8 @@ class Chair(AssetCategory):
         seat_rgba: RGBA
 
     @classmethod
-    def sample(cls, rng: np.random.Generator, envelope: Envelope | None = None) -> Params:
+    def sample_procedural(cls, rng: np.random.Generator, envelope: Envelope | None = None
+                          ) -> Params:
         wood = rng.random() < 0.6
         frame = _colour(rng, WOODS if wood else METALS)
         seat = frame if rng.random() < 0.5 else _colour(rng, PAINTS)
@@ -96,7 +97,7 @@ class Chair(AssetCategory):
         )
 
     @classmethod
-    def build(cls, p: Params) -> AssetModel:
+    def build_procedural(cls, p: Params) -> AssetModel:
         hx, hy = p.seat_depth / 2, p.seat_width / 2
         z0 = p.seat_height - p.seat_thickness
         shapes = _legs(hx, hy, z0, p.leg, "frame", bool(p.round_legs))
@@ -129,7 +130,7 @@ class Chair(AssetCategory):
 
 
 @register_category
-class Table(AssetCategory):
+class Table(ProceduralCategory):
     """Kitchen table: rectangular with four legs, or round on a pedestal."""
 
     name = "table"
@@ -149,7 +150,8 @@ class Table(AssetCategory):
         leg_rgba: RGBA
 
     @classmethod
-    def sample(cls, rng: np.random.Generator, envelope: Envelope | None = None) -> Params:
+    def sample_procedural(cls, rng: np.random.Generator, envelope: Envelope | None = None
+                          ) -> Params:
         style = "round" if rng.random() < 0.3 else "rect"
         top = _colour(rng, WOODS + PAINTS[:2])
         legs = top if rng.random() < 0.5 else _colour(rng, METALS)
@@ -165,7 +167,7 @@ class Table(AssetCategory):
         )
 
     @classmethod
-    def build(cls, p: Params) -> AssetModel:
+    def build_procedural(cls, p: Params) -> AssetModel:
         z0 = p.height - p.top_thickness
         if p.style == "round":
             r = p.length / 2
@@ -190,7 +192,7 @@ class Table(AssetCategory):
 
 
 @register_category
-class Bin(AssetCategory):
+class Bin(ProceduralCategory):
     """Kitchen waste bin: round or rectangular body with a lid."""
 
     name = "bin"
@@ -208,7 +210,8 @@ class Bin(AssetCategory):
         lid_rgba: RGBA
 
     @classmethod
-    def sample(cls, rng: np.random.Generator, envelope: Envelope | None = None) -> Params:
+    def sample_procedural(cls, rng: np.random.Generator, envelope: Envelope | None = None
+                          ) -> Params:
         style = pick(rng, ("round", "square"))
         metal = rng.random() < 0.5
         body = _colour(rng, METALS if metal else PLASTICS)
@@ -222,7 +225,7 @@ class Bin(AssetCategory):
                           body_rgba=body, lid_rgba=lid)
 
     @classmethod
-    def build(cls, p: Params) -> AssetModel:
+    def build_procedural(cls, p: Params) -> AssetModel:
         zb = p.height - p.lid_height
         if p.style == "round":
             r = p.width / 2
@@ -245,7 +248,7 @@ class Bin(AssetCategory):
 
 
 @register_category
-class Trolley(AssetCategory):
+class Trolley(ProceduralCategory):
     """Kitchen service trolley: 2-3 shelves on four posts, castors, push bar at -x."""
 
     name = "trolley"
@@ -264,7 +267,8 @@ class Trolley(AssetCategory):
         shelf_rgba: RGBA
 
     @classmethod
-    def sample(cls, rng: np.random.Generator, envelope: Envelope | None = None) -> Params:
+    def sample_procedural(cls, rng: np.random.Generator, envelope: Envelope | None = None
+                          ) -> Params:
         frame = _colour(rng, METALS)
         return cls.Params(
             length=u(rng, 0.5, 0.8), width=u(rng, 0.36, 0.5), height=u(rng, 0.75, 0.92),
@@ -274,7 +278,7 @@ class Trolley(AssetCategory):
         )
 
     @classmethod
-    def build(cls, p: Params) -> AssetModel:
+    def build_procedural(cls, p: Params) -> AssetModel:
         wr = p.wheel_radius
         hx, hy = p.length / 2, p.width / 2
         z0 = 2 * wr  # castors carry the frame
@@ -308,7 +312,7 @@ class Trolley(AssetCategory):
 
 
 @register_category
-class Cart(AssetCategory):
+class Cart(ProceduralCategory):
     """Platform hand cart (low deck, U-shaped push handle at -x) or a two-tier utility cart
     (trays with raised lips on four posts, push handle at -x), both on four wheels."""
 
@@ -328,7 +332,8 @@ class Cart(AssetCategory):
         handle_rgba: RGBA
 
     @classmethod
-    def sample(cls, rng: np.random.Generator, envelope: Envelope | None = None) -> Params:
+    def sample_procedural(cls, rng: np.random.Generator, envelope: Envelope | None = None
+                          ) -> Params:
         utility = rng.random() < 0.4
         return cls.Params(
             style="utility" if utility else "platform",
@@ -340,7 +345,7 @@ class Cart(AssetCategory):
         )
 
     @classmethod
-    def build(cls, p: Params) -> AssetModel:
+    def build_procedural(cls, p: Params) -> AssetModel:
         wr = p.wheel_radius
         hx, hy = p.length / 2, p.width / 2
         wt = 0.035  # wheel width

@@ -17,9 +17,8 @@ from typing import ClassVar
 
 import numpy as np
 
-from momakitchen.assets.common import finish, jitter, pick, u
+from momakitchen.assets.common import ProceduralCategory, finish, jitter, pick, u
 from momakitchen.assets.registry import (
-    AssetCategory,
     AssetModel,
     Envelope,
     GraspFrame,
@@ -72,7 +71,7 @@ def flat_base(radius: float, height: float = 0.004) -> Shape:
 
 
 @register_category
-class Bottle(AssetCategory):
+class Bottle(ProceduralCategory):
     name = "bottle"
     kind = "rigid"
 
@@ -93,7 +92,8 @@ class Bottle(AssetCategory):
 
 
     @classmethod
-    def sample(cls, rng: np.random.Generator, envelope: Envelope | None = None) -> Params:
+    def sample_procedural(cls, rng: np.random.Generator, envelope: Envelope | None = None
+                          ) -> Params:
         style = pick(rng, ("wine", "water", "oil", "soda"))
         if style == "wine":
             r, hb, glass = u(rng, 0.035, 0.0375), u(rng, 0.17, 0.2), (0.12, 0.25, 0.12, 1.0)
@@ -116,7 +116,7 @@ class Bottle(AssetCategory):
         )
 
     @classmethod
-    def build(cls, p: Params) -> AssetModel:
+    def build_procedural(cls, p: Params) -> AssetModel:
         mid_r = (p.radius + p.neck_radius) / 2
         z1 = p.body_height
         z2 = z1 + p.shoulder_height
@@ -146,7 +146,7 @@ class Bottle(AssetCategory):
 
 
 @register_category
-class Pot(AssetCategory):
+class Pot(ProceduralCategory):
     """A saucepan (one long handle) or a casserole (two short side handles)."""
 
     name = "pot"
@@ -170,7 +170,8 @@ class Pot(AssetCategory):
     SEGMENTS = 16  # wall facets of the round pot
 
     @classmethod
-    def sample(cls, rng: np.random.Generator, envelope: Envelope | None = None) -> Params:
+    def sample_procedural(cls, rng: np.random.Generator, envelope: Envelope | None = None
+                          ) -> Params:
         style = pick(rng, ("saucepan", "casserole"))
         body = pick(rng, ("steel", "black", "red", "copper", "enamel"))
         colour = {"steel": (0.78, 0.79, 0.8), "black": (0.12, 0.12, 0.13),
@@ -192,7 +193,7 @@ class Pot(AssetCategory):
         )
 
     @classmethod
-    def build(cls, p: Params) -> AssetModel:
+    def build_procedural(cls, p: Params) -> AssetModel:
         # Origin at the centre of the footprint: the saucepan body sits off-centre so that
         # body + handle are centred (layouts treat the size as centred on the origin).
         cx = -p.handle_length / 2 if p.style == "saucepan" else 0.0
@@ -249,7 +250,7 @@ FRUIT_DENSITY = {"apple": 800.0, "orange": 900.0, "lemon": 950.0, "peach": 950.0
 
 
 @register_category
-class Fruit(AssetCategory):
+class Fruit(ProceduralCategory):
     name = "fruit"
     kind = "rigid"
 
@@ -263,7 +264,8 @@ class Fruit(AssetCategory):
 
 
     @classmethod
-    def sample(cls, rng: np.random.Generator, envelope: Envelope | None = None) -> Params:
+    def sample_procedural(cls, rng: np.random.Generator, envelope: Envelope | None = None
+                          ) -> Params:
         fruit = pick(rng, tuple(FRUIT_RADIUS))
         lo, hi = FRUIT_RADIUS[fruit]
         elong = u(rng, 0.015, 0.03) if fruit in ("lemon", "pear") else 0.0
@@ -273,7 +275,7 @@ class Fruit(AssetCategory):
                               len(FRUIT_COLOURS[fruit])))], 0.06))
 
     @classmethod
-    def build(cls, p: Params) -> AssetModel:
+    def build_procedural(cls, p: Params) -> AssetModel:
         r = p.radius
         zc = r
         shapes = [Shape(Sphere(r), (0.0, 0.0, zc), material="body")]
@@ -308,7 +310,7 @@ class Fruit(AssetCategory):
 
 
 @register_category
-class MedicineBottle(AssetCategory):
+class MedicineBottle(ProceduralCategory):
     name = "medicine_bottle"
     kind = "rigid"
 
@@ -326,7 +328,8 @@ class MedicineBottle(AssetCategory):
 
 
     @classmethod
-    def sample(cls, rng: np.random.Generator, envelope: Envelope | None = None) -> Params:
+    def sample_procedural(cls, rng: np.random.Generator, envelope: Envelope | None = None
+                          ) -> Params:
         body = pick(rng, ("amber", "white", "brown", "blue"))
         colour = {"amber": (0.8, 0.45, 0.1), "white": (0.95, 0.95, 0.93),
                   "brown": (0.35, 0.2, 0.1), "blue": (0.2, 0.35, 0.7)}[body]
@@ -343,7 +346,7 @@ class MedicineBottle(AssetCategory):
                           label_rgba=jitter(rng, (0.95, 0.95, 0.9), 0.05))
 
     @classmethod
-    def build(cls, p: Params) -> AssetModel:
+    def build_procedural(cls, p: Params) -> AssetModel:
         top = p.height + p.cap_height
         if p.style == "square":
             cap_r = p.radius * 0.8
@@ -379,7 +382,7 @@ VEG_COLOURS = {
 
 
 @register_category
-class Vegetable(AssetCategory):
+class Vegetable(ProceduralCategory):
     """Round (tomato, bell pepper, potato) or long (carrot, cucumber, eggplant, lying along x)."""
 
     name = "vegetable"
@@ -407,7 +410,8 @@ class Vegetable(AssetCategory):
     }
 
     @classmethod
-    def sample(cls, rng: np.random.Generator, envelope: Envelope | None = None) -> Params:
+    def sample_procedural(cls, rng: np.random.Generator, envelope: Envelope | None = None
+                          ) -> Params:
         veg = pick(rng, tuple(cls.RANGES))
         (r0, r1), (l0, l1) = cls.RANGES[veg]
         colours = VEG_COLOURS[veg]
@@ -418,7 +422,7 @@ class Vegetable(AssetCategory):
                           rgba=jitter(rng, colours[int(rng.integers(len(colours)))], 0.05))
 
     @classmethod
-    def build(cls, p: Params) -> AssetModel:
+    def build_procedural(cls, p: Params) -> AssetModel:
         r, v = p.radius, p.vegetable
         grasps: tuple[GraspFrame, ...]
         if v == "tomato":
