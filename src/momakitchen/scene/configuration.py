@@ -40,10 +40,10 @@ class SceneConfig:
         rigid_target_prob: probability that the target is a rigid object rather than an
             articulated part.
         grid_spacing: spacing (m) of the trial grid in the semicircle.
-        min_free_positions: obstacles are resampled until at least this many grid
-            positions within 0.8 x reach + 0.35 m of the target (or 40 % of those clear of
-            the furniture, if fewer) leave the base footprint free: solvable in general,
-            but the first obstacle still blocks some of the best spots.
+        min_free_positions: obstacles are resampled until at least this many positions of
+            the sampling grid (or 40 % of those clear of the furniture, if fewer) leave
+            the base footprint free: solvable in general, but the first obstacle still
+            blocks some of the best spots.
         robots: robot names assigned round-robin over configurations (``()`` = all).
     """
 
@@ -185,9 +185,9 @@ def _place_objects(layout: Layout, rng: np.random.Generator, count: int) -> list
 
 def _candidate_bases(center: np.ndarray, reach: float, furniture: np.ndarray,
                      footprint: tuple[float, float], spacing: float, room: Any) -> np.ndarray:
-    """Corners (N, 4, 2) of base footprints (facing the target) on the grid within
-    0.8 x reach + 0.35 m of the target that fit in the room and clear the furniture."""
-    grid = semicircle_grid((center[0], center[1]), 0.8 * reach + 0.35, spacing)
+    """Corners (N, 4, 2) of base footprints (facing the target) on the sampling grid
+    that fit in the room and clear the furniture."""
+    grid = semicircle_grid((center[0], center[1]), reach, spacing)
     yaws = np.arctan2(center[1] - grid[:, 1], center[0] - grid[:, 0])
     fps = box_corners(grid[:, 0], grid[:, 1], yaws, *footprint)
     fps = fps[_inside_room(fps, room, 0.0)]
