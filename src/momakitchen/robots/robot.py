@@ -397,10 +397,12 @@ class Robot:
                             orientation_error=oerr, success=False, calls=0,
                             seconds=time.perf_counter() - t0)
         seeds = [np.asarray(seed if seed is not None else self.joint_positions(), float),
-                 self.home, *self._library_seeds(target, target_rot, restarts)]
+                 self.home]
         best: tuple[float, float, np.ndarray] | None = None
         calls = 0
         for attempt in range(restarts + 1):
+            if attempt == 2:  # the easy seeds failed: look up the library (built lazily)
+                seeds += self._library_seeds(target, target_rot, restarts - 1)
             q0 = seeds[attempt] if attempt < len(seeds) else rng.uniform(self.lower, self.upper)
             q, perr, oerr, n = self._lm(q0, target, target_rot, iterations, pos_tol, ori_tol)
             calls += n
