@@ -11,6 +11,7 @@ give byte-identical text, which is what the content-hash cache relies on.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from xml.sax.saxutils import quoteattr
@@ -28,6 +29,7 @@ ALONG_X: Vec3 = (0.0, math.pi / 2, 0.0)
 ALONG_Y: Vec3 = (math.pi / 2, 0.0, 0.0)
 
 
+@functools.lru_cache(maxsize=1 << 16)
 def fmt(x: float) -> str:
     """Deterministic float text: 6 decimals, trailing zeros stripped, never ``-0``."""
     s = f"{float(x):.6f}".rstrip("0").rstrip(".")
@@ -113,8 +115,14 @@ class Joint:
 # ---------------------------------------------------------------- geometry and mass
 
 
+_IDENTITY = np.eye(3)
+_IDENTITY.flags.writeable = False
+
+
 def rot(rpy: Vec3) -> np.ndarray:
     """URDF rotation matrix of fixed-axis roll, pitch, yaw: R = Rz(y) Ry(p) Rx(r)."""
+    if not any(rpy):
+        return _IDENTITY  # most shapes are axis-aligned
     r, p, y = rpy
     cr, sr, cp, sp, cy, sy = (math.cos(r), math.sin(r), math.cos(p), math.sin(p),
                               math.cos(y), math.sin(y))
