@@ -130,7 +130,7 @@ def main(argv: list[str] | None = None) -> None:
     print("\nLabelling-like sweep: base on a 10 cm grid within reach of one target, facing "
           "it; top-down IK from home at each point (median of runs)")
     print("\n| robot | grid points | IK successes | seconds per sweep | CPU seconds | "
-          "ms per point |")
+          "ms per point (wall) |")
     print("| --- | --- | --- | --- | --- | --- |")
     for name, robot in robots.items():
         sweeps = [label_sweep(robot) for _ in range(args.runs)]
