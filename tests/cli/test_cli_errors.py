@@ -22,7 +22,17 @@ def test_unwritable_out(tmp_path, capsys):
 
 
 def test_unknown_command(capsys):
-    with pytest.raises(SystemExit) as exc:
-        main(["nonsense"])
-    assert exc.value.code == 2
+    assert main(["nonsense"]) == 2
     assert len(capsys.readouterr().err.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize("argv", [
+    ["label", "--scene-id", "1", "--robot", "r2d2", "--out", "OUT"],
+    ["label", "--scene-id", "1", "--config", "99", "--out", "OUT"],
+])
+def test_label_bad_input(argv, tmp_path, capsys):
+    argv = [str(tmp_path / "o") if a == "OUT" else a for a in argv]
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and ("r2d2" in err or "99" in err)
+    assert not (tmp_path / "o" / "labels.npz").exists()

@@ -1,0 +1,121 @@
+"""Trials executed in physics on real configurations (scene 12: a bottle for the Panda, a
+medicine bottle for the suction UR5e, a cabinet door for the Flexiv)."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from momakitchen.scene.configuration import sample_scene
+from momakitchen.scene.geometry import Footprint, overlaps
+from momakitchen.sim.labels import label_configuration
+from momakitchen.sim.trials import Stage, TrialRunner
+from momakitchen.sim.world import World
+
+
+@pytest.fixture(scope="module")
+def scene():
+    return sample_scene(12)
+
+
+@pytest.fixture(scope="module")
+def world(scene):
+    w = World(scene.layout)
+    yield w
+    w.close()
+
+
+@pytest.fixture(scope="module")
+def bottle_labels(world, scene):
+    cfg = scene.configurations[0]
+    assert cfg.robot == "panda" and cfg.target.category == "bottle"
+    return label_configuration(world, cfg)
+
+
+def test_gripper_lifts_the_bottle_from_some_positions(bottle_labels, scene):
+    labels = bottle_labels
+    assert labels.outcomes.sum() >= 3
+    ok = labels.stages == Stage.SUCCESS
+    assert np.all(labels.moved[ok] >= 0.05), "success means the bottle rose >= 5 cm"
+    # A base standing on an obstacle (its centre under the footprint) is a base collision.
+    # (Bounding boxes overlapping is not enough: a round bin leaves its corners free.)
+    cfg = scene.configurations[0]
+    blocked = 0
+    for (x, y), yaw, stage in zip(labels.positions, labels.yaws, labels.stages, strict=True):
+        fp = Footprint(x, y, yaw, 0.55, 0.45)
+        if any(overlaps(fp, Footprint(o.x, o.y, 0, 0.01, 0.01)) for o in cfg.obstacles):
+            assert stage == Stage.BASE_COLLISION
+            blocked += 1
+    assert blocked > 0
+
+
+def _successes(world, cfg, labels, **dyn):
+    from momakitchen.sim.labels import set_target_dynamics
+
+    world.load_configuration(cfg)
+    set_target_dynamics(world, **dyn)
+    runner = TrialRunner(world, cfg.robot)
+    try:
+        idx = np.flatnonzero(labels.outcomes)[:4]
+        return [runner.run(*labels.positions[i]) for i in idx]
+    finally:
+        runner.close()
+
+
+def test_physics_matters_heavy_and_slippery_targets_fail(world, scene, bottle_labels):
+    cfg = scene.configurations[0]
+    heavy = _successes(world, cfg, bottle_labels, mass=50.0)
+    assert heavy and all(r.stage == Stage.EXECUTION_FAILED for r in heavy)
+    slippery = _successes(world, cfg, bottle_labels, friction=0.001)
+    assert slippery and all(r.stage == Stage.EXECUTION_FAILED for r in slippery)
+    normal = _successes(world, cfg, bottle_labels)
+    assert all(r.success for r in normal)
+
+
+def test_trials_do_not_leak_state(world, scene, bottle_labels):
+    """A trial gives the same result whether or not other trials ran before it."""
+    cfg = scene.configurations[0]
+    idx = np.flatnonzero(bottle_labels.outcomes)
+    world.load_configuration(cfg)
+    runner = TrialRunner(world, cfg.robot)
+    try:
+        alone = runner.run(*bottle_labels.positions[idx[-1]])
+    finally:
+        runner.close()
+    assert alone.stage == bottle_labels.stages[idx[-1]]
+    assert alone.moved == pytest.approx(float(bottle_labels.moved[idx[-1]]), abs=1e-6)
+
+
+def test_suction_lifts_only_by_contact(world, scene):
+    cfg = scene.configurations[2]
+    assert cfg.robot == "ur5e"
+    labels = label_configuration(world, cfg)
+    assert labels.outcomes.sum() >= 3
+    assert np.all(labels.moved[labels.outcomes == 1] >= 0.05)
+
+
+@pytest.mark.slow
+def test_labels_are_deterministic(world, scene):
+    cfg = scene.configurations[1]
+    a = label_configuration(world, cfg)
+    b = label_configuration(world, cfg)
+    for field in ("positions", "yaws", "stages", "moved"):
+        assert np.array_equal(getattr(a, field), getattr(b, field))
+
+
+@pytest.mark.slow
+def test_articulated_door_opens(world, scene):
+    cfg = scene.configurations[1]
+    assert cfg.target.is_articulated
+    labels = label_configuration(world, cfg)
+    assert labels.outcomes.sum() >= 3
+    assert np.all(labels.moved[labels.outcomes == 1] >= np.radians(20) - 1e-6)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("robot", ["panda", "flexiv", "ur5e", "xarm6", "realman", "elephant"])
+def test_every_robot_succeeds_on_an_unobstructed_reachable_target(world, scene, robot):
+    # The bottle of configuration 0, without obstacles, for each robot.
+    cfg = dataclasses.replace(scene.configurations[0], robot=robot, obstacles=())
+    labels = label_configuration(world, cfg)
+    assert labels.outcomes.sum() >= 1, labels.stage_counts()
