@@ -150,11 +150,12 @@ def test_any_envelope_from_minimum_to_generous_is_filled_and_respected(name):
     for k in range(60):
         # the corners of the range first, then random envelopes
         pick = lo if k == 0 else hi if k == 1 else rng.uniform(lo, hi)
-        env = Envelope(*(round(float(v), 4) for v in pick))
+        # unrounded envelopes too: rounding inside the sampler must not overshoot them
+        env = Envelope(*(float(v) if k % 2 else round(float(v), 4) for v in pick))
         model = cat.build(cat.sample(rng, env))
         w, d, h = model.size
         assert w <= env.width + 1e-6 and d <= env.depth + 1e-6, (name, env, model.size)
         if cat.kind == "furniture":
-            assert w == pytest.approx(env.width)  # units fill their slot along the wall
+            assert w == pytest.approx(env.width, abs=1e-5)  # units fill their slot
         if name != "sink":  # the faucet stands on the countertop
             assert h <= env.height + 1e-6, (name, env, model.size)

@@ -221,7 +221,8 @@ class Fridge(ProceduralCategory):
         env = check_envelope(cls.name, envelope, cls.MIN_ENVELOPE)
         hi = min(env.height, cls.MAX_HEIGHT)
         return cls.Params(
-            width=round(env.width, 4), depth=round(env.depth, 4),
+            # the envelope as given (rounding could push a unit past its slot)
+            width=float(env.width), depth=float(env.depth),
             height=u(rng, max(1.4, hi - 0.25), hi),
             layout=pick(rng, ("single", "freezer_door", "freezer_drawer")),
             split=u(rng, 0.6, 0.72), hinge=pick(rng, ("left", "right")),

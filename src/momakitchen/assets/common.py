@@ -80,10 +80,11 @@ METAL = 2700.0  # handles (aluminium / hollow steel)
 
 
 def u(rng: np.random.Generator, lo: float, hi: float, nd: int = 4) -> float:
-    """Uniform draw rounded to ``nd`` decimals (0.1 mm): parameters equal their JSON exactly."""
+    """Uniform draw rounded to ``nd`` decimals (0.1 mm, short JSON), kept inside
+    ``[lo, hi]`` (a bound taken from an envelope must never be exceeded by rounding)."""
     if hi < lo:
         raise MomaError(f"empty parameter range [{lo}, {hi}]")
-    return round(float(rng.uniform(lo, hi)), nd)
+    return min(max(round(float(rng.uniform(lo, hi)), nd), lo), hi)
 
 
 def pick(rng: np.random.Generator, options: tuple[str, ...] | list[str]) -> str:

@@ -84,7 +84,8 @@ def sample_counter(rng: np.random.Generator, envelope: Envelope | None, name: st
     top_rgba = palette_colour(rng, COUNTERTOP_COLOURS[2:3] if top_material == "wood"
                               else COUNTERTOP_COLOURS)
     return dict(
-        width=round(env.width, 4), depth=round(env.depth, 4), height=round(env.height, 4),
+        # the envelope as given (rounding could push a unit past its slot)
+        width=float(env.width), depth=float(env.depth), height=float(env.height),
         plinth_height=u(rng, 0.08, 0.13), plinth_recess=u(rng, 0.04, 0.07),
         panel=u(rng, 0.016, 0.019), front_thickness=u(rng, 0.018, 0.022),
         top_thickness=u(rng, 0.02, 0.04) if top_material == "stone" else u(rng, 0.03, 0.04),
