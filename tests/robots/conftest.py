@@ -72,9 +72,9 @@ end_effector: parallel_gripper
 
 @pytest.fixture
 def tiny_robot_files(tmp_path: Path) -> tuple[Path, Path]:
-    """``(urdf, yaml)`` paths of a valid user robot named by the test."""
+    """``(urdf, yaml)`` paths of a valid user robot named ``tiny_user``."""
     urdf = tmp_path / "tiny.urdf"
     urdf.write_text(TINY_ARM_URDF)
     yaml_path = tmp_path / "tiny.yaml"
-    yaml_path.write_text(TINY_YAML.format(name=f"tiny_{tmp_path.name[-8:].lower()}"))
+    yaml_path.write_text(TINY_YAML.format(name="tiny_user"))
     return urdf, yaml_path
