@@ -216,8 +216,8 @@ def finish(
 def box_at(lo: Vec3, hi: Vec3, material: str, density: float = 1.0,
            collision: bool = True) -> Shape:
     """A box given by its lower and upper corners (easier to read than centre + size)."""
-    size = tuple(round(b - a, 6) for a, b in zip(lo, hi, strict=True))
-    centre = tuple(round((a + b) / 2, 6) for a, b in zip(lo, hi, strict=True))
+    size = tuple(b - a for a, b in zip(lo, hi, strict=True))
+    centre = tuple((a + b) / 2 for a, b in zip(lo, hi, strict=True))
     if min(size) <= 0:
         raise MomaError(f"degenerate box {lo} .. {hi}")
     return Shape(Box(size), centre, material=material, density=density,  # type: ignore[arg-type]
