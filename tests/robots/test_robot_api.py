@@ -139,6 +139,14 @@ def test_ik_position_only_and_unreachable(client):
     assert far.calls == 0 and far.seconds < 0.05  # rejected by the reach pre-check
     assert not robot.could_reach(sh + np.array([3.0, 0.0, 0.0]))
     assert robot.could_reach(sh + np.array([0.5, 0.0, 0.0]))
+    # At the edge of the TCP sphere, pointing down puts the flange out of its own sphere.
+    tcp_reach = robot.workspace()[1]
+    edge = sh + np.array([tcp_reach - 0.02, 0.0, 0.0])
+    assert robot.could_reach(edge)
+    assert not robot.could_reach(edge, (1, 0, 0, 0))
+    assert robot.could_reach(edge, (0, 0.7071068, 0, 0.7071068))  # pointing outwards
+    res = robot.solve_ik(edge, (1, 0, 0, 0))
+    assert not res.success and res.calls == 0
     with pytest.raises(MomaError, match="unit quaternion"):
         robot.solve_ik(sh, (0, 0, 0, 0))
 

@@ -133,6 +133,11 @@ class Robot:
             if not self._ik_works():
                 raise MomaError(f"robot {name!r}: PyBullet IK does not work on {str(path)!r}")
         self._attachment: tuple[int, int] | None = None
+        # The flange in the TCP frame: a rigid offset (both sit after the last arm joint).
+        tcp_pos, tcp_orn = self.link_pose(self.tcp_link)
+        fl_pos, _ = self.link_pose(self.flange_link)
+        tcp_rot = np.array(p.getMatrixFromQuaternion(tcp_orn)).reshape(3, 3)
+        self._flange_in_tcp = tcp_rot.T @ (fl_pos - tcp_pos)
         self.place_base(*base)
         self.set_joint_positions(self.home)
         if self.finger_joints:
@@ -385,7 +390,12 @@ class Robot:
                 raise MomaError(f"IK orientation must be a unit quaternion, got {orientation!r}")
             target_rot = np.array(p.getMatrixFromQuaternion((quat / norm).tolist())).reshape(3, 3)
         rng = rng if rng is not None else np.random.default_rng(0)
-        if not self.could_reach(target, margin=pos_tol):
+        flange_reach, tcp_reach = self.workspace()
+        shoulder = self.shoulder_position()
+        slack = pos_tol + 0.01  # the sampled workspace radii may fall a little short
+        if float(np.linalg.norm(target - shoulder)) > tcp_reach + slack or (
+                target_rot is not None
+                and not self._flange_within(target, target_rot, flange_reach + slack)):
             # Outside the workspace sphere: no configuration can do it.
             pos, cur = self.tcp_pose()
             oerr = 0.0
@@ -529,10 +539,24 @@ class Robot:
             _WORKSPACE_CACHE[self.name] = measure_workspace(self, _WORKSPACE_SAMPLES)
         return _WORKSPACE_CACHE[self.name]
 
-    def could_reach(self, position: Sequence[float], margin: float = 0.0) -> bool:
-        """Cheap necessary condition: the point lies within the TCP workspace sphere."""
-        dist = float(np.linalg.norm(np.asarray(position, float) - self.shoulder_position()))
-        return dist <= self.workspace()[1] + margin
+    def could_reach(self, position: Sequence[float], orientation: Sequence[float] | None = None,
+                    margin: float = 0.0) -> bool:
+        """Cheap necessary condition for a TCP pose to be reachable.
+
+        Without ``orientation``: the point lies within the TCP workspace sphere. With it,
+        the tighter test: the flange, rigidly offset from the TCP, lies within the flange
+        workspace sphere (both spheres centred on the shoulder).
+        """
+        pos = np.asarray(position, float)
+        flange_reach, tcp_reach = self.workspace()
+        if orientation is None:
+            return float(np.linalg.norm(pos - self.shoulder_position())) <= tcp_reach + margin
+        rot = np.array(p.getMatrixFromQuaternion([float(v) for v in orientation])).reshape(3, 3)
+        return self._flange_within(pos, rot, flange_reach + margin)
+
+    def _flange_within(self, tcp_pos: np.ndarray, tcp_rot: np.ndarray, radius: float) -> bool:
+        flange = tcp_pos + tcp_rot @ self._flange_in_tcp
+        return float(np.linalg.norm(flange - self.shoulder_position())) <= radius
 
     # ---------------------------------------------------------------- collisions
     def base_collisions(self, bodies: Iterable[int], margin: float = 0.0) -> list[int]:
