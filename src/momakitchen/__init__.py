@@ -7,6 +7,7 @@ configurations, pure data), ``robots``, ``sim`` (PyBullet worlds, trials, labels
 
 __version__ = "0.1.0"
 
+from momakitchen import bullet as _bullet  # noqa: F401  (imports PyBullet quietly, first)
 from momakitchen.errors import MomaError
 
 __all__ = ["MomaError", "__version__"]

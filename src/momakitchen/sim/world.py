@@ -15,6 +15,7 @@ import pybullet_data
 
 from momakitchen.assets import AssetModel, GraspFrame, get_category
 from momakitchen.assets.cache import cached_urdf
+from momakitchen.bullet import connect_direct
 from momakitchen.errors import MomaError
 from momakitchen.scene.configuration import Configuration
 from momakitchen.scene.layout import Layout, Placed, scene_rng
@@ -81,7 +82,7 @@ class World:
 
     def __init__(self, layout: Layout) -> None:
         self.layout = layout
-        self.client = p.connect(p.DIRECT)
+        self.client = connect_direct()
         self.bodies: dict[str, BodyInfo] = {}
         self.configuration: Configuration | None = None
         self._config_uids: list[str] = []
