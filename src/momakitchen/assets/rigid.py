@@ -90,7 +90,6 @@ class Bottle(ProceduralCategory):
         cap_rgba: RGBA
         label_rgba: RGBA
 
-
     @classmethod
     def sample_procedural(cls, rng: np.random.Generator, envelope: Envelope | None = None
                           ) -> Params:
@@ -258,10 +257,9 @@ class Fruit(ProceduralCategory):
     class Params:
         fruit: str  # apple | orange | lemon | peach | pear
         radius: float
-        elongation: float  # lemon and pear: extra length along z (lemon lies along x)
+        elongation: float  # lemon: tips pushed out along x; pear: upper lobe raised
         friction: float
         rgba: RGBA
-
 
     @classmethod
     def sample_procedural(cls, rng: np.random.Generator, envelope: Envelope | None = None
@@ -325,7 +323,6 @@ class MedicineBottle(ProceduralCategory):
         body_rgba: RGBA
         cap_rgba: RGBA
         label_rgba: RGBA
-
 
     @classmethod
     def sample_procedural(cls, rng: np.random.Generator, envelope: Envelope | None = None
@@ -478,9 +475,7 @@ class Vegetable(ProceduralCategory):
         )
         mass = round(density_mass(shapes_t), 4)
         link = Link(BODY, shapes_t, mass, Contact(p.friction, 0.002, 0.002))
-        stem_c = (0.9, 0.45, 0.1, 1.0) if v == "carrot" else (0.25, 0.45, 0.15, 1.0)
-        if v == "carrot":
-            stem_c = (0.3, 0.6, 0.2, 1.0)
+        stem_c = (0.3, 0.6, 0.2, 1.0) if v == "carrot" else (0.25, 0.45, 0.15, 1.0)
         mats = {"body": p.rgba, "stem": stem_c}
         return finish(cls.name, [link], [], mats, grasps=grasps)
 
