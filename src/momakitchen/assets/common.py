@@ -1,5 +1,6 @@
-"""Shared pieces of the procedural categories: sampling helpers, colour palettes, handles,
-and the step from link/joint lists to an :class:`AssetModel`."""
+"""Shared pieces of the procedural categories: their base class (procedural instances plus
+registered external ones), sampling helpers, colour palettes, handles, and the step from
+link/joint lists to an :class:`AssetModel`."""
 
 from __future__ import annotations
 
