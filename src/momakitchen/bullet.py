@@ -1,9 +1,9 @@
-"""PyBullet without its build banner on stdout.
+"""PyBullet without its build banner.
 
-PyBullet prints a build banner through C's stdio when it is imported and when a client
-connects; it would end up in the middle of command output (or of JSON written to stdout).
-The package imports PyBullet through this module (see ``momakitchen/__init__.py``) and
-creates clients with :func:`connect_direct`, both with stdout muted.
+PyBullet's C code prints a build banner when it is imported and may print more when a
+client connects; it would turn the CLI's one-line errors into two lines. The package
+imports PyBullet through this module (see ``momakitchen/__init__.py``) and creates clients
+with :func:`connect_direct`, both with C-level stdout and stderr muted.
 """
 
 from __future__ import annotations
@@ -19,21 +19,25 @@ T = TypeVar("T")
 
 
 def _muted(fn: Callable[[], T]) -> T:
-    """Call ``fn`` with file descriptor 1 sent to /dev/null (C-level output included)."""
-    try:
-        fd = sys.stdout.fileno()
-    except (AttributeError, OSError, ValueError):  # stdout is not a real file (captured)
-        return fn()
-    sys.stdout.flush()
-    saved = os.dup(fd)
+    """Call ``fn`` with file descriptors 1 and 2 sent to /dev/null (C output included)."""
+    fds = []
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+            fds.append(stream.fileno())
+        except (AttributeError, OSError, ValueError):  # not a real file (e.g. captured)
+            continue
+    saved = [os.dup(fd) for fd in fds]
     try:
         with open(os.devnull, "w") as null:
-            os.dup2(null.fileno(), fd)
+            for fd in fds:
+                os.dup2(null.fileno(), fd)
             result = fn()
             ctypes.CDLL(None).fflush(None)  # what C buffered goes to /dev/null too
     finally:
-        os.dup2(saved, fd)
-        os.close(saved)
+        for fd, old in zip(fds, saved, strict=True):
+            os.dup2(old, fd)
+            os.close(old)
     return result
 
 

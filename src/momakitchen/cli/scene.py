@@ -58,13 +58,13 @@ def run(args: argparse.Namespace) -> int:
     record = {"generator": f"momakitchen {__version__}", **scene.to_dict()}
     view = None
     if not args.no_render:
-        from momakitchen.perception.camera import Intrinsics, render
+        from momakitchen.perception.camera import Intrinsics, look_at, render
         from momakitchen.sim.world import World
 
         with World(scene.layout) as world:
             world.load_configuration(scene.configurations[args.config])
-            eye, target = view_pose(scene)
-            view = render(world.client, eye, target, Intrinsics.from_fov(800, 600, 62.0)).rgb
+            camera = look_at(*view_pose(scene))
+            view = render(world.client, camera, Intrinsics.from_fov(800, 600, 62.0)).rgb
     atomic_write_text(out / "scene.json", json.dumps(record, indent=1) + "\n")
     png = out / "overview.png"
     with atomic_path(png) as tmp:
