@@ -244,14 +244,37 @@ def test_independent_clients_in_one_process():
         p.disconnect(b)
 
 
-def test_reloading_a_different_robot_in_a_reused_body_slot(client):
-    """PyBullet caches an IK/Jacobian tree per body; a removed robot's stale tree must not
-    break the next robot that reuses its slot."""
-    for first, second in (("elephant", "flexiv"), ("flexiv", "realman")):
+def _pybullet_ik(robot, client):
+    """PyBullet's own null-space IK on a robot, as a caller of the PyBullet API might."""
+    movable = robot._movable
+    infos = [p.getJointInfo(robot.body, j, physicsClientId=client) for j in movable]
+    lower, upper = [i[8] for i in infos], [i[9] for i in infos]
+    ranges = [max(h - lo, 1e-3) for lo, h in zip(lower, upper, strict=True)]
+    pos, orn = robot.tcp_pose()
+    for _ in range(4):
+        p.calculateInverseKinematics(
+            robot.body, robot.tcp_link, pos, orn, lowerLimits=lower, upperLimits=upper,
+            jointRanges=ranges, restPoses=[0.0] * len(movable),
+            currentPositions=[0.0] * len(movable), maxNumIterations=30, physicsClientId=client)
+
+
+@pytest.mark.parametrize(("first", "second"),
+                         [("flexiv", "elephant"), ("xarm6", "flexiv"), ("elephant", "flexiv")])
+def test_reloading_a_different_robot_in_a_reused_body_slot(first, second):
+    """PyBullet caches a kinematic tree per body and keeps it after removal. Without the
+    load-time check, these pairs made PyBullet's IK raise on the second robot in a
+    standalone run (whether it happens depends on memory reuse)."""
+    client = p.connect(p.DIRECT)
+    try:
         r1 = Robot(client, first)
-        r1.solve_ik(*r1.tcp_pose())
+        _pybullet_ik(r1, client)
         r1.remove()
         r2 = Robot(client, second)
+        _pybullet_ik(r2, client)
+        n = len(r2._movable)
+        p.calculateJacobian(r2.body, r2.tcp_link, (0, 0, 0), [0.0] * n, [0.0] * n, [0.0] * n,
+                            physicsClientId=client)
         pos, orn = r2.tcp_pose()
         assert r2.solve_ik(pos + np.array([0.03, 0.0, 0.0]), orn).success
-        r2.remove()
+    finally:
+        p.disconnect(client)

@@ -124,14 +124,17 @@ class Robot:
         path = robot_urdf_path(name)
         self.body = self._load(path)
         self._index_joints()
-        if not self._ik_works():
-            # PyBullet keeps an IK solver per body id and does not drop it when a body is
-            # removed: a new body that reuses the id of a removed, different robot can get
-            # a stale solver. Load again (fresh id), then free the stale one.
+        if not self._dynamics_tree_ok():
+            # PyBullet caches the kinematic tree behind calculateJacobian, its IK and inverse
+            # dynamics per body and does not drop it when a body is removed: a robot loaded
+            # where a removed, different robot was can inherit the stale tree. Our IK only
+            # uses link states, but callers may use those functions: load again, then free
+            # the stale body.
             stale, self.body = self.body, self._load(path)
             p.removeBody(stale, physicsClientId=self.client)
-            if not self._ik_works():
-                raise MomaError(f"robot {name!r}: PyBullet IK does not work on {str(path)!r}")
+            if not self._dynamics_tree_ok():
+                raise MomaError(f"robot {name!r}: PyBullet's Jacobian is wrong for "
+                                f"{str(path)!r}")
         self._attachment: tuple[int, int] | None = None
         # The flange in the TCP frame: a rigid offset (both sit after the last arm joint).
         tcp_pos, tcp_orn = self.link_pose(self.tcp_link)
@@ -155,8 +158,8 @@ class Robot:
                 f"robot {self.name!r}: PyBullet cannot load {str(path)!r}: {exc}"
             ) from None
 
-    def _ik_works(self) -> bool:
-        """Check PyBullet's Jacobian (which its IK uses) against finite differences."""
+    def _dynamics_tree_ok(self) -> bool:
+        """Check PyBullet's Jacobian against finite differences of the link states."""
         c = self.client
         saved = self.joint_positions()
         q = self.home if hasattr(self, "home") else saved
