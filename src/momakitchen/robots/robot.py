@@ -141,6 +141,17 @@ class Robot:
         fl_pos, _ = self.link_pose(self.flange_link)
         tcp_rot = np.array(p.getMatrixFromQuaternion(tcp_orn)).reshape(3, 3)
         self._flange_in_tcp = tcp_rot.T @ (fl_pos - tcp_pos)
+        # Reach spheres: centred where the shoulder projects onto joint 1's axis (a point
+        # fixed on the base), grown by the shoulder's distance from that axis.
+        first = self.arm_joints[0]
+        axis_pos, axis_orn = self.link_pose(first)
+        axis = np.array(p.getMatrixFromQuaternion(axis_orn)).reshape(3, 3) @ self._axes_local[0]
+        shoulder = self.link_pose(self.shoulder_link)[0]
+        centre = axis_pos + float((shoulder - axis_pos) @ axis) * axis
+        self._shoulder_offset = float(np.linalg.norm(shoulder - centre))
+        bpos, born = p.getBasePositionAndOrientation(self.body, physicsClientId=self.client)
+        brot = np.array(p.getMatrixFromQuaternion(born)).reshape(3, 3)
+        self._reach_centre = brot.T @ (centre - np.asarray(bpos))
         self.place_base(*base)
         self.set_joint_positions(self.home)
         if self.finger_joints:
@@ -393,12 +404,8 @@ class Robot:
                 raise MomaError(f"IK orientation must be a unit quaternion, got {orientation!r}")
             target_rot = np.array(p.getMatrixFromQuaternion((quat / norm).tolist())).reshape(3, 3)
         rng = rng if rng is not None else np.random.default_rng(0)
-        flange_reach, tcp_reach = self.workspace()
-        shoulder = self.shoulder_position()
         slack = pos_tol + 0.01  # the sampled workspace radii may fall a little short
-        if float(np.linalg.norm(target - shoulder)) > tcp_reach + slack or (
-                target_rot is not None
-                and not self._flange_within(target, target_rot, flange_reach + slack)):
+        if not self._within_reach(target, target_rot, slack):
             # Outside the workspace sphere: no configuration can do it.
             pos, cur = self.tcp_pose()
             oerr = 0.0
@@ -546,20 +553,30 @@ class Robot:
                     margin: float = 0.0) -> bool:
         """Cheap necessary condition for a TCP pose to be reachable.
 
-        Without ``orientation``: the point lies within the TCP workspace sphere. With it,
+        Without ``orientation``: the TCP lies within the TCP workspace sphere. With it, also
         the tighter test: the flange, rigidly offset from the TCP, lies within the flange
-        workspace sphere (both spheres centred on the shoulder).
+        workspace sphere. The spheres are centred on joint 1's axis at shoulder height and
+        grown by the shoulder's offset from that axis (the shoulder turns with joint 1).
         """
-        pos = np.asarray(position, float)
-        flange_reach, tcp_reach = self.workspace()
-        if orientation is None:
-            return float(np.linalg.norm(pos - self.shoulder_position())) <= tcp_reach + margin
-        rot = np.array(p.getMatrixFromQuaternion([float(v) for v in orientation])).reshape(3, 3)
-        return self._flange_within(pos, rot, flange_reach + margin)
+        rot = None
+        if orientation is not None:
+            quat = [float(v) for v in orientation]
+            rot = np.array(p.getMatrixFromQuaternion(quat)).reshape(3, 3)
+        return self._within_reach(np.asarray(position, float), rot, margin)
 
-    def _flange_within(self, tcp_pos: np.ndarray, tcp_rot: np.ndarray, radius: float) -> bool:
+    def _within_reach(self, tcp_pos: np.ndarray, tcp_rot: np.ndarray | None,
+                      margin: float) -> bool:
+        flange_reach, tcp_reach = self.workspace()
+        bpos, born = p.getBasePositionAndOrientation(self.body, physicsClientId=self.client)
+        brot = np.array(p.getMatrixFromQuaternion(born)).reshape(3, 3)
+        centre = np.asarray(bpos) + brot @ self._reach_centre
+        grow = self._shoulder_offset + margin
+        if float(np.linalg.norm(tcp_pos - centre)) > tcp_reach + grow:
+            return False
+        if tcp_rot is None:
+            return True
         flange = tcp_pos + tcp_rot @ self._flange_in_tcp
-        return float(np.linalg.norm(flange - self.shoulder_position())) <= radius
+        return float(np.linalg.norm(flange - centre)) <= flange_reach + grow
 
     # ---------------------------------------------------------------- collisions
     def base_collisions(self, bodies: Iterable[int], margin: float = 0.0) -> list[int]:
