@@ -162,6 +162,16 @@ def test_workspace_exceeds_manufacturer_reach_modestly(client, name):
     assert tcp == pytest.approx(flange + tool, abs=0.03)
 
 
+@pytest.mark.parametrize("name", NAMES)
+def test_reach_precheck_never_rejects_reachable_poses(client, name):
+    """could_reach is a necessary condition: every FK pose passes it, at any base pose."""
+    robot = Robot(client, name, base=(0.4, -1.2, 2.0))
+    rng = np.random.default_rng(3)
+    for _ in range(300):
+        pos, orn = robot.tcp_pose(rng.uniform(robot.lower, robot.upper))
+        assert robot.could_reach(pos) and robot.could_reach(pos, orn)
+
+
 def test_base_collisions(client):
     robot = Robot(client, "panda")
     obstacle = box(client, (0.1, 0.1, 0.2), (0.3, 0.0, 0.2))  # overlaps the front edge
