@@ -64,7 +64,8 @@ def run(args: argparse.Namespace) -> int:
         with World(scene.layout) as world:
             world.load_configuration(scene.configurations[args.config])
             camera = look_at(*view_pose(scene))
-            view = render(world.client, camera, Intrinsics.from_fov(800, 600, 62.0)).rgb
+            view = render(world.client, camera, Intrinsics.for_renderer(800, 600, 62.0),
+                          shadows=True).rgb
     atomic_write_text(out / "scene.json", json.dumps(record, indent=1) + "\n")
     png = out / "overview.png"
     with atomic_path(png) as tmp:

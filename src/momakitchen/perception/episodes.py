@@ -1,0 +1,305 @@
+"""First-person episodes of a configuration: camera poses, RGB-D, point clouds, labels.
+
+For each configuration: run the trials (sparse labels), then place the viewing robot at
+10 viewpoints in front of the target (alternately left and right of it, lateral offset
+0-1.5 m, forward distance 1.5-3.8 m, increasing), render RGB, depth and segmentation from
+its head camera (mount height + 0.3 m, looking at the target), and keep a viewpoint only
+if the target is visible. Each view becomes an :class:`~momakitchen.data.episode.Episode`:
+point clouds in the viewpoint's base frame, the visual-alignment channel from the
+segmentation, and the floor points with their dense affordance labels.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from momakitchen.data.episode import SEMANTIC_CLASSES, ConfigurationLabels, Episode
+from momakitchen.errors import MomaError
+from momakitchen.perception.camera import Intrinsics, base_to_world, look_at, render
+from momakitchen.perception.clouds import cloud_in_base, voxel_downsample
+from momakitchen.robots import get_robot_spec, robot_descriptor
+from momakitchen.scene.configuration import Configuration, SceneConfig, sample_scene
+from momakitchen.scene.geometry import box_corners, corners_of, overlap_matrix
+from momakitchen.scene.layout import Layout, scene_rng
+from momakitchen.sim.labels import DenseMapConfig, Labels, dense_map, label_configuration
+from momakitchen.sim.trials import TrialConfig
+from momakitchen.sim.world import World
+
+VIEW_STREAM = 3  # seed stream of the viewpoints (layout 0, configurations 1, colours 2)
+_CLASS = {name: i for i, name in enumerate(SEMANTIC_CLASSES)}
+
+
+@dataclass(frozen=True)
+class CameraConfig:
+    """The viewing robot's head camera.
+
+    Attributes:
+        width, height: image size in pixels.
+        fov_y_deg: vertical field of view (45 deg ~ a RealSense D435 colour camera).
+        above_mount: camera height above the arm mount (the paper: mount height + 0.3 m).
+        near, far: clipping planes (m); depth beyond ``max_depth`` is dropped from clouds.
+    """
+
+    width: int = 640
+    height: int = 480
+    fov_y_deg: float = 45.0
+    above_mount: float = 0.3
+    near: float = 0.05
+    far: float = 10.0
+    max_depth: float = 6.0
+
+    def __post_init__(self) -> None:
+        if not (16 <= self.width <= 4096 and 16 <= self.height <= 4096):
+            raise MomaError(f"camera size must be 16..4096 px, got {self.width}x{self.height}")
+        if not 10 <= self.fov_y_deg <= 120:
+            raise MomaError(f"camera fov_y_deg must be in [10, 120], got {self.fov_y_deg}")
+        if not 0 < self.near < self.max_depth <= self.far:
+            raise MomaError(f"camera needs 0 < near < max_depth <= far, got near={self.near}, "
+                            f"max_depth={self.max_depth}, far={self.far}")
+
+    @property
+    def intrinsics(self) -> Intrinsics:
+        return Intrinsics.for_renderer(self.width, self.height, self.fov_y_deg)
+
+
+@dataclass(frozen=True)
+class ViewConfig:
+    """Viewpoint sampling (metres).
+
+    Attributes:
+        episodes: views per configuration.
+        lateral: range of the sideways offset from the target (alternating sides).
+        forward: range of the distance in front of the target (increasing over episodes).
+        min_target_pixels: a view is kept only if this many pixels show the target.
+        max_tries: attempts per view before the configuration gives up on it.
+    """
+
+    episodes: int = 10
+    lateral: tuple[float, float] = (0.0, 1.5)
+    forward: tuple[float, float] = (1.5, 3.8)
+    min_target_pixels: int = 20
+    max_tries: int = 40
+
+    def __post_init__(self) -> None:
+        if not 1 <= self.episodes <= 100:
+            raise MomaError(f"episodes per configuration must be in [1, 100], got {self.episodes}")
+        for name in ("lateral", "forward"):
+            lo, hi = getattr(self, name)
+            if not 0 <= lo <= hi <= 10:
+                raise MomaError(f"{name} must satisfy 0 <= min <= max <= 10 m, got {(lo, hi)}")
+        if self.min_target_pixels < 1 or self.max_tries < 1:
+            raise MomaError("min_target_pixels and max_tries must be >= 1")
+
+
+@dataclass(frozen=True)
+class CloudConfig:
+    """Point-cloud extraction (metres).
+
+    Attributes:
+        voxel: voxel size of the global cloud down-sampling.
+        floor_voxel: voxel size of the floor cloud.
+        floor_z: points below this height in the base frame are floor points.
+    """
+
+    voxel: float = 0.02
+    floor_voxel: float = 0.03
+    floor_z: float = 0.02
+
+    def __post_init__(self) -> None:
+        for name in ("voxel", "floor_voxel", "floor_z"):
+            if not 0 < getattr(self, name) <= 0.5:
+                raise MomaError(f"CloudConfig.{name} must be in (0, 0.5] m, got "
+                                f"{getattr(self, name)}")
+
+
+@dataclass(frozen=True)
+class GenerationConfig:
+    """Everything that determines the generated data of a scene (with its ``scene_id``)."""
+
+    scene: SceneConfig = field(default_factory=SceneConfig)
+    trial: TrialConfig = field(default_factory=TrialConfig)
+    dense: DenseMapConfig = field(default_factory=DenseMapConfig)
+    camera: CameraConfig = field(default_factory=CameraConfig)
+    views: ViewConfig = field(default_factory=ViewConfig)
+    cloud: CloudConfig = field(default_factory=CloudConfig)
+
+    def to_dict(self) -> dict:
+        return dataclasses.asdict(self)
+
+    @classmethod
+    def from_dict(cls, data: dict) -> GenerationConfig:
+        def build(kind, values):
+            return kind(**{k: tuple(v) if isinstance(v, list) else v for k, v in values.items()})
+
+        kinds = {"scene": SceneConfig, "trial": TrialConfig, "dense": DenseMapConfig,
+                 "camera": CameraConfig, "views": ViewConfig, "cloud": CloudConfig}
+        unknown = set(data) - set(kinds)
+        if unknown:
+            raise MomaError(f"unknown generation config section(s): {sorted(unknown)}")
+        return cls(**{k: build(kinds[k], v) for k, v in data.items()})
+
+
+def semantic_map(world: World, body: np.ndarray, link: np.ndarray) -> np.ndarray:
+    """Per-pixel semantic class (uint8 indices into SEMANTIC_CLASSES) from segmentation.
+
+    The target is the rigid object, or the moving part of an articulated unit (the link
+    of the opened joint and the links attached below it, e.g. its handle).
+    """
+    out = np.zeros(body.shape, np.uint8)
+    kind_class = {"furniture": "furniture", "appliance": "furniture", "rigid": "object",
+                  "obstacle": "obstacle"}
+    for info in world.bodies.values():
+        sel = body == info.body_id
+        if not sel.any():
+            continue
+        if info.kind == "structure":
+            out[sel] = _CLASS["floor" if info.uid == "floor" else "wall"]
+        else:
+            out[sel] = _CLASS[kind_class[info.kind]]
+    t = world.target
+    if t.is_articulated:
+        parts = target_links(world)
+        out[(body == t.body_id) & np.isin(link, parts)] = _CLASS["target"]
+    else:
+        out[body == t.body_id] = _CLASS["target"]
+    return out
+
+
+def target_links(world: World) -> list[int]:
+    """Link indices of the target's moving part (the opened joint's link and its
+    descendants)."""
+    import pybullet as p
+
+    t = world.target
+    c = world.client
+    parents = {j: p.getJointInfo(t.body_id, j, physicsClientId=c)[16]
+               for j in range(p.getNumJoints(t.body_id, physicsClientId=c))}
+    links = []
+    for j in parents:
+        k = j
+        while k >= 0 and k != t.joint_index:
+            k = parents[k]
+        if k == t.joint_index:
+            links.append(j)
+    return links
+
+
+def _view_candidates(rng: np.random.Generator, anchor: np.ndarray, k: int, n: int,
+                     views: ViewConfig) -> tuple[float, float]:
+    """(lateral, forward) offsets for view ``k`` of ``n``: alternating sides, forward
+    distance stratified so that it increases with ``k``."""
+    lo, hi = views.forward
+    forward = lo + (hi - lo) * (k + rng.uniform()) / n
+    side = 1.0 if k % 2 == 0 else -1.0
+    lateral = side * rng.uniform(*views.lateral)
+    return lateral, forward
+
+
+def sample_views(world: World, layout: Layout, cfg: Configuration, config: GenerationConfig
+                 ) -> list[tuple[tuple[float, float, float], np.ndarray, object]]:
+    """Viewpoints of ``cfg`` where the target is visible: (base pose, camera-to-world,
+    render) for each kept view, in order of increasing distance.
+
+    A viewpoint must leave the viewing robot's footprint inside the room and clear of
+    furniture and obstacles. Where the room is too shallow for the nominal distances, the
+    forward range shrinks to what fits.
+    """
+    spec = get_robot_spec(cfg.robot)
+    views, cam = config.views, config.camera
+    rng = scene_rng(cfg.scene_id, VIEW_STREAM, cfg.index)
+    anchor = np.asarray(cfg.target.anchor, float)
+    blocked = corners_of(layout.footprints(0.02) + [o.footprint(0.02) for o in cfg.obstacles])
+    room = layout.room
+    intr = cam.intrinsics
+    height = spec.mount_height + cam.above_mount
+    out = []
+    for k in range(views.episodes):
+        for attempt in range(views.max_tries):
+            lateral, forward = _view_candidates(rng, anchor, k, views.episodes, views)
+            # Later attempts come closer: the room may be shallower than the nominal range.
+            forward *= 1.0 - 0.5 * attempt / views.max_tries
+            x, y = anchor[0] + lateral, anchor[1] + forward
+            yaw = float(np.arctan2(anchor[1] - y, anchor[0] - x))
+            fp = box_corners(x, y, yaw, *spec.footprint)
+            if (fp.min() < 0.02 or fp[..., 0].max() > room.width - 0.02
+                    or fp[..., 1].max() > room.depth - 0.02
+                    or overlap_matrix(fp, blocked).any()):
+                continue
+            base = (float(x), float(y), yaw)
+            eye = np.array([x, y, height])
+            camera = look_at(eye, anchor)
+            frame = render(world.client, camera, intr, cam.near, cam.far)
+            sem = semantic_map(world, frame.body, frame.link)
+            if int((sem == _CLASS["target"]).sum()) >= views.min_target_pixels:
+                out.append((base, camera, (frame, sem)))
+                break
+    return out
+
+
+def make_episode(cfg: Configuration, labels: Labels, index: int, base, camera_to_world,
+                 frame, sem: np.ndarray, config: GenerationConfig) -> Episode:
+    """Build the episode record of one view (clouds in the viewpoint's base frame)."""
+    intr = config.camera.intrinsics
+    camera_to_base = np.linalg.inv(base_to_world(base)) @ camera_to_world
+    pts, idx = cloud_in_base(frame.depth, intr, camera_to_base, config.camera.max_depth)
+    keep = voxel_downsample(pts, config.cloud.voxel)
+    g_xyz, g_idx = pts[keep], idx[keep]
+    classes = sem.reshape(-1)[g_idx]
+    align = np.where(classes == _CLASS["target"], 1,
+                     np.where(classes == _CLASS["obstacle"], -1, 0)).astype(np.int8)
+    floor = pts[:, 2] < config.cloud.floor_z
+    f_pts = pts[floor]
+    f_pts = f_pts[voxel_downsample(f_pts, config.cloud.floor_voxel)]
+    # Dense labels in the viewpoint's base frame: trial positions moved into it.
+    world_to_base = np.linalg.inv(base_to_world(base))
+    trials = labels.positions @ world_to_base[:2, :2].T + world_to_base[:2, 3]
+    f_label = dense_map(trials, labels.outcomes, f_pts[:, :2], config.dense)
+    spec = get_robot_spec(cfg.robot)
+    return Episode(
+        scene_id=cfg.scene_id, config_index=cfg.index, episode_index=index, robot=cfg.robot,
+        descriptor=np.asarray(robot_descriptor(spec), np.float32),
+        rgb=frame.rgb, depth=frame.depth, semantic=sem, intrinsics=intr.as_array(),
+        camera_pose=camera_to_world, base_pose=tuple(float(v) for v in base),
+        camera_to_base=camera_to_base,
+        global_xyz=g_xyz.astype(np.float32),
+        global_rgb=frame.rgb.reshape(-1, 3)[g_idx],
+        global_align=align,
+        floor_xyz=f_pts.astype(np.float32), floor_label=f_label,
+    )
+
+
+def configuration_labels(labels: Labels) -> ConfigurationLabels:
+    return ConfigurationLabels(
+        scene_id=labels.scene_id, config_index=labels.config_index, robot=labels.robot,
+        target=labels.target, anchor=tuple(labels.anchor),
+        trial_positions=labels.positions, trial_yaws=labels.yaws,
+        trial_stages=labels.stages, trial_moved=labels.moved,
+    )
+
+
+def configuration_episodes(world: World, layout: Layout, cfg: Configuration,
+                           config: GenerationConfig
+                           ) -> tuple[ConfigurationLabels, list[Episode]]:
+    """Trials, then the first-person episodes of one configuration."""
+    labels = label_configuration(world, cfg, trial_config=config.trial,
+                                 grid_spacing=config.scene.grid_spacing)
+    world.load_configuration(cfg)  # undo whatever the trials moved
+    episodes = [
+        make_episode(cfg, labels, i, base, camera, frame, sem, config)
+        for i, (base, camera, (frame, sem)) in enumerate(sample_views(world, layout, cfg,
+                                                                       config))
+    ]
+    return configuration_labels(labels), episodes
+
+
+def scene_records(scene_id: int, config: GenerationConfig | None = None
+                  ) -> list[tuple[ConfigurationLabels, list[Episode]]]:
+    """All configurations of scene ``scene_id`` with their episodes (deterministic)."""
+    config = config or GenerationConfig()
+    scene = sample_scene(scene_id, config.scene)
+    with World(scene.layout) as world:
+        return [configuration_episodes(world, scene.layout, cfg, config)
+                for cfg in scene.configurations]
