@@ -1,0 +1,337 @@
+"""Dataset generation: run a per-scene producer over many scenes, in parallel, resumably.
+
+A *producer* is a function ``scene_fn(scene_id, config) -> records`` (records: a list of
+``(ConfigurationLabels, [Episode, ...])``, one entry per configuration) that is
+deterministic in ``(scene_id, config)``; the default is
+:func:`momakitchen.perception.episodes.scene_records` with its ``GenerationConfig``.
+Each scene becomes one shard written atomically by :func:`momakitchen.data.shard.write_shard`,
+so a run killed at any point leaves only complete shards (plus hidden temporary files that
+the next run deletes) and the next run computes only the missing scenes. Because shards
+depend only on ``(scene_id, config)``, the dataset is the same for any worker count or
+backend.
+
+Backends: ``local`` (a process pool with the spawn start method; each worker computes and
+writes whole scenes) and ``ray`` (the same per-scene function as Ray tasks; the task returns
+the shard's bytes and the driver writes them, so no shared file system is needed).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import fcntl
+import json
+import multiprocessing
+import os
+import sys
+import tempfile
+import time
+from collections.abc import Callable, Iterator
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+from tqdm import tqdm
+
+from momakitchen import __version__
+from momakitchen.data import manifest as mf
+from momakitchen.data.shard import (
+    SCENES_DIR,
+    SceneRecords,
+    SceneShard,
+    file_sha256,
+    list_shards,
+    remove_temporaries,
+    shard_name,
+    write_shard,
+    write_shard_bytes,
+)
+from momakitchen.errors import MomaError
+
+BACKENDS = ("local", "ray")
+SceneFn = Callable[[int, Any], SceneRecords]
+LOCK_NAME = ".generate.lock"
+MANIFEST_SAVE_SECONDS = 5.0
+
+
+def default_producer() -> tuple[SceneFn, Any]:
+    """The simulator-backed producer and its default config."""
+    try:
+        from momakitchen.perception.episodes import GenerationConfig, scene_records
+    except ImportError as exc:
+        raise MomaError(f"the episode producer momakitchen.perception.episodes is not "
+                        f"available ({exc})") from None
+    return scene_records, GenerationConfig()
+
+
+def producer_name(scene_fn: SceneFn) -> str:
+    return f"{scene_fn.__module__}.{scene_fn.__qualname__}"
+
+
+def config_dict(config: Any) -> dict[str, Any]:
+    """The config as plain JSON data (tuples become lists), as stored in the manifest."""
+    if dataclasses.is_dataclass(config) and not isinstance(config, type):
+        data = dataclasses.asdict(config)
+    elif isinstance(config, dict):
+        data = dict(config)
+    else:
+        raise MomaError(f"generation config must be a dataclass, got {type(config).__name__}")
+    data["__class__"] = f"{type(config).__module__}.{type(config).__qualname__}"
+    return json.loads(json.dumps(data))
+
+
+def _first_difference(a: Any, b: Any, path: str = "config") -> str | None:
+    if isinstance(a, dict) and isinstance(b, dict):
+        for key in sorted(set(a) | set(b)):
+            if key not in a or key not in b:
+                return f"{path}.{key}"
+            diff = _first_difference(a[key], b[key], f"{path}.{key}")
+            if diff:
+                return diff
+        return None
+    return None if a == b else path
+
+
+@dataclasses.dataclass(frozen=True)
+class GenerateRequest:
+    """What to generate.
+
+    Attributes:
+        out: dataset root (created if missing; must be empty or an existing dataset).
+        num_scenes: number of scenes, ids ``first_scene_id .. first_scene_id + num_scenes - 1``.
+        first_scene_id: first scene id.
+        workers: parallel workers (processes for ``local``, CPUs for a local Ray instance).
+        backend: one of ``BACKENDS``.
+    """
+
+    out: Path
+    num_scenes: int
+    first_scene_id: int = 0
+    workers: int = 1
+    backend: str = "local"
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.num_scenes, int) or self.num_scenes < 1:
+            raise MomaError(f"number of scenes must be >= 1, got {self.num_scenes!r}")
+        if not isinstance(self.first_scene_id, int) or self.first_scene_id < 0:
+            raise MomaError(f"first scene id must be >= 0, got {self.first_scene_id!r}")
+        if not isinstance(self.workers, int) or not 1 <= self.workers <= 1024:
+            raise MomaError(f"workers must be in [1, 1024], got {self.workers!r}")
+        if self.backend not in BACKENDS:
+            raise MomaError(f"backend must be one of {BACKENDS}, got {self.backend!r}")
+
+    @property
+    def scene_ids(self) -> list[int]:
+        return list(range(self.first_scene_id, self.first_scene_id + self.num_scenes))
+
+
+def prepare_root(root: Path, producer: str, config: dict[str, Any]) -> dict[str, Any]:
+    """The manifest to continue from: a new one for an empty/missing root, the existing one
+    if it was made by the same producer, config and generator version; else MomaError."""
+    if root.exists() and not root.is_dir():
+        raise MomaError(f"--out {str(root)!r} exists and is not a directory")
+    if mf.manifest_path(root).is_file():
+        old = mf.load_manifest(root)
+        if old.get("producer") != producer:
+            raise MomaError(f"{root} was generated by {old.get('producer')!r}, not {producer!r};"
+                            " use another --out")
+        diff = _first_difference(old.get("config"), config)
+        if diff:
+            raise MomaError(f"{root} was generated with a different configuration (first "
+                            f"difference: {diff}); use another --out or the same settings")
+        if old.get("generator_version") != __version__:
+            raise MomaError(f"{root} was generated by momakitchen "
+                            f"{old.get('generator_version')}, this is {__version__}; "
+                            "use another --out")
+        return old
+    if root.is_dir():
+        others = sorted(p.name for p in root.iterdir() if p.name != LOCK_NAME)
+        if others:
+            raise MomaError(f"--out {str(root)!r} is a non-empty directory without a "
+                            f"{mf.MANIFEST_NAME} (holds {others[0]!r}); refusing to write there")
+    return mf.new_manifest(producer, config)
+
+
+@contextmanager
+def _locked(root: Path) -> Iterator[None]:
+    """Exclusive lock on the dataset root; released by the kernel even on SIGKILL."""
+    fh = open(root / LOCK_NAME, "a")
+    try:
+        try:
+            fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            raise MomaError(f"another 'momakitchen generate' is writing to {root}") from None
+        yield
+    finally:
+        fh.close()
+
+
+def _existing_summary(path: Path, known: dict[str, Any] | None) -> dict[str, Any]:
+    """Summary of a finished shard from an earlier run (trusted from the manifest when its
+    size matches, else read from the shard and hashed)."""
+    if known is not None and known.get("bytes") == path.stat().st_size:
+        return {k: v for k, v in known.items() if k != "split"}
+    with SceneShard(path) as shard:
+        configs = [shard.configuration(c) for c in shard.config_indices()]
+        per_config = [len(shard.episode_indices(c)) for c in shard.config_indices()]
+    return {
+        "scene_id": shard.scene_id,
+        "configurations": len(configs),
+        "episodes_per_config": per_config,
+        "robots": [c.robot for c in configs],
+        "targets": [c.target for c in configs],
+        "trials": [int(c.trial_stages.shape[0]) for c in configs],
+        "successes": [int((c.trial_stages == 0).sum()) for c in configs],
+        "file": f"{SCENES_DIR}/{path.name}",
+        "bytes": path.stat().st_size,
+        "sha256": file_sha256(path),
+    }
+
+
+def _scene_task(scene_fn: SceneFn, config: Any, scene_id: int, directory: str) -> dict:
+    """Worker body (local backend): compute one scene and write its shard."""
+    records = scene_fn(scene_id, config)
+    return write_shard(directory, scene_id, records)
+
+
+def _scene_bytes_task(scene_fn: SceneFn, config: Any, scene_id: int) -> tuple[dict, bytes]:
+    """Worker body (Ray backend): compute one scene, return the shard summary and bytes."""
+    with tempfile.TemporaryDirectory(prefix="momakitchen-shard-") as tmp:
+        summary = write_shard(tmp, scene_id, scene_fn(scene_id, config))
+        data = (Path(tmp) / shard_name(scene_id)).read_bytes()
+    return summary, data
+
+
+def generate_dataset(
+    request: GenerateRequest,
+    scene_fn: SceneFn | None = None,
+    config: Any = None,
+    *,
+    progress: bool = True,
+    write_card: bool = True,
+) -> dict[str, Any]:
+    """Generate (or resume) the dataset described by ``request``; returns the manifest.
+
+    ``scene_fn``/``config`` default to the simulator-backed producer. Existing complete
+    shards are kept and skipped, temporary files from killed runs are removed; the
+    manifest is saved every few seconds and at the end, then the dataset card is rewritten.
+    """
+    if scene_fn is None:
+        scene_fn, default_config = default_producer()
+        config = default_config if config is None else config
+    if config is None:
+        raise MomaError("a generation config is required with a custom producer")
+    producer = producer_name(scene_fn)
+    cfg = config_dict(config)
+    root = Path(request.out)
+    manifest = prepare_root(root, producer, cfg)
+    submit = _ray_submitter(request.workers) if request.backend == "ray" else None
+    try:
+        root.mkdir(parents=True, exist_ok=True)
+        (root / SCENES_DIR).mkdir(exist_ok=True)
+    except OSError as exc:
+        raise MomaError(f"cannot create dataset directory {str(root)!r}: {exc.strerror}") from None
+
+    with _locked(root):
+        remove_temporaries(root)
+        existing = list_shards(root)
+        known = manifest["shards"]
+        # Entries whose shard file is gone are dropped (they will be regenerated).
+        for key in [k for k in known if int(k) not in existing]:
+            del known[key]
+        for sid, path in existing.items():
+            manifest_entry = known.get(str(sid))
+            try:
+                mf.add_shard(manifest, _existing_summary(path, manifest_entry))
+            except MomaError as exc:
+                raise MomaError(f"{exc}; delete that file to regenerate the scene") from None
+        todo = [s for s in request.scene_ids if s not in existing]
+        mf.save_manifest(root, mf.finalize(manifest, complete=False))
+
+        bar = tqdm(total=len(request.scene_ids), initial=len(request.scene_ids) - len(todo),
+                   desc="generate", unit="scene", disable=not progress, file=sys.stderr,
+                   dynamic_ncols=True)
+        last_save = time.monotonic()
+        episodes = 0
+
+        def done(summary: dict[str, Any]) -> None:
+            nonlocal last_save, episodes
+            mf.add_shard(manifest, summary)
+            episodes += sum(summary["episodes_per_config"])
+            bar.update(1)
+            bar.set_postfix(episodes=episodes, refresh=False)
+            if time.monotonic() - last_save > MANIFEST_SAVE_SECONDS:
+                mf.save_manifest(root, mf.finalize(manifest, complete=False))
+                last_save = time.monotonic()
+
+        try:
+            if todo and request.backend == "ray":
+                _run_ray(submit, scene_fn, config, todo, root, done)
+            elif todo:
+                _run_local(scene_fn, config, todo, root, request.workers, done)
+        finally:
+            bar.close()
+            mf.save_manifest(root, mf.finalize(
+                manifest, complete=all(str(s) in manifest["shards"] for s in request.scene_ids)))
+    if write_card:
+        from momakitchen.data.card import write_dataset_card
+
+        write_dataset_card(root, manifest)
+    return manifest
+
+
+def _run_local(scene_fn: SceneFn, config: Any, todo: list[int], root: Path, workers: int,
+               done: Callable[[dict[str, Any]], None]) -> None:
+    directory = str(root / SCENES_DIR)
+    if workers == 1:
+        for sid in todo:
+            done(_scene_task(scene_fn, config, sid, directory))
+        return
+    # Spawn: PyBullet and h5py state must not be inherited through fork.
+    ctx = multiprocessing.get_context("spawn")
+    with ProcessPoolExecutor(max_workers=min(workers, len(todo)), mp_context=ctx) as pool:
+        pending = {pool.submit(_scene_task, scene_fn, config, sid, directory) for sid in todo}
+        try:
+            while pending:
+                finished, pending = wait(pending, return_when=FIRST_COMPLETED)
+                for fut in finished:
+                    done(fut.result())
+        except BaseException:
+            for fut in pending:
+                fut.cancel()
+            raise
+
+
+def _ray_submitter(workers: int) -> Any:
+    """Initialise Ray (an existing cluster via RAY_ADDRESS, else a local instance with
+    ``workers`` CPUs) and return the remote version of the per-scene task."""
+    try:
+        import ray
+    except ImportError:
+        raise MomaError("--backend ray needs Ray: pip install 'momakitchen[ray]' "
+                        "(or pip install 'ray>=2.9')") from None
+    if not ray.is_initialized():
+        address = os.environ.get("RAY_ADDRESS")
+        if address:
+            ray.init(address=address, log_to_driver=False)
+        else:
+            ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False)
+    return ray.remote(num_cpus=1)(_scene_bytes_task)
+
+
+def _run_ray(remote: Any, scene_fn: SceneFn, config: Any, todo: list[int], root: Path,
+             done: Callable[[dict[str, Any]], None]) -> None:
+    import ray
+
+    scenes = root / SCENES_DIR
+    pending = [remote.remote(scene_fn, config, sid) for sid in todo]
+    while pending:
+        finished, pending = ray.wait(pending, num_returns=1)
+        for ref in finished:
+            summary, data = ray.get(ref)
+            path = write_shard_bytes(scenes, summary["scene_id"], data)
+            if file_sha256(path) != summary["sha256"]:
+                path.unlink()
+                raise MomaError(f"shard {path.name}: bytes changed in transfer from Ray")
+            summary["file"] = f"{SCENES_DIR}/{path.name}"
+            done(summary)

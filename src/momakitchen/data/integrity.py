@@ -1,0 +1,204 @@
+"""Integrity check and statistics of a dataset on disk."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from momakitchen.data import manifest as mf
+from momakitchen.data.episode import SEMANTIC_CLASSES
+from momakitchen.data.shard import EPISODE_ARRAYS, SceneShard, file_sha256, list_shards
+from momakitchen.errors import MomaError
+from momakitchen.robots.spec import DESCRIPTOR_DIM, DESCRIPTOR_VERSION
+from momakitchen.sim.trials import STAGE_NAMES
+
+FLOOR_Z_MAX = 0.02  # floor points are those below 2 cm (DESIGN.md §3.4)
+
+
+def _shard_entries(root: Path, manifest: dict[str, Any]) -> list[tuple[int, dict, Path]]:
+    """(scene id, manifest entry, path) for every shard; MomaError on a missing/extra file."""
+    files = list_shards(root)
+    entries = []
+    for key, entry in manifest["shards"].items():
+        sid = int(key)
+        path = root / entry.get("file", "")
+        if sid not in files or files[sid] != path:
+            raise MomaError(f"shard {entry.get('file')} listed in the manifest is missing")
+        entries.append((sid, entry, path))
+    extra = sorted(set(files) - {sid for sid, _, _ in entries})
+    if extra:
+        raise MomaError(f"shard {files[extra[0]].relative_to(root)} is not in the manifest "
+                        "(an interrupted run? run 'momakitchen generate' again to finish it)")
+    return entries
+
+
+def _check_episode(shard: SceneShard, c: int, e: int, where: str) -> int:
+    """Validate one episode's arrays; return its global + floor point count."""
+    ep = shard.episode(c, e)
+    if (ep.scene_id, ep.config_index, ep.episode_index) != (shard.scene_id, c, e):
+        raise MomaError(f"{where}: identity attributes do not match its position")
+    ep.validate()
+    finite = {n: bool(np.all(np.isfinite(getattr(ep, n)))) for n, t in EPISODE_ARRAYS
+              if t.startswith("float")}
+    bad = [n for n, ok in finite.items() if not ok]
+    if bad:
+        raise MomaError(f"{where}: non-finite values in {bad}")
+    if ep.depth.size and float(ep.depth.min()) < 0:
+        raise MomaError(f"{where}: negative depth {float(ep.depth.min())}")
+    if ep.semantic.size and int(ep.semantic.max()) >= len(SEMANTIC_CLASSES):
+        raise MomaError(f"{where}: semantic class {int(ep.semantic.max())} out of range")
+    if ep.descriptor.shape != (DESCRIPTOR_DIM,):
+        raise MomaError(f"{where}: descriptor shape {ep.descriptor.shape}, expected "
+                        f"({DESCRIPTOR_DIM},)")
+    if ep.floor_xyz.size and float(ep.floor_xyz[:, 2].max()) >= FLOOR_Z_MAX + 1e-6:
+        raise MomaError(f"{where}: floor point at z = {float(ep.floor_xyz[:, 2].max()):.4f} m "
+                        f">= {FLOOR_Z_MAX}")
+    return ep.global_xyz.shape[0] + ep.floor_xyz.shape[0]
+
+
+def check_shard(root: Path, sid: int, entry: dict[str, Any], path: Path,
+                verify_hash: bool = True) -> int:
+    """Check one shard against its manifest entry; return its episode count."""
+    name = entry["file"]
+    if path.stat().st_size != entry["bytes"]:
+        raise MomaError(f"shard {name}: {path.stat().st_size} bytes, the manifest says "
+                        f"{entry['bytes']} (truncated or replaced)")
+    if verify_hash and file_sha256(path) != entry["sha256"]:
+        raise MomaError(f"shard {name}: checksum differs from the manifest (corrupt)")
+    try:
+        shard = SceneShard(path)
+    except MomaError as exc:
+        raise MomaError(f"shard {name}: {str(exc).split(': ', 1)[-1]}") from None
+    with shard:
+        if shard.scene_id != sid:
+            raise MomaError(f"shard {name}: holds scene {shard.scene_id}")
+        if shard.descriptor_version != DESCRIPTOR_VERSION:
+            raise MomaError(f"shard {name}: descriptor version {shard.descriptor_version}, "
+                            f"expected {DESCRIPTOR_VERSION}")
+        configs = shard.config_indices()
+        per_config = [len(shard.episode_indices(c)) for c in configs]
+        if configs != list(range(entry["configurations"])) or \
+                per_config != entry["episodes_per_config"]:
+            raise MomaError(f"shard {name}: {len(configs)} configurations / {per_config} "
+                            f"episodes, the manifest says {entry['configurations']} / "
+                            f"{entry['episodes_per_config']}")
+        for c in configs:
+            where = f"shard {name} configuration {c}"
+            lab = shard.configuration(c)
+            if lab.robot != entry["robots"][c] or lab.target != entry["targets"][c]:
+                raise MomaError(f"{where}: robot/target differ from the manifest")
+            p = lab.trial_positions.shape[0]
+            if lab.trial_positions.shape != (p, 2) or lab.trial_yaws.shape != (p,) or \
+                    lab.trial_stages.shape != (p,) or lab.trial_moved.shape != (p,):
+                raise MomaError(f"{where}: trial arrays of inconsistent shapes")
+            if not (np.all(np.isfinite(lab.trial_positions)) and np.all(np.isfinite(
+                    lab.trial_yaws)) and np.all(np.isfinite(lab.trial_moved))):
+                raise MomaError(f"{where}: non-finite trial values")
+            if p and int(lab.trial_stages.max()) >= len(STAGE_NAMES):
+                raise MomaError(f"{where}: trial stage {int(lab.trial_stages.max())} out of range")
+            if int((lab.trial_stages == 0).sum()) != entry["successes"][c]:
+                raise MomaError(f"{where}: success count differs from the manifest")
+            for e in shard.episode_indices(c):
+                try:
+                    _check_episode(shard, c, e, f"shard {name} episode {c}/{e}")
+                except (OSError, KeyError, ValueError) as exc:
+                    if isinstance(exc, MomaError):
+                        raise
+                    raise MomaError(f"shard {name} episode {c}/{e}: unreadable ({exc})") from None
+    return sum(per_config)
+
+
+def check_dataset(root: str | os.PathLike, *, verify_hash: bool = True,
+                  progress: Callable[[int, int], None] | None = None) -> dict[str, Any]:
+    """Check every shard (opens, checksum, counts, finite in-range arrays) and the totals.
+
+    Raises MomaError naming the first bad shard; returns ``{"shards", "episodes"}``.
+    """
+    root = Path(root)
+    manifest = mf.load_manifest(root)
+    entries = _shard_entries(root, manifest)
+    episodes = 0
+    for i, (sid, entry, path) in enumerate(entries):
+        episodes += check_shard(root, sid, entry, path, verify_hash)
+        if progress:
+            progress(i + 1, len(entries))
+    expected = manifest.get("counts", {}).get("total", {}).get("episodes")
+    if expected != episodes:
+        raise MomaError(f"manifest counts {expected} episodes, the shards hold {episodes}")
+    for split in mf.SPLITS:
+        listed = sorted(manifest["splits"].get(split, []))
+        actual = sorted(sid for sid, e, _ in entries if e["split"] == split)
+        if listed != actual:
+            raise MomaError(f"manifest split {split!r} does not match its shard entries")
+    return {"shards": len(entries), "episodes": episodes, "complete": manifest["complete"]}
+
+
+def dataset_stats(root: str | os.PathLike) -> dict[str, Any]:
+    """Counts per split / robot / target category, success rates, sizes (reads metadata,
+    point-count shapes and floor labels only)."""
+    root = Path(root)
+    manifest = mf.load_manifest(root)
+    entries = _shard_entries(root, manifest)
+    counts = manifest["counts"]
+    total_bytes = 0
+    points: dict[str, list[int]] = {"global": [], "floor": []}
+    label_mean: list[float] = []
+    label_pos: list[float] = []
+    image_shape = None
+    for _sid, entry, path in entries:
+        total_bytes += path.stat().st_size
+        try:
+            shard = SceneShard(path)
+        except MomaError as exc:
+            raise MomaError(f"shard {entry['file']}: {str(exc).split(': ', 1)[-1]}") from None
+        with shard:
+            try:
+                for c in shard.config_indices():
+                    for e in shard.episode_indices(c):
+                        g = shard._group(f"config_{c:03d}", f"episode_{e:03d}")
+                        points["global"].append(int(g["global_xyz"].shape[0]))
+                        points["floor"].append(int(g["floor_xyz"].shape[0]))
+                        image_shape = image_shape or list(g["rgb"].shape)
+                        lab = g["floor_label"][()]
+                        label_mean.append(float(lab.mean()) if lab.size else 0.0)
+                        label_pos.append(float((lab > 0).mean()) if lab.size else 0.0)
+            except (OSError, KeyError, ValueError) as exc:
+                raise MomaError(f"shard {entry['file']}: unreadable ({exc})") from None
+    n_ep = max(1, counts["total"]["episodes"])
+
+    def rate(row: dict[str, int]) -> float | None:
+        return round(row["successful_trials"] / row["trials"], 4) if row.get("trials") else None
+
+    robots_in = {s: sorted(r for r, row in counts["robots"].items() if row[s].get("episodes"))
+                 for s in mf.SPLITS}
+    return {
+        "root": str(root),
+        "producer": manifest["producer"],
+        "generator_version": manifest["generator_version"],
+        "complete": manifest["complete"],
+        "splits": {s: {**counts[s], "trial_success_rate": rate(counts[s])}
+                   for s in ("total", *mf.SPLITS)},
+        "robots": {r: {s: {**row[s], "trial_success_rate": rate(row[s])} for s in row}
+                   for r, row in counts["robots"].items()},
+        "targets": {t: {s: {**row[s], "trial_success_rate": rate(row[s])} for s in row}
+                    for t, row in counts["targets"].items()},
+        "robots_in_split": robots_in,
+        "bytes": total_bytes,
+        "bytes_per_episode": round(total_bytes / n_ep, 1),
+        "image_shape": image_shape,
+        "points_per_episode": {k: _summary(v) for k, v in points.items()},
+        "floor_label_mean": _summary(label_mean),
+        "floor_label_positive_fraction": _summary(label_pos),
+    }
+
+
+def _summary(values: list[float]) -> dict[str, float] | None:
+    if not values:
+        return None
+    a = np.asarray(values, np.float64)
+    return {"mean": round(float(a.mean()), 4), "min": round(float(a.min()), 4),
+            "max": round(float(a.max()), 4)}

@@ -1,0 +1,154 @@
+"""``manifest.json``: what a dataset is (producer, config, versions), its splits and counts.
+
+The manifest is deterministic (no timestamps): the same generation gives the same file.
+Splits are by scene: scene ids are cut into blocks of ``SPLIT_BLOCK`` consecutive ids and
+one scene per block, chosen by a hash of the block index, goes to the unseen-scene test
+set. That is exactly 20 % on whole blocks, independent of how many scenes are generated
+and of the worker count, and a scene never changes split when the dataset grows.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from collections import Counter
+from pathlib import Path
+from typing import Any
+
+from momakitchen import __version__
+from momakitchen.errors import MomaError
+from momakitchen.fileio import atomic_write_text
+from momakitchen.robots.spec import DESCRIPTOR_NAMES, DESCRIPTOR_VERSION
+
+MANIFEST_NAME = "manifest.json"
+MANIFEST_FORMAT = "momakitchen-dataset"
+SPLITS = ("train", "test")
+SPLIT_BLOCK = 5
+SPLIT_RULE = (f"one scene in every block of {SPLIT_BLOCK} consecutive scene ids goes to test, "
+              "chosen by sha256('momakitchen-split:<block>')")
+
+
+def scene_split(scene_id: int) -> str:
+    """``"train"`` or ``"test"`` for a scene (deterministic, about 80/20)."""
+    if scene_id < 0:
+        raise MomaError(f"scene_id must be >= 0, got {scene_id}")
+    block = scene_id // SPLIT_BLOCK
+    digest = hashlib.sha256(f"momakitchen-split:{block}".encode()).digest()
+    chosen = int.from_bytes(digest[:8], "little") % SPLIT_BLOCK
+    return "test" if scene_id % SPLIT_BLOCK == chosen else "train"
+
+
+def new_manifest(producer: str, config: dict[str, Any]) -> dict[str, Any]:
+    """An empty manifest for a dataset made by ``producer`` with ``config``."""
+    return {
+        "format": MANIFEST_FORMAT,
+        "schema_version": _schema_version(),
+        "generator_version": __version__,
+        "producer": producer,
+        "config": config,
+        "descriptor_version": DESCRIPTOR_VERSION,
+        "descriptor_names": list(DESCRIPTOR_NAMES),
+        "split_rule": SPLIT_RULE,
+        "complete": False,
+        "splits": {s: [] for s in SPLITS},
+        "counts": {},
+        "shards": {},
+    }
+
+
+def _schema_version() -> int:
+    from momakitchen.data.shard import SCHEMA_VERSION
+
+    return SCHEMA_VERSION
+
+
+def add_shard(manifest: dict[str, Any], summary: dict[str, Any], split: str | None = None) -> None:
+    """Record a written shard (its summary from the writer) and its split."""
+    sid = int(summary["scene_id"])
+    split = split or scene_split(sid)
+    if split not in SPLITS:
+        raise MomaError(f"split must be one of {SPLITS}, got {split!r}")
+    manifest["shards"][str(sid)] = {**summary, "split": split}
+
+
+def finalize(manifest: dict[str, Any], complete: bool) -> dict[str, Any]:
+    """Recompute splits and counts from the shard entries (sorted by scene id)."""
+    shards = dict(sorted(manifest["shards"].items(), key=lambda kv: int(kv[0])))
+    manifest["shards"] = shards
+    manifest["splits"] = {s: [int(k) for k, v in shards.items() if v["split"] == s]
+                          for s in SPLITS}
+    manifest["counts"] = compute_counts(shards.values())
+    manifest["complete"] = bool(complete)
+    return manifest
+
+
+def compute_counts(shards: Any) -> dict[str, Any]:
+    """Scenes, configurations, episodes and trials per split, robot and target category."""
+    counts: dict[str, Any] = {"total": _zero()}
+    for s in SPLITS:
+        counts[s] = _zero()
+    by_robot: dict[str, dict[str, Counter]] = {}
+    by_target: dict[str, dict[str, Counter]] = {}
+    for sh in shards:
+        split = sh["split"]
+        for key in ("total", split):
+            counts[key]["scenes"] += 1
+        for robot, target, n_ep, n_tr, n_ok in zip(
+            sh["robots"], sh["targets"], sh["episodes_per_config"], sh["trials"],
+            sh["successes"], strict=True,
+        ):
+            category = target.split("/")[0]
+            for key in ("total", split):
+                c = counts[key]
+                c["configurations"] += 1
+                c["episodes"] += n_ep
+                c["trials"] += n_tr
+                c["successful_trials"] += n_ok
+                for table, name in ((by_robot, robot), (by_target, category)):
+                    row = table.setdefault(name, {k: Counter() for k in ("total", *SPLITS)})
+                    row[key]["configurations"] += 1
+                    row[key]["episodes"] += n_ep
+                    row[key]["trials"] += n_tr
+                    row[key]["successful_trials"] += n_ok
+    counts["robots"] = {r: {k: dict(v) for k, v in row.items()} for r, row in sorted(
+        by_robot.items())}
+    counts["targets"] = {t: {k: dict(v) for k, v in row.items()} for t, row in sorted(
+        by_target.items())}
+    return counts
+
+
+def _zero() -> dict[str, int]:
+    return {"scenes": 0, "configurations": 0, "episodes": 0, "trials": 0,
+            "successful_trials": 0}
+
+
+def manifest_path(root: str | os.PathLike) -> Path:
+    return Path(root) / MANIFEST_NAME
+
+
+def load_manifest(root: str | os.PathLike) -> dict[str, Any]:
+    """Read ``root/manifest.json``; MomaError if the root or manifest is missing/malformed."""
+    root = Path(root)
+    if not root.is_dir():
+        raise MomaError(f"dataset directory {str(root)!r} does not exist")
+    path = manifest_path(root)
+    if not path.is_file():
+        raise MomaError(f"{str(root)!r} is not a momakitchen dataset (no {MANIFEST_NAME})")
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise MomaError(f"{path}: malformed manifest ({exc})") from None
+    if not isinstance(data, dict) or data.get("format") != MANIFEST_FORMAT:
+        raise MomaError(f"{path}: not a momakitchen dataset manifest")
+    for key in ("schema_version", "producer", "config", "splits", "shards"):
+        if key not in data:
+            raise MomaError(f"{path}: manifest has no {key!r}")
+    if data["schema_version"] != _schema_version():
+        raise MomaError(f"{path}: schema version {data['schema_version']}, this version of "
+                        f"momakitchen reads {_schema_version()}")
+    return data
+
+
+def save_manifest(root: str | os.PathLike, manifest: dict[str, Any]) -> None:
+    atomic_write_text(manifest_path(root), json.dumps(manifest, indent=1) + "\n")

@@ -1,0 +1,134 @@
+"""The HDF5-backed torch Dataset of episodes (samples of :mod:`momakitchen.data.batch`)."""
+
+from __future__ import annotations
+
+import os
+from collections import OrderedDict
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+from torch.utils.data import Dataset
+
+from momakitchen.data import manifest as mf
+from momakitchen.data.shard import SceneShard
+from momakitchen.errors import MomaError
+from momakitchen.robots.spec import DESCRIPTOR_DIM, DESCRIPTOR_VERSION
+
+SPLIT_CHOICES = ("train", "test", "all")
+_CLOUD_FIELDS = ("descriptor", "global_xyz", "global_rgb", "global_align", "floor_xyz",
+                 "floor_label")
+
+
+class EpisodeDataset(Dataset):
+    """Episodes of a generated dataset, read lazily from its shards.
+
+    The index (which episodes exist) comes from the manifest alone; shard files are opened
+    on first use in each process (so ``DataLoader(num_workers=k)`` works: handles opened
+    before a fork are dropped in the child) and kept in a small LRU cache.
+
+    Args:
+        root: dataset directory (with ``manifest.json``).
+        split: ``"train"``, ``"test"`` or ``"all"``.
+        robots: keep only configurations labelled with these robots (``None``: all).
+        scene_ids: keep only these scenes (``None``: all of the split).
+        transform: optional callable applied to each sample dict.
+        max_open_files: shards kept open per process.
+
+    A sample (see :mod:`momakitchen.data.batch`): ``global_xyz`` (ng, 3), ``global_rgb``
+    (ng, 3) in [0, 1], ``global_align`` (ng,), ``floor_xyz`` (nf, 3), ``floor_label`` (nf,)
+    float32 tensors; ``robot`` (D,) float32 (the stored descriptor); ``scene_id``,
+    ``config_index``, ``episode_index``, ``robot_name``. Batch them with
+    :class:`~momakitchen.data.batch.EpisodeCollator`.
+    """
+
+    def __init__(self, root: str | os.PathLike, split: str = "train", *,
+                 robots: Sequence[str] | None = None, scene_ids: Sequence[int] | None = None,
+                 transform: Callable[[dict[str, Any]], dict[str, Any]] | None = None,
+                 max_open_files: int = 8) -> None:
+        if split not in SPLIT_CHOICES:
+            raise MomaError(f"split must be one of {SPLIT_CHOICES}, got {split!r}")
+        if max_open_files < 1:
+            raise MomaError(f"max_open_files must be >= 1, got {max_open_files}")
+        self.root = Path(root)
+        self.manifest = mf.load_manifest(self.root)
+        if self.manifest.get("descriptor_version") != DESCRIPTOR_VERSION:
+            raise MomaError(f"{self.root}: robot descriptor version "
+                            f"{self.manifest.get('descriptor_version')}, this version of "
+                            f"momakitchen uses {DESCRIPTOR_VERSION}")
+        self.split = split
+        self.transform = transform
+        self.max_open_files = max_open_files
+        wanted = None if scene_ids is None else {int(s) for s in scene_ids}
+        robot_set = None if robots is None else set(robots)
+        # (file, scene_id, config_index, episode_index, robot) of every selected episode.
+        self.index: list[tuple[str, int, int, int, str]] = []
+        for key, entry in self.manifest["shards"].items():
+            sid = int(key)
+            if split != "all" and entry["split"] != split:
+                continue
+            if wanted is not None and sid not in wanted:
+                continue
+            for c, (n, robot) in enumerate(zip(entry["episodes_per_config"], entry["robots"],
+                                               strict=True)):
+                if robot_set is None or robot in robot_set:
+                    self.index += [(entry["file"], sid, c, e, robot) for e in range(n)]
+        self._open: OrderedDict[str, SceneShard] = OrderedDict()
+        self._pid = os.getpid()
+
+    def __len__(self) -> int:
+        return len(self.index)
+
+    def _shard(self, file: str) -> SceneShard:
+        if self._pid != os.getpid():  # forked worker: never reuse the parent's handles
+            self._open = OrderedDict()
+            self._pid = os.getpid()
+        shard = self._open.get(file)
+        if shard is None:
+            shard = SceneShard(self.root / file)
+            self._open[file] = shard
+            while len(self._open) > self.max_open_files:
+                self._open.popitem(last=False)[1].close()
+        else:
+            self._open.move_to_end(file)
+        return shard
+
+    def __getitem__(self, i: int) -> dict[str, Any]:
+        if not -len(self) <= i < len(self):
+            raise IndexError(i)
+        file, sid, c, e, robot = self.index[i]
+        a = self._shard(file).arrays(c, e, _CLOUD_FIELDS)
+        if a["descriptor"].shape != (DESCRIPTOR_DIM,):
+            raise MomaError(f"{file} episode {c}/{e}: descriptor shape {a['descriptor'].shape}")
+        sample: dict[str, Any] = {
+            "global_xyz": torch.from_numpy(a["global_xyz"].astype(np.float32)),
+            "global_rgb": torch.from_numpy(a["global_rgb"].astype(np.float32) / 255.0),
+            "global_align": torch.from_numpy(a["global_align"].astype(np.float32)),
+            "floor_xyz": torch.from_numpy(a["floor_xyz"].astype(np.float32)),
+            "floor_label": torch.from_numpy(a["floor_label"].astype(np.float32)),
+            "robot": torch.from_numpy(a["descriptor"].astype(np.float32)),
+            "scene_id": sid,
+            "config_index": c,
+            "episode_index": e,
+            "robot_name": robot,
+        }
+        return self.transform(sample) if self.transform else sample
+
+    def close(self) -> None:
+        for shard in self._open.values():
+            shard.close()
+        self._open.clear()
+
+    def __getstate__(self) -> dict[str, Any]:
+        # Open HDF5 handles do not pickle (spawned DataLoader workers): reopen lazily.
+        state = self.__dict__.copy()
+        state["_open"] = OrderedDict()
+        return state
+
+    def __del__(self) -> None:
+        try:
+            self.close()
+        except Exception:  # interpreter shutdown
+            pass
