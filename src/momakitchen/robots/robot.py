@@ -717,12 +717,26 @@ class Robot:
         self._require_gripper()
         self._drive_fingers(0.0)
 
-    def is_grasping(self, body: int, min_force: float = 0.5) -> bool:
-        """Both fingers press on ``body`` with at least ``min_force`` newtons."""
+    def is_grasping(self, body: int, min_force: float = 0.5,
+                    max_angle: float = math.radians(85)) -> bool:
+        """Both fingers press on ``body``: at least ``min_force`` newtons each, along
+        contact normals within ``max_angle`` of the finger's closing direction (a tip
+        resting on the object is not a grasp; ManiSkill's test has the same shape)."""
         self._require_gripper()
+        c = self.client
+        cos_max = math.cos(max_angle)
         for j in self.finger_joints:
-            pts = p.getContactPoints(self.body, body, linkIndexA=j, physicsClientId=self.client)
-            if sum(pt[9] for pt in pts) < min_force:
+            # Opening direction of this finger in the world (its prismatic axis).
+            _, orn = self.link_pose(j)
+            local = np.asarray(p.getJointInfo(self.body, j, physicsClientId=c)[13], float)
+            opening = np.array(p.getMatrixFromQuaternion(orn)).reshape(3, 3) @ local
+            force = 0.0
+            for pt in p.getContactPoints(self.body, body, linkIndexA=j, physicsClientId=c):
+                # The normal on the object points from the object to the finger, i.e. along
+                # the finger's opening direction when the finger squeezes the object.
+                if float(np.dot(pt[7], opening)) >= cos_max:
+                    force += pt[9]
+            if force < min_force:
                 return False
         return True
 
