@@ -45,6 +45,9 @@ class AffordanceHead(nn.Module):
         self.mlp = PointMLP(in_channels + robot_ch, [hidden])
         self.drop = nn.Dropout(dropout)
         self.out = nn.Linear(hidden, 1)
+        # Start from a flat 0.5 map: with random output weights the first steps spend
+        # themselves shrinking those weights (to lower the mean), which stalls learning.
+        nn.init.zeros_(self.out.weight)
 
     def forward(self, feats: torch.Tensor, robot: torch.Tensor) -> torch.Tensor:
         if self.use_robot:

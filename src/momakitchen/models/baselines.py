@@ -30,27 +30,41 @@ from momakitchen.models.pointnet2 import (
     PointMLP,
     SetAbstractionMSG,
     ball_query,
+    fourier_channels,
+    fourier_features,
     gather_points,
     masked_max,
 )
 
-UNION_CHANNELS = 3 + 3 + 1 + 1  # xyz, rgb, alignment, is-floor
+
+def union_channels(pos_freqs: int) -> int:
+    return fourier_channels(pos_freqs) + 3 + 1 + 1  # encoded xyz, rgb, alignment, is-floor
 
 
-def union_cloud(batch: dict[str, Any]) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+def union_cloud(
+    batch: dict[str, Any], pos_freqs: int
+) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
     """The global and floor clouds as one cloud with per-point features.
 
     Shapes:
-        - output: xyz (B, Ng+Nf, 3), feats (B, Ng+Nf, 8), mask (B, Ng+Nf) bool
+        - output: xyz (B, Ng+Nf, 3), feats (B, Ng+Nf, ``union_channels``), mask
+          (B, Ng+Nf) bool
     """
     gxyz, fxyz = batch["global_xyz"], batch["floor_xyz"]
     b, nf = fxyz.shape[:2]
     ng = gxyz.shape[1]
     gfeat = torch.cat(
-        [gxyz, batch["global_rgb"], batch["global_align"].unsqueeze(-1), gxyz.new_zeros(b, ng, 1)],
+        [
+            fourier_features(gxyz, pos_freqs),
+            batch["global_rgb"],
+            batch["global_align"].unsqueeze(-1),
+            gxyz.new_zeros(b, ng, 1),
+        ],
         -1,
     )
-    ffeat = torch.cat([fxyz, fxyz.new_zeros(b, nf, 4), fxyz.new_ones(b, nf, 1)], -1)
+    ffeat = torch.cat(
+        [fourier_features(fxyz, pos_freqs), fxyz.new_zeros(b, nf, 4), fxyz.new_ones(b, nf, 1)], -1
+    )
     xyz = torch.cat([gxyz, fxyz], 1)
     mask = torch.cat([batch["global_mask"], batch["floor_mask"]], 1)
     return xyz, torch.cat([gfeat, ffeat], 1), mask
@@ -64,7 +78,7 @@ class _Encoder(nn.Module):
         ch, ns = cfg.ch, cfg.ns
         g1, g2 = cfg.global_npoints
         self.sa1 = SetAbstractionMSG(
-            g1, (0.1, 0.2, 0.4), (ns(16), ns(32), ns(64)), UNION_CHANNELS,
+            g1, (0.1, 0.2, 0.4), (ns(16), ns(32), ns(64)), union_channels(cfg.pos_freqs),
             [[ch(32), ch(32), ch(64)], [ch(64), ch(64), ch(128)], [ch(64), ch(96), ch(128)]],
         )
         self.sa2 = SetAbstractionMSG(
@@ -97,16 +111,17 @@ class PointNet2Backbone(Backbone):
         e = self.encoder
         self.fp3 = FeaturePropagation(e.sa2.out_channels + e.sa3.out_channels, [ch(256), ch(256)])
         self.fp2 = FeaturePropagation(e.sa1.out_channels + ch(256), [ch(256), ch(128)])
-        self.fp1 = FeaturePropagation(3 + ch(128), [ch(128), ch(128)])
+        self.pos_freqs = cfg.pos_freqs
+        self.fp1 = FeaturePropagation(fourier_channels(cfg.pos_freqs) + ch(128), [ch(128), ch(128)])
         self.out_channels = ch(128)
 
     def forward(self, batch: dict[str, Any]) -> torch.Tensor:
-        xyz, feats, mask = union_cloud(batch)
+        xyz, feats, mask = union_cloud(batch, self.pos_freqs)
         (x1, f1, m1), (x2, f2, m2), (x3, f3, m3) = self.encoder(xyz, feats, mask)
         u2 = self.fp3(x2, x3, f2, f3, m3)
         u1 = self.fp2(x1, x2, f1, u2, m2)
         fxyz = batch["floor_xyz"]
-        return self.fp1(fxyz, x1, fxyz, u1, m1)
+        return self.fp1(fxyz, x1, fourier_features(fxyz, self.pos_freqs), u1, m1)
 
 
 class VotingModule(nn.Module):
@@ -140,9 +155,10 @@ class _SeedNet(nn.Module):
         e = self.encoder
         self.fp = FeaturePropagation(e.sa2.out_channels + e.sa3.out_channels, [ch(256), ch(256)])
         self.out_channels = ch(256)
+        self.pos_freqs = cfg.pos_freqs
 
     def forward(self, batch):
-        xyz, feats, mask = union_cloud(batch)
+        xyz, feats, mask = union_cloud(batch, self.pos_freqs)
         l1, (x2, f2, m2), (x3, f3, m3) = self.encoder(xyz, feats, mask)
         return l1, x2, self.fp(x2, x3, f2, f3, m3), m2
 
@@ -164,7 +180,7 @@ class VoteNetBackbone(Backbone):
             cfg.num_tokens, (0.3,), (ns(16),), c, [[ch(128), ch(128), ch(128)]]
         )
         self.proposal = PointMLP(ch(128), [ch(128), ch(128)])
-        self.fp_seed = FeaturePropagation(3 + c, [ch(128), ch(128)])
+        self.fp_seed = FeaturePropagation(fourier_channels(cfg.pos_freqs) + c, [ch(128), ch(128)])
         self.fp_prop = FeaturePropagation(ch(128) + ch(128), [ch(128), ch(128)])
         self.out_channels = ch(128)
 
@@ -174,7 +190,8 @@ class VoteNetBackbone(Backbone):
         pxyz, pfeat, pmask = self.aggregate(vxyz, vfeat, smask)
         pfeat = self.proposal(pfeat)
         fxyz = batch["floor_xyz"]
-        x = self.fp_seed(fxyz, sxyz, fxyz, sfeat, smask)
+        fpos = fourier_features(fxyz, self.seeds.pos_freqs)
+        x = self.fp_seed(fxyz, sxyz, fpos, sfeat, smask)
         return self.fp_prop(fxyz, pxyz, x, pfeat, pmask)
 
 
@@ -207,7 +224,7 @@ class H3DNetBackbone(Backbone):
         self.primitive_k = ns(16)
         self.refine_group = PointMLP(3 + ch(128) + 2, [ch(128), ch(128)], norm=False)
         self.refine = PointMLP(2 * ch(128), [ch(128), ch(128)])
-        self.fp_seed = FeaturePropagation(3 + c, [ch(128), ch(128)])
+        self.fp_seed = FeaturePropagation(fourier_channels(cfg.pos_freqs) + c, [ch(128), ch(128)])
         self.fp_prop = FeaturePropagation(ch(128) + ch(128), [ch(128), ch(128)])
         self.out_channels = ch(128)
 
@@ -234,5 +251,6 @@ class H3DNetBackbone(Backbone):
         ctx = masked_max(grouped, gmask & cmask.unsqueeze(-1), dim=2)
         pfeat = self.refine(torch.cat([cfeat, ctx], -1))
         fxyz = batch["floor_xyz"]
-        x = self.fp_seed(fxyz, sxyz, fxyz, sfeat, smask)
+        fpos = fourier_features(fxyz, self.seeds.pos_freqs)
+        x = self.fp_seed(fxyz, sxyz, fpos, sfeat, smask)
         return self.fp_prop(fxyz, cxyz, x, pfeat, cmask)

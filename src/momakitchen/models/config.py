@@ -25,6 +25,7 @@ class ModelConfig:
         floor_npoints: centroids of the first floor set abstraction (the second yields
             ``num_tokens``).
         nsample_scale: multiplier of the neighbour counts (16, 32, 64 per scale).
+        pos_freqs: sine/cosine frequencies of the point-position encoding (0: raw xyz).
         lambda_zero: weighted-MSE weight on zero-valued labels (0.7).
         zero_weight_prob: probability that a training step applies ``lambda_zero`` (0.5).
     """
@@ -39,6 +40,7 @@ class ModelConfig:
     global_npoints: tuple[int, int] = (1024, 256)
     floor_npoints: int = 256
     nsample_scale: float = 1.0
+    pos_freqs: int = 4
     lambda_zero: float = 0.7
     zero_weight_prob: float = 0.5
 
@@ -69,6 +71,8 @@ class ModelConfig:
             raise bad("floor_npoints", f"must be >= num_tokens={self.num_tokens}")
         if not 0.05 <= self.nsample_scale <= 4.0:
             raise bad("nsample_scale", "must be in [0.05, 4]")
+        if not 0 <= self.pos_freqs <= 12:
+            raise bad("pos_freqs", "must be in [0, 12]")
         if self.lambda_zero < 0:
             raise bad("lambda_zero", "must be >= 0")
         if not 0.0 <= self.zero_weight_prob <= 1.0:

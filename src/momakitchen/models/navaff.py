@@ -20,7 +20,13 @@ from torch import nn
 
 from momakitchen.models.base import Backbone
 from momakitchen.models.config import ModelConfig
-from momakitchen.models.pointnet2 import FeaturePropagation, PointMLP, SetAbstractionMSG
+from momakitchen.models.pointnet2 import (
+    FeaturePropagation,
+    PointMLP,
+    SetAbstractionMSG,
+    fourier_channels,
+    fourier_features,
+)
 from momakitchen.robots.spec import DESCRIPTOR_DIM
 
 
@@ -31,13 +37,14 @@ class Tokenizer(nn.Module):
         - input: ``feats`` (B, T, C), ``xyz`` (B, T, 3); output: (B, T, E)
     """
 
-    def __init__(self, in_channels: int, dim: int) -> None:
+    def __init__(self, in_channels: int, dim: int, pos_freqs: int) -> None:
         super().__init__()
+        self.pos_freqs = pos_freqs
         self.feat = PointMLP(in_channels, [dim, dim], last_act=False)
-        self.pos = PointMLP(3, [dim // 2, dim], last_act=False)
+        self.pos = PointMLP(fourier_channels(pos_freqs), [dim // 2, dim], last_act=False)
 
     def forward(self, feats: torch.Tensor, xyz: torch.Tensor) -> torch.Tensor:
-        return self.feat(feats) + self.pos(xyz)
+        return self.feat(feats) + self.pos(fourier_features(xyz, self.pos_freqs))
 
 
 class CrossAttentionBlock(nn.Module):
@@ -91,7 +98,7 @@ class GlobalEncoder(nn.Module):
             cfg.num_tokens, (0.4, 0.8), (ns(16), ns(32)), self.sa2.out_channels,
             [[ch(256), ch(256), ch(512)], [ch(256), ch(256), ch(512)]],
         )
-        self.tokenizer = Tokenizer(self.sa3.out_channels, cfg.embed_dim)
+        self.tokenizer = Tokenizer(self.sa3.out_channels, cfg.embed_dim, cfg.pos_freqs)
 
     def forward(
         self, xyz: torch.Tensor, feats: torch.Tensor, mask: torch.Tensor
@@ -146,19 +153,22 @@ class NavAffBackbone(Backbone):
         self.use_global = use_global
         ch, ns, dim = cfg.ch, cfg.ns, cfg.embed_dim
         if use_global:
-            in_ch = 3 + 3 + (1 if use_alignment else 0)  # xyz, rgb, alignment
+            # encoded xyz, rgb, alignment
+            in_ch = fourier_channels(cfg.pos_freqs) + 3 + (1 if use_alignment else 0)
             self.global_encoder = GlobalEncoder(cfg, in_ch)
         if use_robot:
             self.robot_tokenizer = RobotTokenizer(dim, cfg.num_robot_tokens)
+        self.pos_freqs = cfg.pos_freqs
+        pos_ch = fourier_channels(cfg.pos_freqs)
         self.floor_sa1 = SetAbstractionMSG(
-            cfg.floor_npoints, (0.1, 0.2), (ns(16), ns(32)), 3,
+            cfg.floor_npoints, (0.1, 0.2), (ns(16), ns(32)), pos_ch,
             [[ch(32), ch(32), ch(64)], [ch(64), ch(64), ch(128)]],
         )
         self.floor_sa2 = SetAbstractionMSG(
             cfg.num_tokens, (0.2, 0.4), (ns(16), ns(32)), self.floor_sa1.out_channels,
             [[ch(128), ch(128), ch(256)], [ch(128), ch(128), ch(256)]],
         )
-        self.floor_tokenizer = Tokenizer(self.floor_sa2.out_channels, dim)
+        self.floor_tokenizer = Tokenizer(self.floor_sa2.out_channels, dim, cfg.pos_freqs)
         self.blocks = nn.ModuleList(
             CrossAttentionBlock(dim, cfg.num_heads, cfg.dropout)
             for _ in range(cfg.attention_layers)
@@ -166,7 +176,7 @@ class NavAffBackbone(Backbone):
         self.fp2 = FeaturePropagation(
             self.floor_sa1.out_channels + dim, [ch(256), ch(256)]
         )
-        self.fp1 = FeaturePropagation(3 + self.fp2.out_channels, [ch(128), ch(128)])
+        self.fp1 = FeaturePropagation(pos_ch + self.fp2.out_channels, [ch(128), ch(128)])
         self.out_channels = self.fp1.out_channels
 
     def forward(self, batch: dict[str, Any]) -> torch.Tensor:
@@ -174,7 +184,7 @@ class NavAffBackbone(Backbone):
         b = fxyz.shape[0]
         keys, pads = [], []
         if self.use_global:
-            parts = [batch["global_xyz"], batch["global_rgb"]]
+            parts = [fourier_features(batch["global_xyz"], self.pos_freqs), batch["global_rgb"]]
             if self.use_alignment:
                 parts.append(batch["global_align"].unsqueeze(-1))
             gtok, _, gm = self.global_encoder(batch["global_xyz"], torch.cat(parts, -1),
@@ -187,10 +197,11 @@ class NavAffBackbone(Backbone):
             pads.append(torch.zeros(b, rtok.shape[1], dtype=torch.bool, device=fxyz.device))
         kv, kv_pad = torch.cat(keys, 1), torch.cat(pads, 1)
 
-        x1, f1, m1 = self.floor_sa1(fxyz, fxyz, fmask)
+        fpos = fourier_features(fxyz, self.pos_freqs)
+        x1, f1, m1 = self.floor_sa1(fxyz, fpos, fmask)
         x2, f2, m2 = self.floor_sa2(x1, f1, m1)
         q = self.floor_tokenizer(f2, x2)
         for block in self.blocks:
             q = block(q, kv, kv_pad)
         up1 = self.fp2(x1, x2, f1, q, m2)
-        return self.fp1(fxyz, x1, fxyz, up1, m1)
+        return self.fp1(fxyz, x1, fpos, up1, m1)

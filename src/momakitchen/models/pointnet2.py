@@ -13,6 +13,7 @@ padded entry cannot change the statistics seen by a real one.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -20,6 +21,26 @@ import torch
 from torch import nn
 
 _BIG = 1e10
+
+
+def fourier_features(xyz: torch.Tensor, num_freqs: int) -> torch.Tensor:
+    """Positions with sine/cosine encodings at wavelengths 4 m, 2 m, 1 m, ... (halving).
+
+    Spatial functions such as "about 0.6 m from the target" are far easier to fit from
+    these than from raw coordinates.
+
+    Shapes:
+        - ``xyz``: (..., 3); output: (..., 3 + 6 * num_freqs)
+    """
+    if num_freqs == 0:
+        return xyz
+    freqs = (math.pi / 2) * 2.0 ** torch.arange(num_freqs, dtype=xyz.dtype, device=xyz.device)
+    angles = (xyz.unsqueeze(-1) * freqs).flatten(-2)
+    return torch.cat([xyz, torch.sin(angles), torch.cos(angles)], -1)
+
+
+def fourier_channels(num_freqs: int) -> int:
+    return 3 + 6 * num_freqs
 
 
 def gather_points(values: torch.Tensor, idx: torch.Tensor) -> torch.Tensor:

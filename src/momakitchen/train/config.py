@@ -1,0 +1,163 @@
+"""Training configuration and the ``paper`` / ``cpu`` presets."""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field, fields
+from typing import Any
+
+from momakitchen.errors import MomaError
+from momakitchen.models.config import ModelConfig
+from momakitchen.models.registry import get_model_entry
+
+PRESETS = ("paper", "cpu")
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    """Everything that defines a training run (saved as JSON next to the checkpoint).
+
+    Attributes:
+        model: registry name (``navaff``, ``pointnet2``, ...).
+        preset: name of the preset it was derived from (``paper``, ``cpu``, or ``custom``).
+        model_config: model sizes and loss weights.
+        num_global, num_floor: point counts the collator pads / samples each episode to.
+        epochs, batch_size: schedule (batch size per process under DDP).
+        lr, weight_decay, betas: Adam; the learning rate decays to ``lr * min_lr_ratio``
+            with a cosine over all steps.
+        grad_clip: gradient-norm clip (0 disables).
+        seed: seeds model init, shuffling, dropout and the weighted-MSE draws.
+        num_workers: DataLoader workers.
+        num_threads: torch intra-op threads per process (0: leave torch's default; under
+            DDP the default is the CPU count divided by the number of processes).
+        max_steps: stop after this many optimiser steps in total (0: no limit); the
+            cosine schedule then spans ``max_steps``.
+        log_every: write a training row to the CSV log every this many steps.
+        val_every, checkpoint_every: validate / write the checkpoint, log and loss curve
+            every this many epochs (and always after the last one).
+        progress: show tqdm progress bars (rank 0 only).
+    """
+
+    model: str = "navaff"
+    preset: str = "paper"
+    model_config: ModelConfig = field(default_factory=ModelConfig)
+    num_global: int = 8192
+    num_floor: int = 2048
+    epochs: int = 6
+    batch_size: int = 64
+    lr: float = 8e-4
+    weight_decay: float = 1e-3
+    betas: tuple[float, float] = (0.9, 0.999)
+    min_lr_ratio: float = 0.0
+    grad_clip: float = 0.0
+    seed: int = 0
+    num_workers: int = 0
+    num_threads: int = 0
+    max_steps: int = 0
+    log_every: int = 10
+    val_every: int = 1
+    checkpoint_every: int = 1
+    progress: bool = True
+
+    def __post_init__(self) -> None:
+        def bad(name: str, rule: str) -> MomaError:
+            return MomaError(f"TrainConfig.{name} {rule}, got {getattr(self, name)!r}")
+
+        get_model_entry(self.model)
+        if self.preset not in (*PRESETS, "custom"):
+            raise bad("preset", f"must be one of {(*PRESETS, 'custom')}")
+        if not isinstance(self.model_config, ModelConfig):
+            raise bad("model_config", "must be a ModelConfig")
+        if self.num_global < self.model_config.global_npoints[0] // 4:
+            raise bad("num_global", "is far below the first set abstraction's centroid count")
+        if self.num_floor < 8:
+            raise bad("num_floor", "must be >= 8")
+        if self.epochs < 1:
+            raise bad("epochs", "must be >= 1")
+        if self.batch_size < 1:
+            raise bad("batch_size", "must be >= 1")
+        if not 0 < self.lr < 1:
+            raise bad("lr", "must be in (0, 1)")
+        if self.weight_decay < 0:
+            raise bad("weight_decay", "must be >= 0")
+        b = tuple(self.betas)
+        if len(b) != 2 or not all(0 <= x < 1 for x in b):
+            raise bad("betas", "must be two values in [0, 1)")
+        object.__setattr__(self, "betas", (float(b[0]), float(b[1])))
+        if not 0 <= self.min_lr_ratio <= 1:
+            raise bad("min_lr_ratio", "must be in [0, 1]")
+        if self.grad_clip < 0:
+            raise bad("grad_clip", "must be >= 0")
+        if self.num_workers < 0:
+            raise bad("num_workers", "must be >= 0")
+        if self.num_threads < 0:
+            raise bad("num_threads", "must be >= 0")
+        if self.max_steps < 0:
+            raise bad("max_steps", "must be >= 0")
+        for name in ("log_every", "val_every", "checkpoint_every"):
+            if getattr(self, name) < 1:
+                raise bad(name, "must be >= 1")
+
+    def replace(self, **changes: Any) -> TrainConfig:
+        """A copy with some fields changed (validated again)."""
+        return dataclasses.replace(self, **changes)
+
+    def replace_model(self, **changes: Any) -> TrainConfig:
+        """A copy with some ``model_config`` fields changed."""
+        return dataclasses.replace(
+            self, model_config=dataclasses.replace(self.model_config, **changes)
+        )
+
+    def to_dict(self) -> dict[str, Any]:
+        d = {f.name: getattr(self, f.name) for f in fields(self)}
+        d["model_config"] = self.model_config.to_dict()
+        d["betas"] = list(self.betas)
+        return d
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> TrainConfig:
+        known = {f.name for f in fields(cls)}
+        unknown = set(data) - known
+        if unknown:
+            raise MomaError(f"unknown training config fields {sorted(unknown)}")
+        d = dict(data)
+        if "model_config" in d:
+            d["model_config"] = ModelConfig.from_dict(d["model_config"])
+        if "betas" in d:
+            d["betas"] = tuple(d["betas"])
+        return cls(**d)
+
+
+def preset_config(preset: str, model: str = "navaff", **overrides: Any) -> TrainConfig:
+    """The training config of a preset for a model, with optional field overrides.
+
+    ``paper``: the reference hyper-parameters (DESIGN.md §3.6: batch 64, 6 epochs, embedding
+    512, 64 tokens, 4 heads, dropout 0.1) with 8192 global and 2048 floor points.
+    ``cpu``: the same recipe with point counts and widths that train on 2 CPU cores:
+    2048 global / 1024 floor points, embedding 128, 32 tokens, quarter-width PointNet++
+    MLPs, half the neighbours per ball, batch 16.
+    """
+    if preset == "paper":
+        cfg = TrainConfig(model=model, preset="paper")
+    elif preset == "cpu":
+        cfg = TrainConfig(
+            model=model,
+            preset="cpu",
+            model_config=ModelConfig(
+                embed_dim=128,
+                num_tokens=32,
+                num_heads=4,
+                dropout=0.1,
+                num_robot_tokens=4,
+                width=0.25,
+                global_npoints=(512, 128),
+                floor_npoints=128,
+                nsample_scale=0.5,
+            ),
+            num_global=2048,
+            num_floor=1024,
+            batch_size=16,
+        )
+    else:
+        raise MomaError(f"unknown preset {preset!r}; known presets: {', '.join(PRESETS)}")
+    return cfg.replace(**overrides) if overrides else cfg

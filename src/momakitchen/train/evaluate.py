@@ -1,0 +1,76 @@
+"""Evaluation API: predictions for a batch, map metrics of a trained run on a dataset."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import torch
+from torch.utils.data import DataLoader, Dataset
+from tqdm.auto import tqdm
+
+from momakitchen.data.batch import EpisodeCollator, episode_maps
+from momakitchen.errors import MomaError
+from momakitchen.eval.metrics import breakdown, map_metrics
+from momakitchen.models.base import AffordanceModel
+from momakitchen.train.checkpoint import load_checkpoint
+
+
+@torch.no_grad()
+def predict_batch(model: AffordanceModel, batch: dict[str, Any]) -> torch.Tensor:
+    """Affordance values of the floor points of a collated batch (eval mode, no labels used).
+
+    Shapes:
+        - input: a batch (see :mod:`momakitchen.data.batch`)
+        - output: (B, Nf) in [0, 1]; 0 on padded floor points
+    """
+    was_training = model.training
+    model.eval()
+    unlabeled = {k: v for k, v in batch.items() if k != "floor_label"}
+    pred = model(unlabeled)["pred"]
+    model.train(was_training)
+    return pred
+
+
+def evaluate(
+    run_dir: str | Path,
+    dataset: Dataset,
+    batch_size: int = 8,
+    num_workers: int = 0,
+    progress: bool = False,
+) -> dict[str, Any]:
+    """Map metrics of the model in ``run_dir`` on every episode of ``dataset``.
+
+    Global clouds are reduced to the run's ``num_global`` points as in training; every
+    floor point of an episode is predicted (floor clouds are padded, never sampled down).
+
+    Returns ``{"model", "preset", "episodes", "metrics", "per_robot", "per_scene"}``
+    where ``metrics`` maps ``METRIC_NAMES`` to floats and the breakdowns map a robot name
+    or scene id to metrics plus an ``episodes`` count.
+    """
+    if len(dataset) == 0:
+        raise MomaError("the evaluation dataset is empty")
+    if batch_size < 1:
+        raise MomaError(f"batch_size must be >= 1, got {batch_size}")
+    run = load_checkpoint(run_dir)
+    collate = EpisodeCollator(run.config.num_global, None, run.config.seed)
+    loader = DataLoader(
+        dataset, batch_size=batch_size, shuffle=False, collate_fn=collate, num_workers=num_workers
+    )
+    preds, gts, scenes, robots = [], [], [], []
+    for batch in tqdm(loader, desc="evaluate", disable=not progress):
+        if "floor_label" not in batch:
+            raise MomaError("evaluation needs floor labels (floor_label) in every episode")
+        p, g = episode_maps(batch, predict_batch(run.model, batch))
+        preds += p
+        gts += g
+        scenes += list(batch["scene_id"])
+        robots += list(batch["robot_name"])
+    return {
+        "model": run.config.model,
+        "preset": run.config.preset,
+        "episodes": len(preds),
+        "metrics": map_metrics(preds, gts),
+        "per_robot": breakdown(preds, gts, robots),
+        "per_scene": breakdown(preds, gts, scenes),
+    }

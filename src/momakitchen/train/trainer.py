@@ -1,0 +1,356 @@
+"""The training loop: Adam + cosine decay, checkpoints and resume, CSV log, loss curve, DDP.
+
+``train(config, train_set, val_set, out_dir)`` takes torch Datasets that follow the batch
+contract (:mod:`momakitchen.data.batch`), so the same loop trains on synthetic episodes or
+on the HDF5 dataset. Under ``torchrun`` (``WORLD_SIZE`` > 1) it joins a gloo process group,
+wraps the model in DistributedDataParallel and shards the training set by sample with a
+DistributedSampler; rank 0 validates, logs and writes checkpoints.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+import os
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import torch
+import torch.distributed as dist
+from torch.nn.parallel import DistributedDataParallel
+from torch.utils.data import DataLoader, Dataset, DistributedSampler
+from tqdm.auto import tqdm
+
+from momakitchen.data.batch import EpisodeCollator, episode_maps
+from momakitchen.errors import MomaError
+from momakitchen.eval.metrics import map_metrics
+from momakitchen.fileio import atomic_write_bytes, atomic_write_text
+from momakitchen.models.base import AffordanceModel
+from momakitchen.models.registry import build_model
+from momakitchen.train.checkpoint import (
+    WEIGHTS_FILE,
+    has_checkpoint,
+    load_trainer_state,
+    load_weights,
+    read_run_config,
+    save_trainer_state,
+    save_weights,
+    write_run_config,
+)
+from momakitchen.train.config import TrainConfig
+
+LOG_FILE = "log.csv"
+CURVE_FILE = "loss_curve.png"
+LOG_COLUMNS = (
+    "kind",
+    "epoch",
+    "step",
+    "lr",
+    "loss",
+    "mse",
+    "val_loss",
+    "val_mae",
+    "val_rmse",
+    "val_pcc",
+    "val_sim",
+    "samples",
+    "samples_per_s",
+    "seconds",
+)
+
+
+@dataclass
+class TrainResult:
+    """What :func:`train` returns (on every rank; ``history`` is complete on rank 0)."""
+
+    run_dir: Path
+    model: AffordanceModel
+    history: list[dict[str, Any]] = field(default_factory=list)
+    global_step: int = 0
+
+
+def cosine_lr(config: TrainConfig, step: int, total_steps: int) -> float:
+    """Learning rate at ``step`` (0-based) of ``total_steps``: cosine from lr to lr*min."""
+    t = min(step, total_steps) / max(total_steps, 1)
+    floor = config.lr * config.min_lr_ratio
+    return floor + (config.lr - floor) * 0.5 * (1.0 + math.cos(math.pi * t))
+
+
+def _dist_setup() -> tuple[int, int, bool]:
+    world = int(os.environ.get("WORLD_SIZE", "1"))
+    created = False
+    if world > 1 and not dist.is_initialized():
+        dist.init_process_group("gloo")
+        created = True
+    if dist.is_initialized():
+        return dist.get_rank(), dist.get_world_size(), created
+    return 0, 1, created
+
+
+def _barrier(world: int) -> None:
+    if world > 1:
+        dist.barrier()
+
+
+def _check_resume(config: TrainConfig, run_dir: Path, resume: bool) -> bool:
+    """Whether to resume; raises MomaError on a mismatching or unexpected checkpoint."""
+    if not has_checkpoint(run_dir):
+        return False
+    if not resume:
+        raise MomaError(
+            f"run directory {str(run_dir)!r} already holds a checkpoint; pass resume=True "
+            "to continue it or choose another directory"
+        )
+    saved, _ = read_run_config(run_dir)
+    if saved.model != config.model:
+        raise MomaError(
+            f"cannot resume: {str(run_dir)!r} holds model {saved.model!r}, "
+            f"the config asks for {config.model!r}"
+        )
+    if saved.model_config != config.model_config:
+        raise MomaError(
+            f"cannot resume: model sizes in {str(run_dir)!r} differ from the config "
+            f"({saved.model_config} vs {config.model_config})"
+        )
+    return True
+
+
+def _read_log(path: Path, max_step: int) -> list[dict[str, str]]:
+    if not path.is_file():
+        return []
+    with path.open(newline="") as fh:
+        return [r for r in csv.DictReader(fh) if int(r["step"]) <= max_step]
+
+
+def _write_log(path: Path, rows: list[dict[str, Any]]) -> None:
+    buf = io.StringIO()
+    writer = csv.DictWriter(buf, fieldnames=LOG_COLUMNS, extrasaction="ignore")
+    writer.writeheader()
+    for r in rows:
+        writer.writerow({k: r.get(k, "") for k in LOG_COLUMNS})
+    atomic_write_text(path, buf.getvalue())
+
+
+def plot_loss_curve(rows: list[dict[str, Any]], path: Path, title: str = "") -> None:
+    """Training loss per logged step and validation loss per epoch, log scale, as PNG."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(6, 4), dpi=100)
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot(1, 1, 1)
+    tr = [(int(r["step"]), float(r["loss"])) for r in rows if r["kind"] == "train"]
+    va = [
+        (int(r["step"]), float(r["val_loss"]))
+        for r in rows
+        if r["kind"] == "epoch" and r.get("val_loss") not in ("", None)
+    ]
+    ep = [(int(r["step"]), float(r["loss"])) for r in rows if r["kind"] == "epoch"]
+    if tr:
+        ax.plot(*zip(*tr, strict=True), lw=1, alpha=0.6, label="train (step)")
+    if ep:
+        ax.plot(*zip(*ep, strict=True), "o-", label="train (epoch mean)")
+    if va:
+        ax.plot(*zip(*va, strict=True), "s-", label="validation MSE")
+    ax.set_xlabel("step")
+    ax.set_ylabel("loss")
+    if tr or va:
+        ax.set_yscale("log")
+        ax.legend()
+    ax.set_title(title)
+    ax.grid(True, alpha=0.3)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png")
+    atomic_write_bytes(path, buf.getvalue())
+
+
+@torch.no_grad()
+def validate(
+    model: AffordanceModel, loader: DataLoader, progress: bool = False
+) -> dict[str, float]:
+    """Plain masked MSE over all real floor points and the map metrics of the episodes."""
+    was_training = model.training
+    model.eval()
+    sq_sum, count = 0.0, 0
+    preds, gts = [], []
+    for batch in tqdm(loader, desc="validate", leave=False, disable=not progress):
+        out = model(batch)
+        mask = batch["floor_mask"]
+        sq_sum += float(((out["pred"] - batch["floor_label"]).square() * mask).sum())
+        count += int(mask.sum())
+        p, g = episode_maps(batch, out["pred"])
+        preds += p
+        gts += g
+    model.train(was_training)
+    metrics = map_metrics(preds, gts)
+    return {
+        "val_loss": sq_sum / max(count, 1),
+        "val_mae": metrics["mae"],
+        "val_rmse": metrics["rmse"],
+        "val_pcc": metrics["pcc"],
+        "val_sim": metrics["sim"],
+    }
+
+
+def train(
+    config: TrainConfig,
+    train_set: Dataset,
+    val_set: Dataset | None,
+    out_dir: str | Path,
+    resume: bool = False,
+) -> TrainResult:
+    """Train ``config.model`` on ``train_set``; validate on ``val_set`` after each epoch.
+
+    Writes ``config.json``, ``model.safetensors``, the trainer state, ``log.csv`` and
+    ``loss_curve.png`` into ``out_dir`` after every epoch. With ``resume=True`` a run
+    directory that holds a checkpoint continues after its last finished epoch (same model
+    and sizes required); without it, such a directory is refused.
+    """
+    if len(train_set) == 0:
+        raise MomaError("the training set is empty")
+    run_dir = Path(out_dir)
+    rank, world, created_group = _dist_setup()
+    try:
+        return _train(config, train_set, val_set, run_dir, resume, rank, world)
+    finally:
+        if created_group:
+            dist.destroy_process_group()
+
+
+def _train(
+    config: TrainConfig,
+    train_set: Dataset,
+    val_set: Dataset | None,
+    run_dir: Path,
+    resume: bool,
+    rank: int,
+    world: int,
+) -> TrainResult:
+    if config.num_threads:
+        torch.set_num_threads(config.num_threads)
+    elif world > 1:
+        torch.set_num_threads(max(1, (os.cpu_count() or 1) // world))
+    resuming = _check_resume(config, run_dir, resume)
+    if rank == 0:
+        run_dir.mkdir(parents=True, exist_ok=True)
+        if not resuming:
+            write_run_config(run_dir, config)
+    _barrier(world)
+
+    torch.manual_seed(config.seed)
+    model = build_model(config.model, config.model_config)
+    optimizer = torch.optim.Adam(
+        model.parameters(), lr=config.lr, betas=config.betas, weight_decay=config.weight_decay
+    )
+    progress: dict[str, Any] = {"epoch": 0, "global_step": 0, "history": []}
+    if resuming:
+        load_weights(run_dir / WEIGHTS_FILE, model)
+        progress = load_trainer_state(run_dir, optimizer)
+    if world > 1 or not resuming:
+        torch.manual_seed(config.seed * 7919 + 1 + rank + 131 * progress["epoch"])
+
+    collate = EpisodeCollator(config.num_global, config.num_floor, config.seed)
+    sampler = DistributedSampler(
+        train_set, num_replicas=world, rank=rank, shuffle=True, seed=config.seed
+    )
+    loader = DataLoader(
+        train_set,
+        batch_size=config.batch_size,
+        sampler=sampler,
+        collate_fn=collate,
+        num_workers=config.num_workers,
+    )
+    val_loader = None
+    if val_set is not None and len(val_set) > 0 and rank == 0:
+        val_loader = DataLoader(
+            val_set, batch_size=config.batch_size, shuffle=False, collate_fn=collate,
+            num_workers=config.num_workers,
+        )
+    total_steps = config.epochs * len(loader)
+    if config.max_steps:
+        total_steps = min(total_steps, config.max_steps)
+    net: torch.nn.Module = DistributedDataParallel(model) if world > 1 else model
+
+    log_path = run_dir / LOG_FILE
+    rows: list[dict[str, Any]] = []
+    if rank == 0:
+        rows = _read_log(log_path, progress["global_step"]) if resuming else []
+    step = progress["global_step"]
+    history: list[dict[str, Any]] = list(progress["history"])
+    show = config.progress and rank == 0
+
+    for epoch in range(progress["epoch"], config.epochs):
+        if step >= total_steps:
+            break
+        sampler.set_epoch(epoch)
+        net.train()
+        t0 = time.perf_counter()
+        loss_sum = torch.zeros(3, dtype=torch.float64)  # loss*B, mse*B, samples
+        bar = tqdm(loader, desc=f"epoch {epoch + 1}/{config.epochs}", leave=False,
+                   disable=not show)
+        for batch in bar:
+            if step >= total_steps:
+                break
+            lr = cosine_lr(config, step, total_steps)
+            for group in optimizer.param_groups:
+                group["lr"] = lr
+            out = net(batch)
+            optimizer.zero_grad(set_to_none=True)
+            out["loss"].backward()
+            if config.grad_clip:
+                torch.nn.utils.clip_grad_norm_(model.parameters(), config.grad_clip)
+            optimizer.step()
+            step += 1
+            b = batch["floor_xyz"].shape[0]
+            loss_val = out["loss"].detach().item()
+            loss_sum += torch.tensor([loss_val * b, out["mse"].item() * b, b])
+            if show:
+                bar.set_postfix(loss=f"{loss_val:.4f}")
+            if rank == 0 and (step % config.log_every == 0 or step == 1):
+                rows.append(
+                    {"kind": "train", "epoch": epoch + 1, "step": step, "lr": f"{lr:.6g}",
+                     "loss": f"{loss_val:.6g}", "mse": f"{out['mse'].item():.6g}"}
+                )
+        seconds = time.perf_counter() - t0
+        if world > 1:
+            dist.all_reduce(loss_sum)
+        n = max(float(loss_sum[2]), 1.0)
+        record: dict[str, Any] = {
+            "kind": "epoch",
+            "epoch": epoch + 1,
+            "step": step,
+            "lr": cosine_lr(config, step, total_steps),
+            "loss": float(loss_sum[0]) / n,
+            "mse": float(loss_sum[1]) / n,
+            "samples": int(loss_sum[2]),
+            "samples_per_s": float(loss_sum[2]) / max(seconds, 1e-9),
+            "seconds": seconds,
+        }
+        last = epoch + 1 == config.epochs or step >= total_steps
+        if rank == 0:
+            if val_loader is not None and ((epoch + 1) % config.val_every == 0 or last):
+                record.update(validate(model, val_loader, progress=show))
+            history.append(record)
+            rows.append({k: (f"{v:.6g}" if isinstance(v, float) else v) for k, v in record.items()})
+            if (epoch + 1) % config.checkpoint_every == 0 or last:
+                save_weights(run_dir / WEIGHTS_FILE, model)
+                save_trainer_state(
+                    run_dir,
+                    optimizer,
+                    {"epoch": epoch + 1, "global_step": step, "history": history},
+                )
+                _write_log(log_path, rows)
+                plot_loss_curve(
+                    rows, run_dir / CURVE_FILE, title=f"{config.model} ({config.preset})"
+                )
+            if show:
+                msg = ", ".join(
+                    f"{k} {v:.4g}" for k, v in record.items() if isinstance(v, float)
+                )
+                tqdm.write(f"epoch {epoch + 1}: {msg}")
+        _barrier(world)
+    model.eval()
+    return TrainResult(run_dir, model, history, step)

@@ -1,0 +1,49 @@
+import pytest
+import torch
+
+from momakitchen.data.synthetic import SyntheticConfig, SyntheticEpisodes
+from momakitchen.models import ModelConfig
+from momakitchen.train import TrainConfig
+
+torch.set_num_threads(1)
+
+TINY_MODEL = ModelConfig(
+    embed_dim=32,
+    num_tokens=8,
+    num_heads=4,
+    num_robot_tokens=2,
+    width=0.125,
+    global_npoints=(64, 32),
+    floor_npoints=32,
+    nsample_scale=0.25,
+)
+
+
+def tiny_train_config(**changes) -> TrainConfig:
+    base = TrainConfig(
+        model="navaff",
+        preset="custom",
+        model_config=TINY_MODEL,
+        num_global=256,
+        num_floor=128,
+        epochs=2,
+        batch_size=4,
+        progress=False,
+        log_every=1,
+    )
+    return base.replace(**changes)
+
+
+@pytest.fixture
+def make_config():
+    """A factory of tiny training configs (keyword arguments change fields)."""
+    return tiny_train_config
+
+
+@pytest.fixture(scope="session")
+def tiny_sets():
+    train = SyntheticEpisodes(SyntheticConfig(num_episodes=8, num_global=256, num_floor=128))
+    val = SyntheticEpisodes(
+        SyntheticConfig(num_episodes=4, num_global=256, num_floor=128, seed=9)
+    )
+    return train, val

@@ -1,0 +1,184 @@
+import csv
+import json
+import math
+
+import numpy as np
+import pytest
+import torch
+from safetensors.torch import load_file
+
+from momakitchen.data.batch import collate_episodes, episode_maps
+from momakitchen.errors import MomaError
+from momakitchen.eval.metrics import map_metrics
+from momakitchen.models import build_model
+from momakitchen.robots.spec import DESCRIPTOR_VERSION
+from momakitchen.train import (
+    TrainConfig,
+    evaluate,
+    load_checkpoint,
+    predict_batch,
+    preset_config,
+    train,
+)
+from momakitchen.train.trainer import cosine_lr
+
+
+def test_presets_and_validation():
+    paper = preset_config("paper", "navaff")
+    assert paper.model_config.embed_dim == 512 and paper.model_config.num_tokens == 64
+    assert paper.model_config.num_heads == 4 and paper.model_config.dropout == 0.1
+    assert paper.batch_size == 64 and paper.epochs == 6 and paper.lr == 8e-4
+    assert paper.weight_decay == 1e-3 and paper.betas == (0.9, 0.999)
+    assert paper.model_config.lambda_zero == 0.7 and paper.model_config.zero_weight_prob == 0.5
+    cpu = preset_config("cpu", "pointnet2", epochs=3)
+    assert cpu.model == "pointnet2" and cpu.epochs == 3 and cpu.num_global < paper.num_global
+    with pytest.raises(MomaError, match="unknown preset 'gpu'"):
+        preset_config("gpu")
+    with pytest.raises(MomaError, match=r"TrainConfig.lr .* got 2\.0"):
+        cpu.replace(lr=2.0)
+    with pytest.raises(MomaError, match=r"batch_size .* got 0"):
+        cpu.replace(batch_size=0)
+    with pytest.raises(MomaError, match="unknown model 'navaf'"):
+        preset_config("cpu", "navaf")
+    assert TrainConfig.from_dict(json.loads(json.dumps(cpu.to_dict()))) == cpu
+
+
+def test_cosine_schedule(make_config):
+    cfg = make_config(lr=1e-3, min_lr_ratio=0.1)
+    assert cosine_lr(cfg, 0, 100) == pytest.approx(1e-3)
+    assert cosine_lr(cfg, 50, 100) == pytest.approx(1e-4 + 0.9e-3 * 0.5)
+    assert cosine_lr(cfg, 100, 100) == pytest.approx(1e-4)
+
+
+def test_training_writes_a_reloadable_checkpoint(tmp_path, tiny_sets, make_config):
+    train_set, val_set = tiny_sets
+    run = tmp_path / "run"
+    result = train(make_config(), train_set, val_set, run)
+    for name in ("config.json", "model.safetensors", "trainer_state.safetensors",
+                 "trainer_state.json", "log.csv", "loss_curve.png"):
+        assert (run / name).is_file(), name
+    assert not list(run.glob("*.pt")) and not list(run.glob("*.pkl"))
+    info = json.loads((run / "config.json").read_text())
+    assert info["model"] == "navaff" and info["descriptor_version"] == DESCRIPTOR_VERSION
+    assert (run / "loss_curve.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    with (run / "log.csv").open() as fh:
+        rows = list(csv.DictReader(fh))
+    epochs = [r for r in rows if r["kind"] == "epoch"]
+    assert len(epochs) == 2 and all(float(r["val_loss"]) > 0 for r in epochs)
+    assert int(epochs[-1]["step"]) == 4 and int(epochs[-1]["samples"]) == 8
+    assert len(result.history) == 2
+
+    weights = load_file(run / "model.safetensors")
+    assert set(weights) == set(result.model.state_dict())
+
+    loaded = load_checkpoint(run, model="navaff")
+    batch = collate_episodes([val_set[i] for i in range(3)], 256, 128)
+    a = predict_batch(result.model, batch)
+    b = predict_batch(loaded.model, batch)
+    assert torch.equal(a, b)
+    assert ((a >= 0) & (a <= 1)).all()
+    assert (a[~batch["floor_mask"]] == 0).all()
+
+
+def test_checkpoint_errors(tmp_path, tiny_sets, make_config):
+    train_set, _ = tiny_sets
+    run = tmp_path / "run"
+    train(make_config(epochs=1, model="pointnet2"), train_set, None, run)
+    with pytest.raises(MomaError, match="holds model 'pointnet2', not 'navaff'"):
+        load_checkpoint(run, model="navaff")
+    with pytest.raises(MomaError, match="does not exist"):
+        load_checkpoint(tmp_path / "nowhere")
+    with pytest.raises(MomaError, match="already holds a checkpoint"):
+        train(make_config(epochs=1, model="pointnet2"), train_set, None, run)
+    with pytest.raises(MomaError, match=r"holds model 'pointnet2'.*'navaff'"):
+        train(make_config(epochs=1), train_set, None, run, resume=True)
+    info = json.loads((run / "config.json").read_text())
+    info["descriptor_version"] = DESCRIPTOR_VERSION + 1
+    (run / "config.json").write_text(json.dumps(info))
+    with pytest.raises(MomaError, match="descriptor version"):
+        load_checkpoint(run)
+
+
+class _Interrupting(torch.utils.data.Dataset):
+    """Raises after a number of item fetches, like a killed run."""
+
+    def __init__(self, base, limit):
+        self.base, self.limit, self.count = base, limit, 0
+
+    def __len__(self):
+        return len(self.base)
+
+    def __getitem__(self, i):
+        self.count += 1
+        if self.count > self.limit:
+            raise KeyboardInterrupt
+        return self.base[i]
+
+
+def test_resume_continues_exactly(tmp_path, tiny_sets, make_config):
+    train_set, _ = tiny_sets
+    cfg = make_config(epochs=3)
+    full = train(cfg, train_set, None, tmp_path / "full")
+    with pytest.raises(KeyboardInterrupt):
+        train(cfg, _Interrupting(train_set, 2 * len(train_set) + 1), None, tmp_path / "cut")
+    state = json.loads((tmp_path / "cut" / "trainer_state.json").read_text())
+    assert state["progress"]["epoch"] == 2
+    resumed = train(cfg, train_set, None, tmp_path / "cut", resume=True)
+    assert resumed.global_step == full.global_step == 6
+    for (k, a), b in zip(full.model.state_dict().items(), resumed.model.state_dict().values(),
+                         strict=True):
+        assert torch.allclose(a, b, atol=1e-6), k
+    assert [h["epoch"] for h in resumed.history] == [1, 2, 3]
+
+
+def test_evaluate_matches_metrics_of_predictions(tmp_path, tiny_sets, make_config):
+    train_set, val_set = tiny_sets
+    run = tmp_path / "run"
+    train(make_config(epochs=1), train_set, None, run)
+    report = evaluate(run, val_set, batch_size=3)
+    assert report["model"] == "navaff" and report["episodes"] == len(val_set)
+    loaded = load_checkpoint(run)
+    preds, gts = [], []
+    for i in range(len(val_set)):
+        batch = collate_episodes([val_set[i]], 256, None)
+        p, g = episode_maps(batch, predict_batch(loaded.model, batch))
+        preds += p
+        gts += g
+    expected = map_metrics(preds, gts)
+    for k, v in expected.items():
+        assert report["metrics"][k] == pytest.approx(v, rel=1e-5, abs=1e-7)
+    robots = {val_set[i]["robot_name"] for i in range(len(val_set))}
+    assert set(report["per_robot"]) == robots
+    assert sum(m["episodes"] for m in report["per_scene"].values()) == len(val_set)
+    assert all(np.isfinite(v) for v in report["metrics"].values())
+
+
+def _mse_on(model, data, num_global, num_floor):
+    batch = collate_episodes([data[i] for i in range(len(data))], num_global, num_floor)
+    pred = predict_batch(model, batch)
+    mask = batch["floor_mask"]
+    return float(((pred - batch["floor_label"]) ** 2)[mask].mean())
+
+
+def _overfit(tmp_path, make_config, steps):
+    from momakitchen.data.synthetic import SyntheticConfig, SyntheticEpisodes
+
+    data = SyntheticEpisodes(SyntheticConfig(num_episodes=4, num_global=256, num_floor=128))
+    cfg = make_config(
+        epochs=steps, lr=3e-3, min_lr_ratio=0.1, val_every=steps, checkpoint_every=steps,
+        log_every=10,
+    ).replace_model(dropout=0.0)
+    torch.manual_seed(cfg.seed)
+    before = _mse_on(build_model(cfg.model, cfg.model_config), data, 256, 128)
+    result = train(cfg, data, data, tmp_path / "run")
+    after = _mse_on(result.model, data, 256, 128)
+    assert result.global_step == steps
+    assert result.history[-1]["val_loss"] == pytest.approx(after, rel=1e-4)
+    assert math.isfinite(after)
+    return before, after
+
+
+def test_overfitting_four_episodes_tenfold(tmp_path, make_config):
+    """200 steps on 4 episodes drop the MSE at least tenfold."""
+    before, after = _overfit(tmp_path, make_config, 200)
+    assert after < before / 10, (before, after)
