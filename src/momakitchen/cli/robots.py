@@ -27,7 +27,8 @@ def add_parser(subparsers) -> None:
     parser.add_argument("--robot-yaml", action="append", default=[], metavar="FILE",
                         help="register a user robot from a YAML file (repeatable)")
     parser.set_defaults(func=run, robots_command=None)
-    sub = parser.add_subparsers(dest="robots_command", metavar="ACTION")
+    sub = parser.add_subparsers(dest="robots_command", metavar="[ACTION]",
+                                title="actions (optional; default: list the robots)")
     export = sub.add_parser("export-urdf", help="write a robot's URDF (base + arm + tool)",
                             description="Write one URDF file (mobile base, arm and "
                                         "end-effector) that loads with p.loadURDF(FILE).")
