@@ -83,18 +83,27 @@ def get_robot_spec(name: str) -> RobotSpec:
         raise MomaError(f"unknown robot {name!r}; known robots: {', '.join(ROBOTS)}") from None
 
 
+# Arms stand on the front half of the base, as on most mobile manipulators: a base meets a
+# counter with its front edge, and a centred arm would lose 0.15 m of its reach to it.
+FRONT_MOUNT = 0.15
+
 # Manufacturer figures (KINEMATICS.md, "Mounting and descriptors"). Reach as in the
 # MoMa-Kitchen reference code where it gives one.
 for _spec in (
-    RobotSpec("panda", reach=0.85, mount_height=1.03, dof=7, end_effector="parallel_gripper"),
-    RobotSpec("flexiv", reach=0.78, mount_height=1.03, dof=7, end_effector="parallel_gripper"),
-    RobotSpec("ur5e", reach=0.85, mount_height=1.03, dof=6, end_effector="suction"),
+    RobotSpec("panda", reach=0.85, mount_height=1.03, dof=7, end_effector="parallel_gripper",
+              mount_offset_x=FRONT_MOUNT),
+    RobotSpec("flexiv", reach=0.78, mount_height=1.03, dof=7, end_effector="parallel_gripper",
+              mount_offset_x=FRONT_MOUNT),
+    RobotSpec("ur5e", reach=0.85, mount_height=1.03, dof=6, end_effector="suction",
+              mount_offset_x=FRONT_MOUNT),
     RobotSpec(
         "xarm6", reach=0.70, mount_height=0.33, dof=6, end_effector="parallel_gripper",
-        footprint=(0.60, 0.48),
+        footprint=(0.60, 0.48), mount_offset_x=FRONT_MOUNT,
     ),
-    RobotSpec("realman", reach=0.90, mount_height=1.03, dof=6, end_effector="parallel_gripper"),
-    RobotSpec("elephant", reach=0.63, mount_height=1.03, dof=6, end_effector="parallel_gripper"),
+    RobotSpec("realman", reach=0.90, mount_height=1.03, dof=6, end_effector="parallel_gripper",
+              mount_offset_x=FRONT_MOUNT),
+    RobotSpec("elephant", reach=0.63, mount_height=1.03, dof=6, end_effector="parallel_gripper",
+              mount_offset_x=FRONT_MOUNT),
 ):
     register_robot(_spec)
 
