@@ -67,6 +67,8 @@ def test_padding_changes_neither_outputs_nor_loss(name, tiny_config, samples):
     cfg = dataclasses.replace(tiny_config, dropout=0.0)
     model = build_model(name, cfg)
     assert num_parameters(model) > 0
+    with torch.no_grad():
+        model.head.out.weight.normal_(0.0, 1.0)  # not the flat initial map
     exact = collate_episodes(samples[:1])
     padded = _pad_with_garbage(exact, 57, 23)
     model.eval()
@@ -90,6 +92,8 @@ def test_padding_changes_neither_outputs_nor_loss(name, tiny_config, samples):
 def test_batched_episodes_equal_single_episodes(tiny_config, samples):
     torch.manual_seed(0)
     model = build_model("navaff", tiny_config).eval()
+    with torch.no_grad():
+        model.head.out.weight.normal_(0.0, 1.0)
     batch = collate_episodes(samples)
     with torch.no_grad():
         together = model(batch)["pred"]
@@ -109,6 +113,8 @@ def test_ablations_ignore_what_they_drop(tiny_config, samples):
         torch.manual_seed(0)
         m = build_model(name, tiny_config).eval()
         with torch.no_grad():
+            # The output layer starts at zero (a flat 0.5 map); make it see the features.
+            m.head.out.weight.normal_(0.0, 1.0)
             return m(b)["pred"]
 
     base = run("navaff", batch)
