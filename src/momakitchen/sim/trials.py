@@ -191,21 +191,29 @@ class TrialRunner:
         # Free bodies away from the target rest until something touches them (Bullet's
         # deactivation): they cost no solver time, and contact wakes them as usual.
         grasp_point = world.grasp_in_world()[0]
+        self._resting = []
         for info in world.bodies.values():
             if info.kind in ("rigid", "obstacle") and info.body_id != self.target.body_id:
                 lo, hi = world.aabb(info.body_id)
                 if np.linalg.norm(np.maximum(np.maximum(lo - grasp_point, grasp_point - hi),
                                              0)) > 0.25:
-                    p.changeDynamics(info.body_id, -1,
-                                     activationState=p.ACTIVATION_STATE_SLEEP,
-                                     physicsClientId=c)
+                    self._resting.append(info.body_id)
         self._solver_before = p.getPhysicsEngineParameters(physicsClientId=c)[
             "numSolverIterations"]
         p.setPhysicsEngineParameter(numSolverIterations=self.config.solver_iterations,
                                     physicsClientId=c)
-        self._state = world.save_state()
-        self._dirty = False  # True once physics has run since the last restore
         self._client = c
+        self._state = world.save_state()
+        self._restore()
+
+    def _restore(self) -> None:
+        """Back to the saved state. Activation (sleeping) is not part of PyBullet's saved
+        state, so it is set again: a body woken in one trial must not stay awake."""
+        self.world.restore_state(self._state)
+        for body in self._resting:
+            p.changeDynamics(body, -1, activationState=p.ACTIVATION_STATE_SLEEP,
+                             physicsClientId=self._client)
+        self._dirty = False  # True once physics has run since the last restore
 
     def close(self) -> None:
         """Remove the robot and the saved state from the world."""
@@ -396,8 +404,7 @@ class TrialRunner:
         if robot.cup_link is not None:
             robot.suction_off()
         if self._dirty:  # checks only teleport the robot; physics may have moved anything
-            world.restore_state(self._state)
-            self._dirty = False
+            self._restore()
         anchor = world.configuration.target.anchor
         if yaw is None:
             yaw = math.atan2(anchor[1] - y, anchor[0] - x)
