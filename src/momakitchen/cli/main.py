@@ -15,8 +15,6 @@ import sys
 from momakitchen import __version__
 from momakitchen.errors import MomaError
 
-ROBOT_YAML_ENV = "MOMAKITCHEN_ROBOT_YAML"
-
 # Module names under momakitchen.cli, in the order they appear in --help.
 COMMANDS = ("robots", "scene", "label", "generate", "dataset")
 
@@ -50,10 +48,9 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help()
         return 2
     try:
-        if os.environ.get(ROBOT_YAML_ENV):
-            # User robots ($MOMAKITCHEN_ROBOT_YAML) are available to every command.
-            from momakitchen.robots.user import load_env_robots
+        from momakitchen.robots.user import ENV_VAR, load_env_robots
 
+        if os.environ.get(ENV_VAR):  # user robots are available to every command
             load_env_robots()
         return int(args.func(args) or 0)
     except MomaError as exc:
