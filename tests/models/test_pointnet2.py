@@ -78,3 +78,34 @@ def test_three_nn_weights_ignore_padding_and_sum_to_one():
 def test_square_distance_matches_cdist():
     a, b = torch.randn(2, 7, 3), torch.randn(2, 5, 3)
     assert torch.allclose(square_distance(a, b), torch.cdist(a, b) ** 2, atol=1e-5)
+
+
+def test_kdtree_and_topk_neighbour_search_agree(monkeypatch):
+    import momakitchen.models.pointnet2 as pn
+
+    g = torch.Generator().manual_seed(1)
+    xyz = torch.rand(2, 60, 3, generator=g)
+    mask = torch.ones(2, 60, dtype=torch.bool)
+    mask[1, 40:] = False
+    centers = torch.rand(2, 7, 3, generator=g)
+    kd = pn.ball_query((0.2, 0.4), (4, 8), xyz, mask, centers)
+    kd_w = pn.three_nn_weights(centers, xyz, mask)
+
+
+    real_knn = pn._knn
+
+    def topk_knn(points, m, queries, k):
+        # Force the device-agnostic top-k branch on CPU tensors.
+        d2 = pn.square_distance(queries, points)
+        d2.masked_fill_(~m.unsqueeze(1), pn._BIG)
+        return torch.topk(d2, k, dim=-1, largest=False, sorted=True)
+
+    monkeypatch.setattr(pn, "_knn", topk_knn)
+    tk = pn.ball_query((0.2, 0.4), (4, 8), xyz, mask, centers)
+    tk_w = pn.three_nn_weights(centers, xyz, mask)
+    monkeypatch.setattr(pn, "_knn", real_knn)
+    for (ia, ma), (ib, mb) in zip(kd, tk, strict=True):
+        assert torch.equal(ma, mb)
+        assert torch.equal(torch.where(ma, ia, -1), torch.where(mb, ib, -1))
+    assert torch.equal(kd_w[0], tk_w[0])
+    assert torch.allclose(kd_w[1], tk_w[1], atol=1e-4)

@@ -1,8 +1,9 @@
 """PointNet++ layers with padding masks: sampling, grouping, set abstraction, propagation.
 
-The geometry-only steps (farthest point sampling, ball query, three-nearest-neighbour
-interpolation weights) are vectorised torch code over the batch and all points; farthest
-point sampling loops over the *sampled* centroids only. They run without gradients.
+The geometry-only steps run without gradients and without Python loops over points:
+farthest point sampling is NumPy vectorised over all points (looping over the *sampled*
+centroids only); ball query and three-nearest-neighbour interpolation use a k-d tree per
+cloud (scipy) on CPU and a masked top-k over the distance matrix on other devices.
 
 Padding: every function takes a boolean mask of real points. Padded points are never
 chosen as centroids (unless a cloud has fewer real points than centroids requested; then
@@ -18,6 +19,7 @@ from collections.abc import Sequence
 
 import numpy as np
 import torch
+from scipy.spatial import cKDTree
 from torch import nn
 
 _BIG = 1e10
@@ -71,24 +73,29 @@ def square_distance(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
     return torch.baddbmm(aa + bb, a, b.transpose(1, 2), alpha=-2.0).clamp_min_(0.0)
 
 
-@torch.no_grad()
-def farthest_point_sample(
-    xyz: torch.Tensor, mask: torch.Tensor, npoint: int
-) -> tuple[torch.Tensor, torch.Tensor]:
-    """Farthest point sampling over real points, starting from each cloud's first real point.
+def _fps_cloud(points: np.ndarray, npoint: int) -> np.ndarray:
+    """FPS on one cloud of real points (n, 3), starting at index 0; indices into it."""
+    n = points.shape[0]
+    q = np.ascontiguousarray(points.T)
+    dist = np.full(n, np.inf, np.float32)
+    d3 = np.empty((3, n), np.float32)
+    acc = np.empty(n, np.float32)
+    out = np.empty(npoint, np.int64)
+    far = 0
+    for j in range(npoint):
+        out[j] = far
+        np.subtract(q, q[:, far : far + 1], out=d3)
+        np.multiply(d3, d3, out=d3)
+        np.add(d3[0], d3[1], out=acc)
+        acc += d3[2]
+        np.minimum(dist, acc, out=dist)
+        far = int(dist.argmax())
+    return out
 
-    NumPy, vectorised over the batch and all points; the loop runs over the ``npoint``
-    centroids only. Padded points keep distance -1 and are never the farthest; once a cloud
-    has no unsampled real point left, real points repeat.
 
-    Shapes:
-        - ``xyz``: (B, N, 3); ``mask``: (B, N) bool
-        - output: ``idx`` (B, npoint) long, ``valid`` (B, npoint) bool. ``valid[b, j]`` is
-          ``j < number of real points in cloud b``; invalid centroids repeat real points.
-    """
-    b, n, _ = xyz.shape
-    pts = xyz.detach().to("cpu", torch.float32).numpy()
-    m = mask.detach().cpu().numpy()
+def _fps_batched(pts: np.ndarray, m: np.ndarray, npoint: int) -> np.ndarray:
+    """FPS vectorised over a batch (B, N, 3) with masks (B, N); padding keeps distance -1."""
+    b, n, _ = pts.shape
     coords = [np.ascontiguousarray(pts[..., i]) for i in range(3)]
     dist = np.where(m, np.float32(np.inf), np.float32(-1.0)).astype(np.float32)
     acc = np.empty((b, n), np.float32)
@@ -106,12 +113,72 @@ def farthest_point_sample(
                 acc += tmp
         np.minimum(dist, acc, out=dist)  # padding stays at -1
         far = dist.argmax(axis=1)
-    count = m.sum(1, keepdims=True)
-    valid = np.arange(npoint)[None, :] < count
-    return (
-        torch.from_numpy(idx).to(xyz.device),
-        torch.from_numpy(valid).to(xyz.device),
-    )
+    return idx
+
+
+@torch.no_grad()
+def farthest_point_sample(
+    xyz: torch.Tensor, mask: torch.Tensor, npoint: int
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """Farthest point sampling over real points, starting from each cloud's first real point.
+
+    NumPy, vectorised over all points (and over the batch for batches of more than two
+    clouds); the loop runs over the ``npoint`` centroids only. Padded points are never
+    chosen; once a cloud has no unsampled real point left, real points repeat.
+
+    Shapes:
+        - ``xyz``: (B, N, 3); ``mask``: (B, N) bool
+        - output: ``idx`` (B, npoint) long, ``valid`` (B, npoint) bool. ``valid[b, j]`` is
+          ``j < number of real points in cloud b``; invalid centroids repeat real points.
+    """
+    b = xyz.shape[0]
+    pts = xyz.detach().to("cpu", torch.float32).numpy()
+    m = mask.detach().cpu().numpy()
+    if b <= 2:  # per cloud on its real points: fastest for single episodes
+        idx = np.empty((b, npoint), np.int64)
+        for i in range(b):
+            real = np.flatnonzero(m[i])
+            idx[i] = real[_fps_cloud(pts[i, real], npoint)]
+    else:
+        idx = _fps_batched(pts, m, npoint)
+    valid = np.arange(npoint)[None, :] < m.sum(1, keepdims=True)
+    return torch.from_numpy(idx).to(xyz.device), torch.from_numpy(valid).to(xyz.device)
+
+
+def _knn(
+    points: torch.Tensor, mask: torch.Tensor, queries: torch.Tensor, k: int
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """The k nearest real points of each query: squared distances and indices, sorted.
+
+    On CPU a k-d tree per cloud (scipy, built on the real points only); elsewhere a
+    masked top-k over the full distance matrix.
+
+    Shapes:
+        - ``points``: (B, N, 3), ``mask``: (B, N), ``queries``: (B, M, 3)
+        - output: (B, M, k) float distances squared (1e10 where fewer than k real points),
+          (B, M, k) long indices into N
+    """
+    b, m = queries.shape[:2]
+    if points.device.type != "cpu":
+        d2 = square_distance(queries, points)
+        d2.masked_fill_(~mask.unsqueeze(1), _BIG)
+        return torch.topk(d2, k, dim=-1, largest=False, sorted=True)
+    pts = points.detach().to(torch.float32).numpy()
+    qs = queries.detach().to(torch.float32).numpy()
+    msk = mask.numpy()
+    dist = np.full((b, m, k), _BIG, np.float32)
+    idx = np.zeros((b, m, k), np.int64)
+    for i in range(b):
+        real = np.flatnonzero(msk[i])
+        if real.size == 0:
+            continue
+        kk = min(k, real.size)
+        d, j = cKDTree(pts[i, real]).query(qs[i], k=kk)
+        d, j = d.reshape(m, kk), j.reshape(m, kk)
+        dist[i, :, :kk] = d * d
+        idx[i, :, :kk] = real[j]
+        idx[i, :, kk:] = real[j[:, :1]]
+    return torch.from_numpy(dist), torch.from_numpy(idx)
 
 
 @torch.no_grad()
@@ -123,7 +190,7 @@ def ball_query(
     centers: torch.Tensor,
 ) -> list[tuple[torch.Tensor, torch.Tensor]]:
     """The ``nsample`` nearest real points within ``radius`` of each centre, for one or
-    several (radius, nsample) scales sharing one distance computation and one top-k.
+    several (radius, nsample) scales sharing one nearest-neighbour search.
 
     Shapes:
         - ``xyz``: (B, N, 3); ``mask``: (B, N) bool; ``centers``: (B, M, 3)
@@ -134,9 +201,8 @@ def ball_query(
     radii = [radius] if isinstance(radius, (int, float)) else list(radius)
     counts = [nsample] if isinstance(nsample, int) else list(nsample)
     kmax = min(max(counts), xyz.shape[1])
-    d2 = square_distance(centers, xyz)
-    d2.masked_fill_(~mask.unsqueeze(1), _BIG)
-    near_d, near_i = torch.topk(d2, kmax, dim=-1, largest=False, sorted=True)
+    near_d, near_i = _knn(xyz, mask, centers, kmax)
+    near_d, near_i = near_d.to(xyz.device), near_i.to(xyz.device)
     out = []
     for r, k in zip(radii, counts, strict=True):
         k = min(k, kmax)
@@ -158,9 +224,8 @@ def three_nn_weights(
           k = min(3, M); padded sources get weight 0.
     """
     k = min(3, src.shape[1])
-    d2 = square_distance(dst, src)
-    d2.masked_fill_(~src_mask.unsqueeze(1), _BIG)
-    dk, idx = torch.topk(d2, k, dim=-1, largest=False, sorted=True)
+    dk, idx = _knn(src, src_mask, dst, k)
+    dk, idx = dk.to(dst.device), idx.to(dst.device)
     w = 1.0 / (dk + 1e-8)
     w = torch.where(dk < _BIG / 2, w, torch.zeros_like(w))
     w = w / w.sum(-1, keepdim=True).clamp_min(1e-12)
@@ -201,6 +266,45 @@ def masked_max(x: torch.Tensor, mask: torch.Tensor, dim: int) -> torch.Tensor:
     return torch.where(torch.isfinite(out), out, torch.zeros_like(out))
 
 
+class GroupedMLP(nn.Module):
+    """Shared MLP over neighbourhoods: relative position (scaled by the radius) + features.
+
+    The first layer is linear in ``[(p_j - c) / r, f_j]``, so it is applied once per point
+    and once per centre, and only its (narrow) output is gathered per neighbourhood: the
+    same function as gathering ``[rel, f]`` first, at a fraction of the cost. Every layer
+    ends in ReLU, so outputs are non-negative.
+
+    Shapes:
+        - input: ``xyz`` (B, N, 3), ``feats`` (B, N, C) or None, ``centers`` (B, M, 3),
+          ``idx`` (B, M, K) long, ``radius`` float
+        - output: (B, M, K, widths[-1])
+    """
+
+    def __init__(self, in_channels: int, widths: Sequence[int]) -> None:
+        super().__init__()
+        self.first = nn.Linear(in_channels + 3, widths[0])
+        self.rest = PointMLP(widths[0], widths[1:], norm=False) if len(widths) > 1 else None
+        self.out_channels = widths[-1]
+
+    def forward(
+        self,
+        xyz: torch.Tensor,
+        feats: torch.Tensor | None,
+        centers: torch.Tensor,
+        idx: torch.Tensor,
+        radius: float,
+    ) -> torch.Tensor:
+        w = self.first.weight
+        w_rel = w[:, :3] / radius
+        per_point = torch.addmm(self.first.bias, xyz.reshape(-1, 3), w_rel.t())
+        per_point = per_point.view(*xyz.shape[:2], -1)
+        if feats is not None:
+            per_point = per_point + feats @ w[:, 3:].t()
+        per_center = centers @ w_rel.t()
+        h = torch.relu(gather_points(per_point, idx) - per_center.unsqueeze(2))
+        return self.rest(h) if self.rest is not None else h
+
+
 class SetAbstractionMSG(nn.Module):
     """PointNet++ set abstraction with multi-scale grouping.
 
@@ -232,7 +336,7 @@ class SetAbstractionMSG(nn.Module):
         self.nsamples = tuple(nsamples)
         # Grouped MLPs run on (B, M, K, C): no per-entry norm there (it dominated the cost);
         # a LayerNorm after pooling keeps the scales in check.
-        self.mlps = nn.ModuleList(PointMLP(in_channels + 3, w, norm=False) for w in mlps)
+        self.mlps = nn.ModuleList(GroupedMLP(in_channels, w) for w in mlps)
         self.norms = nn.ModuleList(nn.LayerNorm(m.out_channels) for m in self.mlps)
         self.out_channels = sum(m.out_channels for m in self.mlps)
 
@@ -246,10 +350,12 @@ class SetAbstractionMSG(nn.Module):
         for radius, (gidx, gmask), mlp, norm in zip(
             self.radii, groups, self.mlps, self.norms, strict=True
         ):
-            rel = (gather_points(xyz, gidx) - new_xyz.unsqueeze(2)) / radius
-            grouped = rel if feats is None else torch.cat([rel, gather_points(feats, gidx)], -1)
+            h = mlp(xyz, feats, new_xyz, gidx, radius)
+            # h >= 0 (ReLU), so zeroing masked entries before the max is a masked max
+            # (a centre without any neighbour pools to 0).
             gmask = gmask & new_mask.unsqueeze(-1)
-            outs.append(norm(masked_max(mlp(grouped), gmask, dim=2)))
+            pooled = (h * gmask.unsqueeze(-1).to(h.dtype)).amax(dim=2)
+            outs.append(norm(pooled))
         return new_xyz, torch.cat(outs, -1), new_mask
 
 
