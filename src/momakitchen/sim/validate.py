@@ -46,24 +46,19 @@ def settle_check(world: World, seconds: float = 1.0) -> StabilityReport:
     return StabilityReport(worst, min_z if free else 0.0, worst_uid)
 
 
-def opening_direction(world: World, body_id: int, joint: int, link: int,
-                      handle: np.ndarray, open_direction: int) -> np.ndarray:
+def opening_direction(world: World, body_id: int, joint: int, handle: np.ndarray,
+                      open_direction: int) -> np.ndarray:
     """Unit world direction in which the handle point moves when the joint opens.
 
-    Computed from the link Jacobian at the current joint positions, so it can be evaluated
-    every physics step without disturbing the simulation.
+    From the joint axis (given in the child link's URDF frame, whose origin is the joint):
+    ``axis x (handle - origin)`` for a revolute joint, the axis itself for a prismatic one.
     """
     c = world.client
-    movable = [j for j in range(p.getNumJoints(body_id, physicsClientId=c))
-               if p.getJointInfo(body_id, j, physicsClientId=c)[2] != p.JOINT_FIXED]
-    q = [p.getJointState(body_id, j, physicsClientId=c)[0] for j in movable]
-    state = p.getLinkState(body_id, link, computeForwardKinematics=True, physicsClientId=c)
-    com_rot = np.array(p.getMatrixFromQuaternion(state[1])).reshape(3, 3)
-    local = com_rot.T @ (handle - np.array(state[0]))
-    zeros = [0.0] * len(q)
-    lin, _ = p.calculateJacobian(body_id, link, local.tolist(), q, zeros, zeros,
-                                 physicsClientId=c)
-    move = np.array(lin)[:, movable.index(joint)] * open_direction
+    info = p.getJointInfo(body_id, joint, physicsClientId=c)
+    origin, rot = world.link_pose(body_id, joint)
+    axis = rot @ np.asarray(info[13], float)
+    move = np.cross(axis, handle - origin) if info[2] == p.JOINT_REVOLUTE else axis
+    move = move * open_direction
     return move / max(float(np.linalg.norm(move)), 1e-12)
 
 
@@ -81,7 +76,7 @@ def pull_test(world: World, uid: str, articulation: int, force: float = 40.0,
     for _ in range(round(seconds * 240)):
         pos, rot = world.link_pose(info.body_id, link)
         handle = rot @ np.asarray(art.handle.position) + pos
-        direction = opening_direction(world, info.body_id, joint, link, handle,
+        direction = opening_direction(world, info.body_id, joint, handle,
                                       art.open_direction)
         p.applyExternalForce(info.body_id, link, (force * direction).tolist(), handle.tolist(),
                              p.WORLD_FRAME, physicsClientId=c)
