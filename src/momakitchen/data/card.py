@@ -27,11 +27,12 @@ def save_episode_figure(ep: Episode, path: str | os.PathLike) -> None:
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(1, 4, figsize=(17, 4.2))
-    ax[0].imshow(ep.rgb)
+    if ep.rgb.size:  # imported reference data may have no images
+        ax[0].imshow(ep.rgb)
+        depth = np.where(ep.depth > 0, ep.depth, np.nan)
+        im = ax[1].imshow(depth, cmap="viridis")
+        fig.colorbar(im, ax=ax[1], fraction=0.04, label="depth (m)")
     ax[0].set_title("RGB")
-    depth = np.where(ep.depth > 0, ep.depth, np.nan)
-    im = ax[1].imshow(depth, cmap="viridis")
-    fig.colorbar(im, ax=ax[1], fraction=0.04, label="depth (m)")
     ax[1].set_title("depth")
     for a in ax[:2]:
         a.axis("off")

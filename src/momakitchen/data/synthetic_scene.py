@@ -2,8 +2,8 @@
 
 :func:`synthetic_scene_records` has the signature of
 :func:`momakitchen.perception.episodes.scene_records` and returns records of the same
-types, shapes and dtypes (small images and clouds, labels from
-:func:`momakitchen.data.synthetic.affordance_label`), deterministic in
+types, shapes and dtypes (small images and clouds; floor labels a smooth ring around the
+target within the robot's reach, zero near the obstacle), deterministic in
 ``(scene_id, config)``. It exercises the storage, the generator, the integrity checks and
 the torch Dataset in seconds; ``momakitchen generate --synthetic`` writes such a dataset
 (the manifest records the producer, so it is never mistaken for the benchmark).
@@ -18,7 +18,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from momakitchen.data.episode import ConfigurationLabels, Episode
-from momakitchen.data.synthetic import affordance_label
 from momakitchen.errors import MomaError
 from momakitchen.robots.spec import get_robot_spec, robot_descriptor
 from momakitchen.scene.configuration import SceneConfig
@@ -105,7 +104,11 @@ def _episode(scene_id: int, c: int, e: int, robot: str, desc: np.ndarray,
     obstacles = np.array([[front - 0.7, rng.uniform(-1, 1), 0.4, 0.4, 0.6]])
     floor = np.stack([rng.uniform(0.3, front, nf), rng.uniform(-1.5, 1.5, nf),
                       rng.uniform(0.0, 0.015, nf)], 1).astype(np.float32)
-    label = affordance_label(floor[:, :2].astype(np.float64), target, front, obstacles, desc)
+    r = np.hypot(floor[:, 0] - target[0], floor[:, 1] - target[1])
+    label = np.exp(-((r - 0.6 * desc[0]) ** 2) / (2 * (0.25 * desc[0]) ** 2))
+    label[(r > desc[0]) | (np.hypot(floor[:, 0] - obstacles[0, 0],
+                                    floor[:, 1] - obstacles[0, 1]) < 0.4)] = 0.0
+    label = label.astype(np.float32)
     gxyz = np.concatenate([floor[: ng // 3], np.stack(
         [rng.uniform(0.3, front + 0.6, ng - ng // 3), rng.uniform(-1.5, 1.5, ng - ng // 3),
          rng.uniform(0.0, 2.0, ng - ng // 3)], 1).astype(np.float32)])

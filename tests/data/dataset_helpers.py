@@ -1,0 +1,16 @@
+"""Helpers of the dataset tests: small synthetic datasets written by the real generator."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from momakitchen.data.generator import GenerateRequest, generate_dataset
+from momakitchen.data.synthetic_scene import SyntheticSceneConfig, synthetic_scene_records
+
+SMALL = SyntheticSceneConfig(configs_per_scene=2, episodes_per_config=3)
+
+
+def make_dataset(root: Path, scenes: int = 5, config: SyntheticSceneConfig = SMALL,
+                 workers: int = 1, card: bool = False) -> dict:
+    return generate_dataset(GenerateRequest(out=root, num_scenes=scenes, workers=workers),
+                            synthetic_scene_records, config, progress=False, write_card=card)

@@ -1,0 +1,150 @@
+"""Generator: worker-count independence, resume after SIGKILL, config checks, bad input."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from dataset_helpers import SMALL, make_dataset
+
+from momakitchen.cli.main import main
+from momakitchen.data.generator import GenerateRequest, generate_dataset
+from momakitchen.data.integrity import check_dataset
+from momakitchen.data.manifest import load_manifest
+from momakitchen.data.synthetic_scene import SyntheticSceneConfig, synthetic_scene_records
+from momakitchen.errors import MomaError
+
+SLOW_SCENES = SyntheticSceneConfig(configs_per_scene=2, episodes_per_config=3,
+                                   seconds_per_scene=0.3)
+KILL_SCENES = 8
+
+DRIVER = """
+import sys
+from pathlib import Path
+from momakitchen.data.generator import GenerateRequest, generate_dataset
+from momakitchen.data.synthetic_scene import SyntheticSceneConfig, synthetic_scene_records
+cfg = SyntheticSceneConfig(configs_per_scene=2, episodes_per_config=3, seconds_per_scene=0.3)
+generate_dataset(GenerateRequest(out=Path(sys.argv[1]), num_scenes=int(sys.argv[2]),
+                                 workers=2), synthetic_scene_records, cfg, progress=False,
+                 write_card=False)
+"""
+
+
+def _digests(root: Path) -> dict[str, str]:
+    files = [*sorted((root / "scenes").iterdir()), root / "manifest.json"]
+    return {p.name: hashlib.sha256(p.read_bytes()).hexdigest() for p in files}
+
+
+def test_sigkill_halfway_then_resume_equals_uninterrupted_run(tmp_path):
+    killed = tmp_path / "killed"
+    proc = subprocess.Popen([sys.executable, "-c", DRIVER, str(killed), str(KILL_SCENES)],
+                            start_new_session=True, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 90
+    try:
+        while time.monotonic() < deadline:
+            done = list((killed / "scenes").glob("scene_*.h5")) if killed.exists() else []
+            if len(done) >= 3:
+                break
+            assert proc.poll() is None, "generation ended before it could be killed"
+            time.sleep(0.05)
+        else:
+            pytest.fail("no shards appeared within 90 s")
+    finally:
+        os.killpg(proc.pid, signal.SIGKILL)  # the driver and its pool workers, mid-scene
+        proc.wait()
+    shards = sorted((killed / "scenes").glob("scene_*.h5"))
+    assert 3 <= len(shards) < KILL_SCENES
+    assert not load_manifest(killed)["complete"]
+    # Resume with another worker count; the reference run is uninterrupted with 1 worker.
+    generate_dataset(GenerateRequest(out=killed, num_scenes=KILL_SCENES, workers=1),
+                     synthetic_scene_records, SLOW_SCENES, progress=False, write_card=False)
+    ref = tmp_path / "ref"
+    generate_dataset(GenerateRequest(out=ref, num_scenes=KILL_SCENES, workers=1),
+                     synthetic_scene_records, SLOW_SCENES, progress=False, write_card=False)
+    assert _digests(killed) == _digests(ref)  # same bytes, temporaries gone
+    assert check_dataset(killed)["episodes"] == KILL_SCENES * 6
+    # check catches a truncated shard and names it.
+    victim = killed / "scenes" / "scene_000004.h5"
+    victim.write_bytes(victim.read_bytes()[:-1000])
+    with pytest.raises(MomaError, match=r"scene_000004\.h5"):
+        check_dataset(killed)
+
+
+def test_two_workers_give_the_same_bytes_as_one(tmp_path):
+    make_dataset(tmp_path / "one", scenes=4, workers=1)
+    make_dataset(tmp_path / "two", scenes=4, workers=2)
+    assert _digests(tmp_path / "one") == _digests(tmp_path / "two")
+
+
+def test_resume_skips_existing_and_grows(tmp_path):
+    root = tmp_path / "ds"
+    m1 = make_dataset(root, scenes=3)
+    first = (root / "scenes" / "scene_000001.h5").stat().st_mtime_ns
+    m2 = make_dataset(root, scenes=6)
+    assert (root / "scenes" / "scene_000001.h5").stat().st_mtime_ns == first  # not rewritten
+    assert m1["counts"]["total"]["scenes"] == 3 and m2["counts"]["total"]["scenes"] == 6
+    assert m2["complete"] and sorted(m2["splits"]["train"] + m2["splits"]["test"]) == list(
+        range(6))
+
+
+def test_resume_with_another_config_is_refused(tmp_path):
+    root = tmp_path / "ds"
+    make_dataset(root, scenes=1)
+    other = SyntheticSceneConfig(configs_per_scene=3, episodes_per_config=3)
+    with pytest.raises(MomaError, match=r"config\.configs_per_scene"):
+        make_dataset(root, scenes=2, config=other)
+
+
+def test_bad_input_is_one_line_exit_2_and_keeps_data(tmp_path, capsys):
+    root = tmp_path / "ds"
+    make_dataset(root, scenes=2)
+    before = _digests(root)
+    assert main(["generate", "--synthetic", "--out", str(root), "--scenes", "0"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "scenes must be >= 1, got 0" in err
+    # Same directory with another producer (the simulator) is refused too.
+    assert main(["generate", "--out", str(root), "--scenes", "2", "--quiet"]) == 2
+    assert "use another --out" in capsys.readouterr().err
+    other = tmp_path / "notes"
+    other.mkdir()
+    (other / "thesis.tex").write_text("keep me")
+    assert main(["generate", "--synthetic", "--out", str(other), "--scenes", "1"]) == 2
+    assert "without a manifest.json" in capsys.readouterr().err
+    assert sorted(p.name for p in other.iterdir()) == ["thesis.tex"]
+    # A corrupt shard passed to stats and check: one line naming it, exit 2.
+    shard = root / "scenes" / "scene_000001.h5"
+    shard.write_bytes(b"\0" * 100)
+    for cmd in ("stats", "check"):
+        assert main([cmd, str(root)]) == 2
+        err = capsys.readouterr().err.strip()
+        assert err.count("\n") == 0 and "scene_000001.h5" in err, err
+    assert _digests(root)["scene_000000.h5"] == before["scene_000000.h5"]
+    assert main(["check", str(tmp_path / "missing")]) == 2
+    assert "does not exist" in capsys.readouterr().err
+
+
+def test_ray_backend_without_ray_is_a_clear_error(tmp_path, monkeypatch, capsys):
+    monkeypatch.setitem(sys.modules, "ray", None)  # import ray -> ImportError
+    assert main(["generate", "--synthetic", "--out", str(tmp_path / "r"), "--scenes", "1",
+                 "--backend", "ray"]) == 2
+    assert "pip install 'momakitchen[ray]'" in capsys.readouterr().err
+    assert not (tmp_path / "r").exists()
+
+
+def test_manifest_records_config_and_counts(small_dataset):
+    m = json.loads((small_dataset / "manifest.json").read_text())
+    assert m["config"]["configs_per_scene"] == SMALL.configs_per_scene
+    assert m["producer"].endswith("synthetic_scene_records")
+    assert m["counts"]["total"]["episodes"] == 5 * 2 * 3
+    assert m["counts"]["train"]["scenes"] + m["counts"]["test"]["scenes"] == 5
+    assert sum(r["total"]["episodes"] for r in m["counts"]["robots"].values()) == 30
+    card = (small_dataset / "README.md").read_text()
+    assert "| total | 5 | 10 | 30 |" in card and (small_dataset / "example.png").stat().st_size

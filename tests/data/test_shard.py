@@ -1,0 +1,93 @@
+"""Scene shards: exact round trip, reproducible bytes, atomicity and rejection of bad files."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import h5py
+import numpy as np
+import pytest
+
+from momakitchen.data.shard import (
+    SCHEMA_VERSION,
+    SceneShard,
+    file_sha256,
+    list_shards,
+    remove_temporaries,
+    shard_name,
+    write_shard,
+)
+from momakitchen.data.synthetic_scene import SyntheticSceneConfig, synthetic_scene_records
+from momakitchen.errors import MomaError
+
+CFG = SyntheticSceneConfig(configs_per_scene=2, episodes_per_config=2)
+
+
+def _assert_records_equal(a, b) -> None:
+    assert len(a) == len(b)
+    for (la, ea), (lb, eb) in zip(a, b, strict=True):
+        for f in dataclasses.fields(la):
+            va, vb = getattr(la, f.name), getattr(lb, f.name)
+            if isinstance(va, np.ndarray):
+                assert va.dtype == vb.dtype and np.array_equal(va, vb), f.name
+            else:
+                assert va == vb, f.name
+        assert len(ea) == len(eb)
+        for x, y in zip(ea, eb, strict=True):
+            for f in dataclasses.fields(x):
+                va, vb = getattr(x, f.name), getattr(y, f.name)
+                if isinstance(va, np.ndarray):
+                    assert va.shape == vb.shape and np.array_equal(va, vb), f.name
+                else:
+                    assert va == vb, f.name
+
+
+def test_round_trip_is_exact_and_bytes_reproducible(tmp_path):
+    records = synthetic_scene_records(12, CFG)
+    (tmp_path / "a").mkdir()
+    (tmp_path / "b").mkdir()
+    sa = write_shard(tmp_path / "a", 12, records)
+    sb = write_shard(tmp_path / "b", 12, synthetic_scene_records(12, CFG))
+    assert sa["sha256"] == sb["sha256"] == file_sha256(tmp_path / "a" / shard_name(12))
+    assert sa["episodes_per_config"] == [2, 2] and sa["file"] == "scenes/scene_000012.h5"
+    with SceneShard(tmp_path / "a" / shard_name(12)) as shard:
+        assert shard.scene_id == 12 and shard.num_episodes == 4
+        back = shard.records()
+        assert back[0][1][0].global_rgb.dtype == np.uint8
+    _assert_records_equal(records, back)
+    with h5py.File(tmp_path / "a" / shard_name(12), "r") as f:
+        assert f.attrs["schema_version"] == SCHEMA_VERSION
+        assert f["config_001/episode_001/rgb"].compression == "gzip"
+
+
+def test_incomplete_and_truncated_shards_are_rejected(tmp_path):
+    write_shard(tmp_path, 3, synthetic_scene_records(3, CFG))
+    path = tmp_path / shard_name(3)
+    # A file whose completion mark is missing (a writer that died before the end).
+    with h5py.File(path, "a") as f:
+        del f.attrs["complete"]
+    with pytest.raises(MomaError, match="incomplete"):
+        SceneShard(path)
+    write_shard(tmp_path, 4, synthetic_scene_records(4, CFG))
+    data = (tmp_path / shard_name(4)).read_bytes()
+    (tmp_path / shard_name(4)).write_bytes(data[: len(data) // 2])
+    with pytest.raises(MomaError, match=r"scene_000004\.h5: cannot open"):
+        SceneShard(tmp_path / shard_name(4))
+
+
+def test_temporaries_are_never_listed_and_get_removed(tmp_path):
+    scenes = tmp_path / "scenes"
+    scenes.mkdir()
+    write_shard(scenes, 1, synthetic_scene_records(1, CFG))
+    (scenes / ".tmp-999-scene_000002.h5").write_bytes(b"partial")
+    (scenes / ".scene_000005.123.tmp.h5").write_bytes(b"partial")
+    assert list(list_shards(tmp_path)) == [1]
+    removed = remove_temporaries(tmp_path)
+    assert len(removed) == 2 and sorted(p.name for p in scenes.iterdir()) == ["scene_000001.h5"]
+
+
+def test_writer_refuses_mislabelled_records(tmp_path):
+    records = synthetic_scene_records(1, CFG)
+    with pytest.raises(MomaError, match="scene 2"):
+        write_shard(tmp_path, 2, records)
+    assert not list(tmp_path.iterdir())  # nothing left behind

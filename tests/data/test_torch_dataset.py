@@ -1,0 +1,62 @@
+"""EpisodeDataset: the batch contract, splits, DataLoader workers, errors."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+from torch.utils.data import DataLoader
+
+from momakitchen.data import EpisodeDataset
+from momakitchen.data.batch import EpisodeCollator, validate_sample
+from momakitchen.data.shard import SceneShard, list_shards
+from momakitchen.errors import MomaError
+from momakitchen.robots.spec import DESCRIPTOR_DIM, ROBOTS, robot_descriptor
+
+
+def test_samples_follow_the_contract(small_dataset):
+    ds = EpisodeDataset(small_dataset, split="all")
+    assert len(ds) == 30
+    s = ds[7]
+    validate_sample(s)
+    assert s["global_rgb"].dtype == torch.float32
+    assert 0.0 <= float(s["global_rgb"].min()) and float(s["global_rgb"].max()) <= 1.0
+    assert set(np.unique(s["global_align"].numpy())) <= {-1.0, 0.0, 1.0}
+    np.testing.assert_allclose(s["robot"].numpy(),
+                               robot_descriptor(ROBOTS[s["robot_name"]]), rtol=1e-6)
+    with SceneShard(list_shards(small_dataset)[s["scene_id"]]) as shard:
+        ep = shard.episode(s["config_index"], s["episode_index"])
+    np.testing.assert_array_equal(s["floor_label"].numpy(), ep.floor_label)
+    np.testing.assert_allclose(s["global_rgb"].numpy() * 255, ep.global_rgb, atol=1e-4)
+
+
+def test_splits_partition_the_scenes(small_dataset):
+    train, test = EpisodeDataset(small_dataset, "train"), EpisodeDataset(small_dataset, "test")
+    assert len(train) + len(test) == 30 and len(test) > 0
+    assert not {i[1] for i in train.index} & {i[1] for i in test.index}
+    only = EpisodeDataset(small_dataset, "all", robots=["panda"])
+    assert len(only) > 0 and all(i[4] == "panda" for i in only.index)
+
+
+def test_dataloader_with_two_workers_and_collator(small_dataset):
+    ds = EpisodeDataset(small_dataset, split="train")
+    loader = DataLoader(ds, batch_size=4, num_workers=2, shuffle=False,
+                        collate_fn=EpisodeCollator(num_global=256, num_floor=200))
+    batches = list(loader)
+    assert sum(len(b["scene_id"]) for b in batches) == len(ds)
+    b = batches[0]
+    assert b["global_xyz"].shape == (4, 256, 3) and b["global_rgb"].shape == (4, 256, 3)
+    assert b["global_align"].shape == (4, 256) and b["global_mask"].all()  # >= 256 points
+    assert b["floor_xyz"].shape == (4, 200, 3) and b["floor_label"].shape == (4, 200)
+    assert b["robot"].shape == (4, DESCRIPTOR_DIM)
+    assert not b["floor_mask"].all() and b["floor_mask"].any()  # < 200 floor points: padded
+    assert b["floor_label"][~b["floor_mask"]].abs().sum() == 0
+
+
+def test_bad_root_and_split(tmp_path, small_dataset):
+    with pytest.raises(MomaError, match="does not exist"):
+        EpisodeDataset(tmp_path / "nope")
+    with pytest.raises(MomaError, match=r"no manifest\.json"):
+        EpisodeDataset(tmp_path)
+    with pytest.raises(MomaError, match="split must be one of"):
+        EpisodeDataset(small_dataset, split="val")
