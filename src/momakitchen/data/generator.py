@@ -225,7 +225,8 @@ def generate_dataset(
     cfg = config_dict(config)
     root = Path(request.out)
     manifest = prepare_root(root, producer, cfg)
-    submit = _ray_submitter(request.workers) if request.backend == "ray" else None
+    submit, ray_started = (_ray_submitter(request.workers) if request.backend == "ray"
+                           else (None, False))
     try:
         root.mkdir(parents=True, exist_ok=True)
         (root / SCENES_DIR).mkdir(exist_ok=True)
@@ -273,6 +274,10 @@ def generate_dataset(
             bar.close()
             mf.save_manifest(root, mf.finalize(
                 manifest, complete=all(str(s) in manifest["shards"] for s in request.scene_ids)))
+            if ray_started:
+                import ray
+
+                ray.shutdown()
     if write_card:
         from momakitchen.data.card import write_dataset_card
 
@@ -302,21 +307,23 @@ def _run_local(scene_fn: SceneFn, config: Any, todo: list[int], root: Path, work
             raise
 
 
-def _ray_submitter(workers: int) -> Any:
+def _ray_submitter(workers: int) -> tuple[Any, bool]:
     """Initialise Ray (an existing cluster via RAY_ADDRESS, else a local instance with
-    ``workers`` CPUs) and return the remote version of the per-scene task."""
+    ``workers`` CPUs); return the remote version of the per-scene task and whether Ray was
+    initialised here (then it is shut down at the end)."""
     try:
         import ray
     except ImportError:
         raise MomaError("--backend ray needs Ray: pip install 'momakitchen[ray]' "
                         "(or pip install 'ray>=2.9')") from None
-    if not ray.is_initialized():
+    started = not ray.is_initialized()
+    if started:
         address = os.environ.get("RAY_ADDRESS")
         if address:
             ray.init(address=address, log_to_driver=False)
         else:
             ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False)
-    return ray.remote(num_cpus=1)(_scene_bytes_task)
+    return ray.remote(num_cpus=1)(_scene_bytes_task), started
 
 
 def _run_ray(remote: Any, scene_fn: SceneFn, config: Any, todo: list[int], root: Path,
