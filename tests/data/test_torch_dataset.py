@@ -2,14 +2,20 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 import torch
+from dataset_helpers import SMALL
 from torch.utils.data import DataLoader
 
 from momakitchen.data import EpisodeDataset
 from momakitchen.data.batch import EpisodeCollator, validate_sample
+from momakitchen.data.generator import GenerateRequest, generate_dataset
+from momakitchen.data.integrity import check_dataset, dataset_stats
 from momakitchen.data.shard import SceneShard, list_shards
+from momakitchen.data.synthetic_scene import synthetic_scene_records
 from momakitchen.errors import MomaError
 from momakitchen.robots.spec import DESCRIPTOR_DIM, ROBOTS, robot_descriptor
 
@@ -60,3 +66,23 @@ def test_bad_root_and_split(tmp_path, small_dataset):
         EpisodeDataset(tmp_path)
     with pytest.raises(MomaError, match="split must be one of"):
         EpisodeDataset(small_dataset, split="val")
+
+
+def _records_with_an_empty_floor(scene_id, config):
+    records = synthetic_scene_records(scene_id, config)
+    ep = records[0][1][1]
+    records[0][1][1] = dataclasses.replace(ep, floor_xyz=ep.floor_xyz[:0],
+                                           floor_label=ep.floor_label[:0])
+    return records
+
+
+def test_episodes_without_floor_points_are_skipped(tmp_path):
+    root = tmp_path / "ds"
+    generate_dataset(GenerateRequest(out=root, num_scenes=1), _records_with_an_empty_floor,
+                     SMALL, progress=False, write_card=False)
+    assert check_dataset(root)["episodes"] == 6  # valid data, counted
+    assert dataset_stats(root)["episodes_with_empty_cloud"] == 1
+    ds = EpisodeDataset(root, split="all")
+    assert len(ds) == 5 and ("scenes/scene_000000.h5", 0, 0, 1) not in {i[:4] for i in ds.index}
+    assert len(EpisodeDataset(root, split="all", skip_empty=False)) == 6
+    EpisodeCollator()([ds[i] for i in range(len(ds))])  # would raise on an empty cloud

@@ -82,6 +82,9 @@ def run_stats(args: argparse.Namespace) -> int:
     print(f"bytes: {s['bytes']:,} ({s['bytes_per_episode']:,.0f} per episode); image "
           f"{s['image_shape']}; points per episode: global {pts['global']}, floor "
           f"{pts['floor']}")
+    if s["episodes_with_empty_cloud"]:
+        print(f"episodes without global or floor points (skipped by EpisodeDataset): "
+              f"{s['episodes_with_empty_cloud']}")
     return 0
 
 

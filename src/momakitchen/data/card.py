@@ -118,6 +118,8 @@ def render_card(manifest: dict[str, Any], stats: dict[str, Any] | None,
             f"- global points per episode: {pts['global']}",
             f"- floor points per episode: {pts['floor']}",
             f"- mean floor label: {stats['floor_label_mean']}",
+            f"- episodes without global or floor points (skipped by EpisodeDataset): "
+            f"{stats['episodes_with_empty_cloud']}",
             "",
         ]
     if figure:

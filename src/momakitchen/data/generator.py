@@ -174,6 +174,8 @@ def _existing_summary(path: Path, known: dict[str, Any] | None) -> dict[str, Any
     with SceneShard(path) as shard:
         configs = [shard.configuration(c) for c in shard.config_indices()]
         per_config = [len(shard.episode_indices(c)) for c in shard.config_indices()]
+        points = [[shard.num_points(c, e) for e in shard.episode_indices(c)]
+                  for c in shard.config_indices()]
     return {
         "scene_id": shard.scene_id,
         "configurations": len(configs),
@@ -182,6 +184,8 @@ def _existing_summary(path: Path, known: dict[str, Any] | None) -> dict[str, Any
         "targets": [c.target for c in configs],
         "trials": [int(c.trial_stages.shape[0]) for c in configs],
         "successes": [int((c.trial_stages == 0).sum()) for c in configs],
+        "global_points": [[g for g, _ in eps] for eps in points],
+        "floor_points": [[f for _, f in eps] for eps in points],
         "file": f"{SCENES_DIR}/{path.name}",
         "bytes": path.stat().st_size,
         "sha256": file_sha256(path),

@@ -103,6 +103,10 @@ def check_shard(root: Path, sid: int, entry: dict[str, Any], path: Path,
             if int((lab.trial_stages == 0).sum()) != entry["successes"][c]:
                 raise MomaError(f"{where}: success count differs from the manifest")
             for e in shard.episode_indices(c):
+                if list(shard.num_points(c, e)) != [entry["global_points"][c][e],
+                                                    entry["floor_points"][c][e]]:
+                    raise MomaError(f"shard {name} episode {c}/{e}: point counts differ "
+                                    "from the manifest")
                 try:
                     _check_episode(shard, c, e, f"shard {name} episode {c}/{e}")
                 except (OSError, KeyError, ValueError) as exc:
@@ -169,6 +173,8 @@ def dataset_stats(root: str | os.PathLike) -> dict[str, Any]:
             except (OSError, KeyError, ValueError) as exc:
                 raise MomaError(f"shard {entry['file']}: unreadable ({exc})") from None
     n_ep = max(1, counts["total"]["episodes"])
+    empty = sum(1 for _, entry, _ in entries for c, cfg in enumerate(entry["floor_points"])
+                for e, nf in enumerate(cfg) if nf == 0 or entry["global_points"][c][e] == 0)
 
     def rate(row: dict[str, int]) -> float | None:
         return round(row["successful_trials"] / row["trials"], 4) if row.get("trials") else None
@@ -193,6 +199,7 @@ def dataset_stats(root: str | os.PathLike) -> dict[str, Any]:
         "points_per_episode": {k: _summary(v) for k, v in points.items()},
         "floor_label_mean": _summary(label_mean),
         "floor_label_positive_fraction": _summary(label_pos),
+        "episodes_with_empty_cloud": empty,
     }
 
 

@@ -140,6 +140,9 @@ def shard_summary(scene_id: int, records: SceneRecords) -> dict[str, Any]:
         "targets": [lab.target for lab, _ in records],
         "trials": [int(lab.trial_stages.shape[0]) for lab, _ in records],
         "successes": [int(np.sum(lab.trial_stages == 0)) for lab, _ in records],
+        # Per episode, so readers can skip empty clouds without opening files.
+        "global_points": [[int(ep.global_xyz.shape[0]) for ep in eps] for _, eps in records],
+        "floor_points": [[int(ep.floor_xyz.shape[0]) for ep in eps] for _, eps in records],
     }
 
 
@@ -334,6 +337,11 @@ class SceneShard:
     def episode_attrs(self, config_index: int, episode_index: int) -> dict[str, Any]:
         e = self._group(config_key(config_index), episode_key(episode_index))
         return {k: e.attrs[k] for k in e.attrs}
+
+    def num_points(self, config_index: int, episode_index: int) -> tuple[int, int]:
+        """(global, floor) point counts of an episode (metadata only, no data read)."""
+        e = self._group(config_key(config_index), episode_key(episode_index))
+        return int(e["global_xyz"].shape[0]), int(e["floor_xyz"].shape[0])
 
     def arrays(self, config_index: int, episode_index: int,
                names: Sequence[str]) -> dict[str, np.ndarray]:

@@ -36,6 +36,8 @@ class EpisodeDataset(Dataset):
         scene_ids: keep only these scenes (``None``: all of the split).
         transform: optional callable applied to each sample dict.
         max_open_files: shards kept open per process.
+        skip_empty: leave out episodes without global or floor points (a view whose floor
+            is entirely hidden); the collator cannot batch them.
 
     A sample (see :mod:`momakitchen.data.batch`): ``global_xyz`` (ng, 3), ``global_rgb``
     (ng, 3) in [0, 1], ``global_align`` (ng,), ``floor_xyz`` (nf, 3), ``floor_label`` (nf,)
@@ -47,7 +49,7 @@ class EpisodeDataset(Dataset):
     def __init__(self, root: str | os.PathLike, split: str = "train", *,
                  robots: Sequence[str] | None = None, scene_ids: Sequence[int] | None = None,
                  transform: Callable[[dict[str, Any]], dict[str, Any]] | None = None,
-                 max_open_files: int = 8) -> None:
+                 max_open_files: int = 8, skip_empty: bool = True) -> None:
         if split not in SPLIT_CHOICES:
             raise MomaError(f"split must be one of {SPLIT_CHOICES}, got {split!r}")
         if max_open_files < 1:
@@ -73,8 +75,13 @@ class EpisodeDataset(Dataset):
                 continue
             for c, (n, robot) in enumerate(zip(entry["episodes_per_config"], entry["robots"],
                                                strict=True)):
-                if robot_set is None or robot in robot_set:
-                    self.index += [(entry["file"], sid, c, e, robot) for e in range(n)]
+                if robot_set is not None and robot not in robot_set:
+                    continue
+                for e in range(n):
+                    if skip_empty and (entry["global_points"][c][e] == 0
+                                       or entry["floor_points"][c][e] == 0):
+                        continue
+                    self.index.append((entry["file"], sid, c, e, robot))
         self._open: OrderedDict[str, SceneShard] = OrderedDict()
         self._pid = os.getpid()
 
