@@ -24,6 +24,10 @@ from momakitchen.robots.spec import DESCRIPTOR_NAMES, DESCRIPTOR_VERSION
 MANIFEST_NAME = "manifest.json"
 MANIFEST_FORMAT = "momakitchen-dataset"
 SPLITS = ("train", "test")
+# Keys of a shard entry (the writer's summary plus its split).
+SHARD_KEYS = ("scene_id", "configurations", "episodes_per_config", "robots", "targets",
+              "trials", "successes", "global_points", "floor_points", "file", "bytes",
+              "sha256", "split")
 SPLIT_BLOCK = 5
 SPLIT_RULE = (f"one scene in every block of {SPLIT_BLOCK} consecutive scene ids goes to test, "
               "chosen by sha256('momakitchen-split:<block>')")
@@ -144,6 +148,12 @@ def load_manifest(root: str | os.PathLike) -> dict[str, Any]:
     for key in ("schema_version", "producer", "config", "splits", "shards"):
         if key not in data:
             raise MomaError(f"{path}: manifest has no {key!r}")
+    if not isinstance(data["shards"], dict):
+        raise MomaError(f"{path}: 'shards' must be an object")
+    for key, entry in data["shards"].items():
+        missing = [k for k in SHARD_KEYS if not isinstance(entry, dict) or k not in entry]
+        if missing:
+            raise MomaError(f"{path}: shard entry {key!r} lacks {missing[0]!r}")
     if data["schema_version"] != _schema_version():
         raise MomaError(f"{path}: schema version {data['schema_version']}, this version of "
                         f"momakitchen reads {_schema_version()}")
