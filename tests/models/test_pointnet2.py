@@ -109,3 +109,39 @@ def test_kdtree_and_topk_neighbour_search_agree(monkeypatch):
         assert torch.equal(torch.where(ma, ia, -1), torch.where(mb, ib, -1))
     assert torch.equal(kd_w[0], tk_w[0])
     assert torch.allclose(kd_w[1], tk_w[1], atol=1e-4)
+
+
+def test_grouped_mlp_equals_gathering_relative_positions_first():
+    from momakitchen.models.pointnet2 import GroupedMLP, gather_points
+
+    torch.manual_seed(0)
+    mlp = GroupedMLP(5, [8, 6])
+    xyz, feats = torch.randn(2, 30, 3), torch.randn(2, 30, 5)
+    centers = xyz[:, :4]
+    idx = torch.randint(0, 30, (2, 4, 7))
+    radius = 0.3
+    fast = mlp(xyz, feats, centers, idx, radius)
+    rel = (gather_points(xyz, idx) - centers.unsqueeze(2)) / radius
+    naive_in = torch.cat([rel, gather_points(feats, idx)], -1)
+    naive = torch.relu(mlp.first(naive_in))
+    naive = mlp.rest(naive)
+    assert torch.allclose(fast, naive, atol=1e-5)
+    assert (fast >= 0).all()
+
+
+def test_group_all_ignores_padding():
+    from momakitchen.models.pointnet2 import SetAbstractionAll
+
+    torch.manual_seed(0)
+    layer = SetAbstractionAll(2, [8, 8])
+    xyz, feats = torch.randn(1, 10, 3), torch.randn(1, 10, 2)
+    mask = torch.ones(1, 10, dtype=torch.bool)
+    padded_mask = torch.cat([mask, torch.zeros(1, 5, dtype=torch.bool)], 1)
+    out = layer(xyz, feats, mask)
+    out_padded = layer(
+        torch.cat([xyz, torch.full((1, 5, 3), 50.0)], 1),
+        torch.cat([feats, torch.full((1, 5, 2), 50.0)], 1),
+        padded_mask,
+    )
+    assert out.shape == (1, 8)
+    assert torch.allclose(out, out_padded)
