@@ -7,15 +7,24 @@
 from momakitchen.models.base import AffordanceModel, num_parameters
 from momakitchen.models.config import ModelConfig
 from momakitchen.models.loss import WeightedMSELoss
-from momakitchen.models.registry import MODELS, build_model, get_model_entry, model_names
+from momakitchen.models.registry import (
+    MODELS,
+    ModelEntry,
+    build_model,
+    get_model_entry,
+    model_names,
+    register_model,
+)
 
 __all__ = [
     "MODELS",
     "AffordanceModel",
     "ModelConfig",
+    "ModelEntry",
     "WeightedMSELoss",
     "build_model",
     "get_model_entry",
     "model_names",
     "num_parameters",
+    "register_model",
 ]
