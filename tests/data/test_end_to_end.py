@@ -12,6 +12,7 @@ from momakitchen.data import EpisodeDataset
 from momakitchen.data.batch import EpisodeCollator
 from momakitchen.data.generator import GenerateRequest, generate_dataset
 from momakitchen.data.integrity import FLOOR_Z_MAX, check_dataset, dataset_stats
+from momakitchen.data.shard import SceneShard, list_shards
 from momakitchen.data.synthetic_scene import SyntheticSceneConfig, synthetic_scene_records
 
 pytestmark = pytest.mark.slow
@@ -32,13 +33,22 @@ def test_real_producer_two_scenes_any_worker_count(tmp_path):
                      progress=False)
     generate_dataset(GenerateRequest(out=b, num_scenes=2, workers=1), scene_records, cfg,
                      progress=False, write_card=False)
-    assert _digests(a) == _digests(b)
+    # Everything but the measured displacement of the target is exactly reproducible; that
+    # physics measurement differs by up to ~1 cm between processes (see docs/bench/dataset.md).
+    with SceneShard(list_shards(a)[1]) as sa, SceneShard(list_shards(b)[1]) as sb:
+        for (la, ea), (lb, eb) in zip(sa.records(), sb.records(), strict=True):
+            np.testing.assert_array_equal(la.trial_stages, lb.trial_stages)
+            np.testing.assert_allclose(la.trial_moved, lb.trial_moved, atol=0.02)
+            for x, y in zip(ea, eb, strict=True):
+                for f in ("rgb", "depth", "global_xyz", "global_align", "floor_label"):
+                    np.testing.assert_array_equal(getattr(x, f), getattr(y, f))
     report = check_dataset(a)
     assert report["shards"] == 2 and report["episodes"] >= 2
     stats = dataset_stats(a)
     assert stats["image_shape"] == [480, 640, 3]
     ds = EpisodeDataset(a, split="all")
     sample = ds[0]
+    assert len(ds) == report["episodes"] - stats["episodes_with_empty_cloud"]
     assert float(sample["floor_xyz"][:, 2].max()) < FLOOR_Z_MAX
     assert (sample["global_align"] == 1).any()  # the target is visible in every kept view
     batch = EpisodeCollator(num_global=4096, num_floor=1024)([ds[i] for i in range(2)])
