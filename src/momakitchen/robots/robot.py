@@ -124,17 +124,11 @@ class Robot:
         path = robot_urdf_path(name)
         self.body = self._load(path)
         self._index_joints()
-        if not self._dynamics_tree_ok():
-            # PyBullet caches the kinematic tree behind calculateJacobian, its IK and inverse
-            # dynamics per body and does not drop it when a body is removed: a robot loaded
-            # where a removed, different robot was can inherit the stale tree. Our IK only
-            # uses link states, but callers may use those functions: load again, then free
-            # the stale body.
-            stale, self.body = self.body, self._load(path)
-            p.removeBody(stale, physicsClientId=self.client)
-            if not self._dynamics_tree_ok():
-                raise MomaError(f"robot {name!r}: PyBullet's Jacobian is wrong for "
-                                f"{str(path)!r}")
+        # PyBullet caches the kinematic tree behind calculateJacobian, its IK and inverse
+        # dynamics by body and does not drop it when a body is removed, so a robot loaded
+        # where another body was may inherit a stale tree. Nothing here uses those
+        # functions (IK and Jacobians are computed from link states), and callers should
+        # not either.
         self._attachment: tuple[int, int] | None = None
         # The flange in the TCP frame: a rigid offset (both sit after the last arm joint).
         tcp_pos, tcp_orn = self.link_pose(self.tcp_link)
@@ -168,36 +162,6 @@ class Robot:
             raise MomaError(
                 f"robot {self.name!r}: PyBullet cannot load {str(path)!r}: {exc}"
             ) from None
-
-    def _dynamics_tree_ok(self) -> bool:
-        """Check PyBullet's Jacobian against finite differences of the link states."""
-        c = self.client
-        saved = self.joint_positions()
-        q = self.home if hasattr(self, "home") else saved
-        self._reset_arm(q)
-        full = [s[0] for s in p.getJointStates(self.body, self._movable, physicsClientId=c)]
-        zeros = [0.0] * len(full)
-        try:
-            jac, _ = p.calculateJacobian(self.body, self.tcp_link, (0.0, 0.0, 0.0), full, zeros,
-                                         zeros, physicsClientId=c)
-        except (p.error, SystemError):  # a stale tree raises SystemError in some versions
-            self._reset_arm(saved)
-            return False
-        jac = np.array(jac)[:, self._ik_cols]
-        x0 = self.link_pose(self.tcp_link)[0]
-        eps = 1e-5
-        ok = True
-        for k in range(self.dof):
-            dq = np.array(q, float)
-            dq[k] += eps
-            self._reset_arm(dq)
-            col = (self.link_pose(self.tcp_link)[0] - x0) / eps
-            # Loose: PyBullet's Jacobian of mesh robots is off by ~1 % (still converges).
-            if np.max(np.abs(col - jac[:, k])) > 0.02:
-                ok = False
-                break
-        self._reset_arm(saved)
-        return ok
 
     def _index_joints(self) -> None:
         c = self.client
