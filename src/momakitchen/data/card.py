@@ -137,9 +137,13 @@ def write_dataset_card(root: str | os.PathLike, manifest: dict[str, Any] | None 
     manifest = manifest or mf.load_manifest(root)
     shards = list_shards(root)
     figure = False
-    if shards:
+    if shards and manifest["counts"]["total"]["episodes"]:
         with SceneShard(next(iter(shards.values()))) as shard:
-            ep = shard.episode(shard.config_indices()[0], 0)
+            # The first shard's episode with the most affordance mass: an informative map.
+            keys = [(c, e) for c in shard.config_indices() for e in shard.episode_indices(c)]
+            mass = [float(shard.arrays(c, e, ["floor_label"])["floor_label"].sum())
+                    for c, e in keys]
+            ep = shard.episode(*keys[int(np.argmax(mass))])
         with atomic_path(root / FIGURE_NAME) as tmp:
             save_episode_figure(ep, tmp)
         figure = True
