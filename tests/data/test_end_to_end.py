@@ -12,6 +12,7 @@ from momakitchen.data import EpisodeDataset
 from momakitchen.data.batch import EpisodeCollator
 from momakitchen.data.generator import GenerateRequest, generate_dataset
 from momakitchen.data.integrity import FLOOR_Z_MAX, check_dataset, dataset_stats
+from momakitchen.data.manifest import generation_config, load_manifest
 from momakitchen.data.shard import SceneShard, list_shards
 from momakitchen.data.synthetic_scene import SyntheticSceneConfig, synthetic_scene_records
 
@@ -55,6 +56,7 @@ def test_real_producer_two_scenes_any_worker_count(tmp_path):
     assert batch["global_xyz"].shape == (2, 4096, 3) and batch["floor_label"].shape == (2, 1024)
     assert np.isfinite(batch["floor_label"].numpy()).all()
     assert (a / "README.md").is_file() and (a / "example.png").stat().st_size > 10_000
+    assert generation_config(load_manifest(a)) == cfg
 
 
 def test_ray_backend_on_a_local_instance_matches_local(tmp_path):

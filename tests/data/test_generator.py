@@ -148,3 +148,14 @@ def test_manifest_records_config_and_counts(small_dataset):
     assert sum(r["total"]["episodes"] for r in m["counts"]["robots"].values()) == 30
     card = (small_dataset / "README.md").read_text()
     assert "| total | 5 | 10 | 30 |" in card and (small_dataset / "example.png").stat().st_size
+
+
+def test_check_and_stats_commands(small_dataset, capsys):
+    assert main(["check", str(small_dataset), "--quiet"]) == 0
+    assert "OK: 5 shards, 30 episodes" in capsys.readouterr().out
+    assert main(["stats", str(small_dataset), "--json"]) == 0
+    s = json.loads(capsys.readouterr().out)
+    assert s["splits"]["total"]["episodes"] == 30 and s["bytes_per_episode"] > 0
+    assert 0 <= s["splits"]["train"]["trial_success_rate"] <= 1
+    assert main(["stats", str(small_dataset)]) == 0
+    assert "per episode" in capsys.readouterr().out

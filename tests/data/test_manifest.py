@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from dataset_helpers import make_dataset
 
-from momakitchen.data.manifest import SPLIT_BLOCK, scene_split
-from momakitchen.data.synthetic_scene import SyntheticSceneConfig
+from momakitchen.data.manifest import SPLIT_BLOCK, generation_config, load_manifest, scene_split
+from momakitchen.data.synthetic_scene import SyntheticSceneConfig, synthetic_scene_records
 from momakitchen.robots.spec import ROBOTS
 
 
@@ -27,3 +27,19 @@ def test_all_six_robots_in_both_splits_for_20_scenes(tmp_path):
     for split in ("train", "test"):
         present = {r for r, row in m["counts"]["robots"].items() if row[split].get("episodes")}
         assert present == set(ROBOTS) - {n for n in ROBOTS if n.startswith("user")}, split
+
+
+def test_synthetic_robot_assignment_is_the_scene_samplers():
+    from momakitchen.scene.configuration import SceneConfig, sample_scene
+
+    cfg = SyntheticSceneConfig(configs_per_scene=10, episodes_per_config=1, image_size=(4, 4),
+                               num_global=16, num_floor=8)
+    real = [c.robot for c in sample_scene(3, SceneConfig()).configurations]
+    assert [lab.robot for lab, _ in synthetic_scene_records(3, cfg)] == real
+    assert len(set(real)) == 6
+
+
+def test_generation_config_is_rebuilt_from_the_manifest(small_dataset):
+    from dataset_helpers import SMALL
+
+    assert generation_config(load_manifest(small_dataset)) == SMALL

@@ -43,14 +43,16 @@ def scene_split(scene_id: int) -> str:
     return "test" if scene_id % SPLIT_BLOCK == chosen else "train"
 
 
-def new_manifest(producer: str, config: dict[str, Any]) -> dict[str, Any]:
-    """An empty manifest for a dataset made by ``producer`` with ``config``."""
+def new_manifest(producer: str, config: dict[str, Any], config_class: str = "") -> dict[str, Any]:
+    """An empty manifest for a dataset made by ``producer`` with ``config`` (the
+    ``dataclasses.asdict`` of an instance of ``config_class``)."""
     return {
         "format": MANIFEST_FORMAT,
         "schema_version": _schema_version(),
         "generator_version": __version__,
         "producer": producer,
         "config": config,
+        "config_class": config_class,
         "descriptor_version": DESCRIPTOR_VERSION,
         "descriptor_names": list(DESCRIPTOR_NAMES),
         "split_rule": SPLIT_RULE,
@@ -162,3 +164,28 @@ def load_manifest(root: str | os.PathLike) -> dict[str, Any]:
 
 def save_manifest(root: str | os.PathLike, manifest: dict[str, Any]) -> None:
     atomic_write_text(manifest_path(root), json.dumps(manifest, indent=1) + "\n")
+
+
+# Config classes that :func:`generation_config` may rebuild (never an arbitrary import).
+_CONFIG_CLASSES = {
+    "momakitchen.perception.episodes.GenerationConfig": (
+        "momakitchen.perception.episodes", "GenerationConfig"),
+    "momakitchen.data.synthetic_scene.SyntheticSceneConfig": (
+        "momakitchen.data.synthetic_scene", "SyntheticSceneConfig"),
+}
+
+
+def generation_config(manifest: dict[str, Any]) -> Any:
+    """The config object a dataset was generated with (e.g. to rebuild its worlds:
+    ``sample_scene(scene_id, generation_config(m).scene)``); MomaError if unknown."""
+    import importlib
+
+    name = manifest.get("config_class", "")
+    if name not in _CONFIG_CLASSES:
+        raise MomaError(f"cannot rebuild generation config of class {name!r}")
+    module, cls_name = _CONFIG_CLASSES[name]
+    cls = getattr(importlib.import_module(module), cls_name)
+    data = manifest["config"]
+    if hasattr(cls, "from_dict"):
+        return cls.from_dict(data)
+    return cls(**{k: tuple(v) if isinstance(v, list) else v for k, v in data.items()})
