@@ -159,3 +159,13 @@ def test_check_and_stats_commands(small_dataset, capsys):
     assert 0 <= s["splits"]["train"]["trial_success_rate"] <= 1
     assert main(["stats", str(small_dataset)]) == 0
     assert "per episode" in capsys.readouterr().out
+
+
+def test_a_run_killed_before_its_first_manifest_is_continued(tmp_path):
+    root = tmp_path / "ds"
+    (root / "scenes").mkdir(parents=True)
+    (root / ".generate.lock").touch()
+    (root / "scenes" / ".tmp-123-scene_000000.h5").write_bytes(b"partial")
+    m = make_dataset(root, scenes=1)
+    assert m["complete"] and sorted(p.name for p in (root / "scenes").iterdir()) == [
+        "scene_000000.h5"]

@@ -146,7 +146,10 @@ def prepare_root(root: Path, producer: str, config: dict[str, Any],
                             "use another --out")
         return old
     if root.is_dir():
-        others = sorted(p.name for p in root.iterdir() if p.name != LOCK_NAME)
+        # A run killed before it saved its first manifest leaves only the lock file and a
+        # scenes/ folder without finished shards: that is still ours to continue.
+        ours = {LOCK_NAME} | ({SCENES_DIR} if not list_shards(root) else set())
+        others = sorted(p.name for p in root.iterdir() if p.name not in ours)
         if others:
             raise MomaError(f"--out {str(root)!r} is a non-empty directory without a "
                             f"{mf.MANIFEST_NAME} (holds {others[0]!r}); refusing to write there")

@@ -83,7 +83,8 @@ def export_reference(root: str | os.PathLike, out: str | os.PathLike) -> dict[st
                 info_dir = out / "info" / detail
                 info_dir.mkdir(parents=True)
                 episodes = shard.episode_indices(c)
-                first = shard.arrays(c, episodes[0], ["descriptor"])["descriptor"]
+                first = (shard.arrays(c, episodes[0], ["descriptor"])["descriptor"] if episodes
+                         else np.asarray(robot_descriptor(get_robot_spec(lab.robot))))
                 info = {
                     "robot_name": lab.robot,
                     "scene_id": sid, "config_index": c, "target": lab.target,
