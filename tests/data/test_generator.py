@@ -148,6 +148,7 @@ def test_manifest_records_config_and_counts(small_dataset):
     assert sum(r["total"]["episodes"] for r in m["counts"]["robots"].values()) == 30
     card = (small_dataset / "README.md").read_text()
     assert "| total | 5 | 10 | 30 |" in card and (small_dataset / "example.png").stat().st_size
+    assert "Robots missing from a split" in card or "Every robot appears" in card
 
 
 def test_check_and_stats_commands(small_dataset, capsys):

@@ -63,6 +63,12 @@ def _table(rows: list[list[Any]], header: list[str]) -> str:
     return "\n".join(lines)
 
 
+def _range(summary: dict[str, float] | None) -> str:
+    if not summary:
+        return "-"
+    return f"mean {summary['mean']:g}, min {summary['min']:g}, max {summary['max']:g}"
+
+
 def _rate(row: dict[str, int]) -> str:
     return f"{row['successful_trials'] / row['trials']:.3f}" if row.get("trials") else "-"
 
@@ -75,6 +81,11 @@ def render_card(manifest: dict[str, Any], stats: dict[str, Any] | None,
     head = ["split", "scenes", "configurations", "episodes", "trials", "trial success"]
     robots = [[r, row["train"].get("episodes", 0), row["test"].get("episodes", 0),
                _rate(row["total"])] for r, row in c["robots"].items()]
+    missing = {s: sorted(r for r, row in c["robots"].items() if not row[s].get("episodes"))
+               for s in ("train", "test")}
+    coverage = ("Every robot appears in both splits." if not any(missing.values()) else
+                "Robots missing from a split: " + "; ".join(
+                    f"{s}: {', '.join(v)}" for s, v in missing.items() if v) + ".")
     targets = [[t, row["train"].get("episodes", 0), row["test"].get("episodes", 0),
                 _rate(row["total"])] for t, row in c["targets"].items()]
     parts = [
@@ -102,6 +113,8 @@ def render_card(manifest: dict[str, Any], stats: dict[str, Any] | None,
         "",
         _table(robots, ["robot", "train", "test", "trial success"]),
         "",
+        coverage,
+        "",
         "## Target categories (episodes)",
         "",
         _table(targets, ["target", "train", "test", "trial success"]),
@@ -115,9 +128,9 @@ def render_card(manifest: dict[str, Any], stats: dict[str, Any] | None,
             f"- bytes on disk: {stats['bytes']:,} ({stats['bytes_per_episode']:,.0f} per "
             "episode)",
             f"- image: {stats['image_shape']}",
-            f"- global points per episode: {pts['global']}",
-            f"- floor points per episode: {pts['floor']}",
-            f"- mean floor label: {stats['floor_label_mean']}",
+            f"- global points per episode: {_range(pts['global'])}",
+            f"- floor points per episode: {_range(pts['floor'])}",
+            f"- mean floor label per episode: {_range(stats['floor_label_mean'])}",
             f"- episodes without global or floor points (skipped by EpisodeDataset): "
             f"{stats['episodes_with_empty_cloud']}",
             "",
