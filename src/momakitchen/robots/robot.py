@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 import pybullet as p
 
+from momakitchen.bullet import connect_direct
 from momakitchen.errors import MomaError
 from momakitchen.robots.arms import (
     ParallelGripper,
@@ -43,6 +44,31 @@ _WORKSPACE_SAMPLES = 1500
 _WORKSPACE_CACHE: dict[str, tuple[float, float]] = {}
 _SELF_PAIRS_CACHE: dict[str, list[tuple[int, int]]] = {}
 _SEED_LIBRARY: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+_WARMING: set[str] = set()
+
+
+def _warm_caches(name: str) -> None:
+    """Compute a robot's per-process caches (workspace, self-collision pairs, IK seed
+    library) once, in a scratch client of their own.
+
+    Computing them lazily inside a world would teleport its joints thousands of times in
+    the middle of whatever that world was doing, and PyBullet's results depend, in the
+    last bits, on such history: with the caches warmed apart, a world's results depend
+    only on what is done in it.
+    """
+    if name in _WARMING or (name in _WORKSPACE_CACHE and name in _SELF_PAIRS_CACHE
+                            and name in _SEED_LIBRARY):
+        return
+    _WARMING.add(name)
+    client = connect_direct()
+    try:
+        robot = Robot(client, name)
+        robot.workspace()
+        robot._self_pairs()
+        _SEED_LIBRARY.setdefault(name, robot._build_library())
+    finally:
+        p.disconnect(client)
+        _WARMING.discard(name)
 _EYE3, _EYE6 = np.eye(3), np.eye(6)
 
 
@@ -121,6 +147,7 @@ class Robot:
         self.model: RobotModel = get_model(name)
         self.client = int(client_id)
         self.name = name
+        _warm_caches(name)
         path = robot_urdf_path(name)
         self.body = self._load(path)
         self._index_joints()

@@ -90,6 +90,9 @@ class World:
             p.setAdditionalSearchPath(pybullet_data.getDataPath(), physicsClientId=self.client)
             p.setGravity(0, 0, -9.81, physicsClientId=self.client)
             p.setTimeStep(TIME_STEP, physicsClientId=self.client)
+            # Sorted contact pairs: results must not depend on memory layout.
+            p.setPhysicsEngineParameter(deterministicOverlappingPairs=1,
+                                        physicsClientId=self.client)
             self._build_room()
             for placed in layout.furniture:
                 self._load(placed)
