@@ -77,7 +77,7 @@ class TrialConfig:
     hold_seconds: float = 1.0
     open_angle_deg: float = 20.0
     open_distance: float = 0.10
-    pull_angle_deg: float = 35.0
+    pull_angle_deg: float = 45.0
     pull_distance: float = 0.16
     max_grasp_depth: float = 0.03
     max_grasp_candidates: int = 3
@@ -375,10 +375,18 @@ class TrialRunner:
     def _pull(self, plan: _Plan, q_held: np.ndarray) -> tuple[bool, float]:
         robot, cfg, world, t = self.robot, self.config, self.world, self.target
         q_start = world.joint_position(t)
+        held_quat = robot.tcp_pose(q_held)[1]
         qs, seed = [], q_held
-        for pos, quat in self._handle_tcp_path(plan, 6):
-            res = robot.solve_ik(pos, quat, seed=seed, restarts=0, pos_tol=0.01,
-                                 ori_tol=math.radians(6))
+        for pos, quat in self._handle_tcp_path(plan, 8):
+            # The fingers may turn about the handle bar: besides following the handle's
+            # frame, accept keeping the grasp orientation or halfway between.
+            res = None
+            for frac in (1.0, 0.0, 0.5):
+                goal = p.getQuaternionSlerp(held_quat.tolist(), quat.tolist(), frac)
+                res = robot.solve_ik(pos, goal, seed=seed, restarts=0, pos_tol=0.01,
+                                     ori_tol=math.radians(6))
+                if res.success:
+                    break
             if not res.success:
                 break
             qs.append(res.q)
@@ -388,7 +396,7 @@ class TrialRunner:
             return False, 0.0
         prev = q_held
         for q in qs:
-            self._drive(prev, q, 1, 25)
+            self._drive(prev, q, 1, 30)
             prev = q
         world.step(20)
         opened = (world.joint_position(t) - q_start) * t.open_direction
