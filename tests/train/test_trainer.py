@@ -178,6 +178,13 @@ def _overfit(tmp_path, make_config, steps):
     return before, after
 
 
+def test_overfitting_four_episodes_quick(tmp_path, make_config):
+    """Quick variant for the default suite: 60 steps on 4 episodes at least halve the MSE."""
+    before, after = _overfit(tmp_path, make_config, 60)
+    assert after < before / 2, (before, after)
+
+
+@pytest.mark.slow
 def test_overfitting_four_episodes_tenfold(tmp_path, make_config):
     """200 steps on 4 episodes drop the MSE at least tenfold."""
     before, after = _overfit(tmp_path, make_config, 200)
