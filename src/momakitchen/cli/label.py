@@ -15,19 +15,9 @@ import numpy as np
 from tqdm import tqdm
 
 from momakitchen import __version__
-from momakitchen.cli.common import non_negative_int, output_dir
+from momakitchen.cli.common import non_negative_float, non_negative_int, output_dir
 from momakitchen.errors import MomaError
 from momakitchen.fileio import atomic_path, atomic_write_bytes, atomic_write_text, npz_bytes
-
-
-def _positive_float(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not value >= 0 or not np.isfinite(value):
-        raise argparse.ArgumentTypeError(f"expected a finite number >= 0, got {text!r}")
-    return value
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -39,9 +29,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     parser.add_argument("--config", type=non_negative_int, default=0,
                         help="configuration index within the scene (default 0)")
     parser.add_argument("--out", required=True, help="output directory")
-    parser.add_argument("--target-mass", type=_positive_float, default=None,
+    parser.add_argument("--target-mass", type=non_negative_float, default=None,
                         help="override the target's mass in kg (what-if study)")
-    parser.add_argument("--target-friction", type=_positive_float, default=None,
+    parser.add_argument("--target-friction", type=non_negative_float, default=None,
                         help="override the target's lateral friction (what-if study)")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     parser.set_defaults(func=run)
