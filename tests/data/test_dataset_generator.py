@@ -37,12 +37,27 @@ generate_dataset(GenerateRequest(out=Path(sys.argv[1]), num_scenes=int(sys.argv[
 """
 
 
+def _alive_in_group(pgid: int) -> bool:
+    """A running (not zombie) process in the group (orphans may never be reaped here)."""
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if int(fields[2]) == pgid and fields[0] != "Z":
+            return True
+    return False
+
+
 def _digests(root: Path) -> dict[str, str]:
     files = [*sorted((root / "scenes").iterdir()), root / "manifest.json"]
     return {p.name: hashlib.sha256(p.read_bytes()).hexdigest() for p in files}
 
 
-def test_sigkill_halfway_then_resume_equals_uninterrupted_run(tmp_path):
+@pytest.mark.parametrize("victims", ["group", "parent"])
+def test_sigkill_halfway_then_resume_equals_uninterrupted_run(tmp_path, victims):
+    """``group``: the driver and its pool workers die mid-scene (a lost machine);
+    ``parent``: only the driver dies; its pool workers must not outlive it."""
     killed = tmp_path / "killed"
     proc = subprocess.Popen([sys.executable, "-c", DRIVER, str(killed), str(KILL_SCENES)],
                             start_new_session=True, stdout=subprocess.DEVNULL,
@@ -58,7 +73,10 @@ def test_sigkill_halfway_then_resume_equals_uninterrupted_run(tmp_path):
         else:
             pytest.fail("no shards appeared within 90 s")
     finally:
-        os.killpg(proc.pid, signal.SIGKILL)  # the driver and its pool workers, mid-scene
+        if victims == "group":
+            os.killpg(proc.pid, signal.SIGKILL)
+        else:
+            os.kill(proc.pid, signal.SIGKILL)
         proc.wait()
     shards = sorted((killed / "scenes").glob("scene_*.h5"))
     assert 3 <= len(shards) < KILL_SCENES
@@ -69,6 +87,11 @@ def test_sigkill_halfway_then_resume_equals_uninterrupted_run(tmp_path):
     ref = tmp_path / "ref"
     generate_dataset(GenerateRequest(out=ref, num_scenes=KILL_SCENES, workers=1),
                      synthetic_scene_records, SLOW_SCENES, progress=False, write_card=False)
+    if victims == "parent":  # orphaned workers notice and exit (within about 0.5 s)
+        deadline = time.monotonic() + 10
+        while _alive_in_group(proc.pid) and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert not _alive_in_group(proc.pid), "orphaned pool workers are still running"
     assert _digests(killed) == _digests(ref)  # same bytes, temporaries gone
     assert check_dataset(killed)["episodes"] == KILL_SCENES * 6
     # check catches a truncated shard and names it.

@@ -24,6 +24,7 @@ import multiprocessing
 import os
 import sys
 import tempfile
+import threading
 import time
 from collections.abc import Callable, Iterator
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
@@ -202,6 +203,19 @@ def _scene_task(scene_fn: SceneFn, config: Any, scene_id: int, directory: str) -
     return write_shard(directory, scene_id, records)
 
 
+def _worker_init(parent_pid: int) -> None:
+    """Pool worker start-up: exit as soon as the generating process is gone. Workers of a
+    SIGKILLed run would otherwise wait for work forever (and finish queued scenes while a
+    resumed run writes the same directory)."""
+
+    def watch() -> None:
+        while os.getppid() == parent_pid:
+            time.sleep(0.5)
+        os._exit(1)  # its temporary shard, if any, is removed by the next run
+
+    threading.Thread(target=watch, daemon=True, name="momakitchen-parent-watch").start()
+
+
 def _scene_bytes_task(scene_fn: SceneFn, config: Any, scene_id: int) -> tuple[dict, bytes]:
     """Worker body (Ray backend): compute one scene, return the shard summary and bytes."""
     with tempfile.TemporaryDirectory(prefix="momakitchen-shard-") as tmp:
@@ -302,7 +316,8 @@ def _run_local(scene_fn: SceneFn, config: Any, todo: list[int], root: Path, work
         return
     # Spawn: PyBullet and h5py state must not be inherited through fork.
     ctx = multiprocessing.get_context("spawn")
-    with ProcessPoolExecutor(max_workers=min(workers, len(todo)), mp_context=ctx) as pool:
+    with ProcessPoolExecutor(max_workers=min(workers, len(todo)), mp_context=ctx,
+                             initializer=_worker_init, initargs=(os.getpid(),)) as pool:
         pending = {pool.submit(_scene_task, scene_fn, config, sid, directory) for sid in todo}
         try:
             while pending:
