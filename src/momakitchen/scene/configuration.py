@@ -41,9 +41,11 @@ class SceneConfig:
             articulated part.
         grid_spacing: spacing (m) of the trial grid in the semicircle.
         min_free_positions: obstacles are resampled until at least this many positions of
-            the sampling grid (or 40 % of those clear of the furniture, if fewer) leave
-            the base footprint free: solvable in general, but the first obstacle still
-            blocks some of the best spots.
+            the sampling grid (or half of those clear of the furniture, if fewer) leave
+            the base footprint free: solvable in general, not trivially (obstacles stand
+            inside the sampling semicircle, where the robot would like to park).
+        min_target_bases: a target is redrawn (up to 8 times) while fewer grid positions
+            than this can hold the base clear of furniture and walls.
         robots: robot names assigned round-robin over configurations (``()`` = all).
     """
 
@@ -53,6 +55,7 @@ class SceneConfig:
     rigid_target_prob: float = 0.5
     grid_spacing: float = 0.1
     min_free_positions: int = 12
+    min_target_bases: int = 20
     robots: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
@@ -66,6 +69,9 @@ class SceneConfig:
             raise MomaError(f"objects must allow at least one object, got {self.objects}")
         if not 0.0 <= self.rigid_target_prob <= 1.0:
             raise MomaError(f"rigid_target_prob must be in [0, 1], got {self.rigid_target_prob}")
+        if self.min_free_positions < 0 or self.min_target_bases < 0:
+            raise MomaError("min_free_positions and min_target_bases must be >= 0, got "
+                            f"{self.min_free_positions}, {self.min_target_bases}")
         if not 0.02 <= self.grid_spacing <= 0.5:
             raise MomaError(f"grid_spacing must be in [0.02, 0.5] m, got {self.grid_spacing}")
         for name in self.robots:
@@ -203,26 +209,31 @@ def _inside_room(corners: np.ndarray, room: Any, margin: float) -> np.ndarray:
 def _place_obstacles(layout: Layout, rng: np.random.Generator, cfg: SceneConfig,
                      anchor: np.ndarray, reach: float, footprint: tuple[float, float]
                      ) -> tuple[Placed, ...]:
-    """1-3 obstacles in the semicircle, resampled until enough base positions stay free."""
+    """1-3 obstacles in the semicircle that leave enough base positions free.
+
+    Each obstacle takes, among random poses that fit, the first that keeps ``needed``
+    base positions free (or the one that blocks the fewest); whole arrangements are
+    redrawn up to 10 times.
+    """
     furniture = corners_of(layout.footprints(margin=0.02))
     bases = _candidate_bases(anchor, reach, corners_of(layout.footprints()), footprint,
                              cfg.grid_spacing, layout.room)
     kinds = categories_of_kind("obstacle")
     # Where few positions exist at all (a tight corner), keep a good part of them.
-    needed = min(cfg.min_free_positions, int(0.4 * len(bases)))
-    best: tuple[Placed, ...] = ()
+    needed = min(cfg.min_free_positions, int(0.5 * len(bases)))
+    best: tuple[int, tuple[Placed, ...]] = (-1, ())
     for _attempt in range(10):
         count = int(rng.integers(cfg.obstacles[0], cfg.obstacles[1] + 1))
         placed: list[Placed] = []
         blocked = furniture
+        free_bases = bases
         for i in range(count):
             for _instance in range(4):  # a new instance if this one fits nowhere
                 cat = kinds[int(rng.integers(len(kinds)))]
                 params = get_category(cat).sample(rng, None)
                 sx, sy, _ = get_category(cat).build(params).size
-                # The first obstacle stands where a robot would like to park; others anywhere.
                 n = 48
-                r = rng.uniform(0.5, min(reach, 0.9) if i == 0 else reach, n)
+                r = rng.uniform(0.5, reach, n)
                 theta = rng.uniform(0.15, np.pi - 0.15, n)
                 yaw = np.round(rng.uniform(-np.pi, np.pi, n), 4)
                 x = np.round(anchor[0] + r * np.cos(theta), 4)
@@ -230,19 +241,24 @@ def _place_obstacles(layout: Layout, rng: np.random.Generator, cfg: SceneConfig,
                 c = box_corners(x, y, yaw, sx, sy)
                 ok = _inside_room(c, layout.room, 0.02) & ~overlap_matrix(c, blocked).any(1)
                 if ok.any():
-                    k = int(np.argmax(ok))
+                    hits = overlap_matrix(free_bases, c)  # (bases still free, candidates)
+                    left = np.where(ok, len(free_bases) - hits.sum(0), -1)
+                    good = ok & (left >= needed)
+                    k = int(np.argmax(good)) if good.any() else int(np.argmax(left))
                     ob = Placed(f"o{i}", cat, params, float(x[k]), float(y[k]), 0.001,
                                 float(yaw[k]))
                     placed.append(ob)
                     blocked = np.concatenate([blocked, ob.footprint(0.02).corners()[None]])
+                    free_bases = free_bases[~hits[:, k]]
                     break
         obstacles = corners_of([q.footprint() for q in placed])
         free = int((~overlap_matrix(bases, obstacles).any(1)).sum())
-        if free >= needed and len(placed) >= cfg.obstacles[0]:
-            return tuple(placed)
-        if len(placed) > len(best):
-            best = tuple(placed)
-    return best[: max(1, cfg.obstacles[0])] if best else ()
+        if len(placed) >= cfg.obstacles[0]:
+            if free >= needed:
+                return tuple(placed)
+            if free > best[0]:  # otherwise keep the arrangement that blocks the least
+                best = (free, tuple(placed))
+    return best[1]
 
 
 def sample_configuration(
@@ -261,14 +277,26 @@ def sample_configuration(
     parts = [(uid, art) for uid, art in articulated_targets(layout)
              if within_height_band(handle_anchor(layout.unit(uid), art)[2], robot.mount_height,
                                    robot.reach)]
-    if objects and (not parts or rng.random() < cfg.rigid_target_prob):
-        obj = objects[int(rng.integers(len(objects)))]
-        grasp = obj.model.grasps[0]
-        anchor = tuple(_r(v) for v in obj.to_world(np.asarray(grasp.position)))
-        target = Target(obj.uid, obj.category, None, anchor)
-    else:
-        uid, art = parts[int(rng.integers(len(parts)))]
-        target = Target(uid, layout.unit(uid).category, art, handle_anchor(layout.unit(uid), art))
+    furniture = corners_of(layout.footprints())
+    best: tuple[int, Target] | None = None
+    for _attempt in range(8):
+        if objects and (not parts or rng.random() < cfg.rigid_target_prob):
+            obj = objects[int(rng.integers(len(objects)))]
+            grasp = obj.model.grasps[0]
+            anchor = tuple(_r(v) for v in obj.to_world(np.asarray(grasp.position)))
+            target = Target(obj.uid, obj.category, None, anchor)
+        else:
+            uid, art = parts[int(rng.integers(len(parts)))]
+            target = Target(uid, layout.unit(uid).category, art,
+                            handle_anchor(layout.unit(uid), art))
+        # Targets in a corner leave the base almost nowhere to stand: prefer others.
+        room_for_base = len(_candidate_bases(np.asarray(target.anchor), robot.reach, furniture,
+                                             robot.footprint, cfg.grid_spacing, layout.room))
+        if best is None or room_for_base > best[0]:
+            best = (room_for_base, target)
+        if room_for_base >= cfg.min_target_bases:
+            break
+    target = best[1]
     obstacles = _place_obstacles(layout, rng, cfg, np.asarray(target.anchor), robot.reach,
                                  robot.footprint)
     return Configuration(layout.scene_id, index, robot.name, tuple(objects), target, obstacles)
