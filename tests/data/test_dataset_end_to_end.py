@@ -34,15 +34,11 @@ def test_real_producer_two_scenes_any_worker_count(tmp_path):
                      progress=False)
     generate_dataset(GenerateRequest(out=b, num_scenes=2, workers=1), scene_records, cfg,
                      progress=False, write_card=False)
-    # Everything but the measured displacement of the target is exactly reproducible; that
-    # physics measurement differs by up to ~1 cm between processes (see docs/bench/dataset.md).
-    with SceneShard(list_shards(a)[1]) as sa, SceneShard(list_shards(b)[1]) as sb:
-        for (la, ea), (lb, eb) in zip(sa.records(), sb.records(), strict=True):
-            np.testing.assert_array_equal(la.trial_stages, lb.trial_stages)
-            np.testing.assert_allclose(la.trial_moved, lb.trial_moved, atol=0.02)
-            for x, y in zip(ea, eb, strict=True):
-                for f in ("rgb", "depth", "global_xyz", "global_align", "floor_label"):
-                    np.testing.assert_array_equal(getattr(x, f), getattr(y, f))
+    # Shards are byte-identical across worker counts and processes, physics included (each
+    # configuration is simulated in a fresh world; robot caches are computed apart).
+    assert _digests(a) == _digests(b)
+    with SceneShard(list_shards(a)[1]) as sa:
+        assert sum(len(eps) for _, eps in sa.records()) >= 1
     report = check_dataset(a)
     assert report["shards"] == 2 and report["episodes"] >= 2
     stats = dataset_stats(a)
