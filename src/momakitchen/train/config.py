@@ -25,6 +25,12 @@ class TrainConfig:
         epochs, batch_size: schedule (batch size per process under DDP).
         lr, weight_decay, betas: Adam; the learning rate decays to ``lr * min_lr_ratio``
             with a cosine over all steps.
+        decoupled_weight_decay: apply the weight decay as AdamW does (shrink the weights by
+            ``lr * weight_decay`` per step) instead of adding ``weight_decay * w`` to the
+            gradient (``torch.optim.Adam``). With the coupled form, Adam's normalisation
+            turns the decay into the dominant update while the loss gradients are small
+            (as on the long plateau at the start of training); on synthetic episodes it
+            learned more slowly (docs/bench/learning.md). False: the coupled form.
         grad_clip: gradient-norm clip (0 disables).
         seed: seeds model init, shuffling, dropout and the weighted-MSE draws.
         num_workers: DataLoader workers.
@@ -47,6 +53,7 @@ class TrainConfig:
     batch_size: int = 64
     lr: float = 8e-4
     weight_decay: float = 1e-3
+    decoupled_weight_decay: bool = True
     betas: tuple[float, float] = (0.9, 0.999)
     min_lr_ratio: float = 0.0
     grad_clip: float = 0.0

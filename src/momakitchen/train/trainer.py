@@ -242,7 +242,8 @@ def _train(
 
     torch.manual_seed(config.seed)
     model = build_model(config.model, config.model_config)
-    optimizer = torch.optim.Adam(
+    optimizer_class = torch.optim.AdamW if config.decoupled_weight_decay else torch.optim.Adam
+    optimizer = optimizer_class(
         model.parameters(), lr=config.lr, betas=config.betas, weight_decay=config.weight_decay
     )
     progress: dict[str, Any] = {"epoch": 0, "global_step": 0, "history": []}
