@@ -7,8 +7,9 @@ Usage::
 
 Episodes are synthetic (:mod:`momakitchen.data.synthetic`) with exactly the preset's point
 counts. Inference: one episode per forward pass (the on-robot case), eval mode, median of
-``--repeats`` runs after two warm-up runs. Training: forward + backward + Adam step on a
-pre-collated batch (weighted MSE), median over ``--train-steps`` steps after one warm-up.
+``--repeats`` runs after two warm-up runs. Training: forward + backward + optimiser step
+(the preset's) on a pre-collated batch (weighted MSE), median over ``--train-steps``
+steps after one warm-up.
 The 1-minute load average before and after each row is recorded: these machines are shared,
 and other processes inflate the timings.
 """
@@ -76,9 +77,8 @@ def bench_one(preset: str, name: str, threads: int, repeats: int, train_steps: i
     infer_s = _median_time(infer, repeats, warmup=2)
 
     model.train()
-    opt = torch.optim.Adam(
-        model.parameters(), lr=cfg.lr, betas=cfg.betas, weight_decay=cfg.weight_decay
-    )
+    opt_class = torch.optim.AdamW if cfg.decoupled_weight_decay else torch.optim.Adam
+    opt = opt_class(model.parameters(), lr=cfg.lr, betas=cfg.betas, weight_decay=cfg.weight_decay)
 
     def step():
         out = model(batch)
