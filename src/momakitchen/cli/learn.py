@@ -1,0 +1,113 @@
+"""``momakitchen train`` and ``momakitchen evaluate``: models on a generated dataset.
+
+``train`` fits a model on the dataset's train split (scenes unseen at test time) and
+writes a run directory: ``config.json``, ``model.safetensors``, the trainer state, a CSV
+log and ``loss_curve.png``. Under ``torchrun`` it trains with DDP (gloo on CPU).
+``evaluate`` computes the map metrics of a run on the test split, prints a table like the
+paper's Table 2 and writes them (with per-robot and per-scene breakdowns) as JSON.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+from momakitchen.cli.common import non_negative_int, positive_int
+from momakitchen.errors import MomaError
+from momakitchen.fileio import atomic_write_text
+
+SPLITS = ("train", "test", "all")
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    from momakitchen.models import model_names
+    from momakitchen.train import PRESETS
+
+    tr = sub.add_parser("train", help="train a model (navaff, baselines, ablations)",
+                        description=__doc__)
+    tr.add_argument("--data", required=True, help="dataset directory (momakitchen generate)")
+    tr.add_argument("--model", required=True,
+                    help=f"model name: {', '.join(model_names())}")
+    tr.add_argument("--out", required=True, help="run directory")
+    tr.add_argument("--preset", default="cpu", choices=tuple(PRESETS),
+                    help="hyper-parameter preset (default cpu: trains on 2 cores)")
+    tr.add_argument("--epochs", type=positive_int, default=None)
+    tr.add_argument("--batch-size", type=positive_int, default=None)
+    tr.add_argument("--max-steps", type=non_negative_int, default=None,
+                    help="stop after this many optimiser steps (0: no limit)")
+    tr.add_argument("--workers", type=non_negative_int, default=None,
+                    help="DataLoader worker processes")
+    tr.add_argument("--threads", type=non_negative_int, default=None,
+                    help="torch threads per process (0: torch's default)")
+    tr.add_argument("--seed", type=non_negative_int, default=None)
+    tr.add_argument("--resume", action="store_true", help="continue the run in --out")
+    tr.add_argument("--quiet", action="store_true", help="no progress bars")
+    tr.set_defaults(func=run_train)
+
+    ev = sub.add_parser("evaluate", help="map metrics of a trained model on the test split",
+                        description=__doc__)
+    ev.add_argument("--data", required=True, help="dataset directory")
+    ev.add_argument("--checkpoint", required=True, help="run directory written by train")
+    ev.add_argument("--json", required=True, help="where to write the metrics (JSON)")
+    ev.add_argument("--split", default="test", choices=SPLITS)
+    ev.add_argument("--model", default=None,
+                    help="expected model name (refuses a checkpoint of another model)")
+    ev.add_argument("--batch-size", type=positive_int, default=8)
+    ev.add_argument("--quiet", action="store_true", help="no progress bar")
+    ev.set_defaults(func=run_evaluate)
+
+
+def _dataset(root: str, split: str):
+    from momakitchen.data import EpisodeDataset
+
+    if not Path(root).is_dir():
+        raise MomaError(f"dataset directory {root!r} does not exist")
+    data = EpisodeDataset(root, split)
+    if len(data) == 0:
+        raise MomaError(f"dataset {root!r} has no {split} episodes")
+    return data
+
+
+def run_train(args: argparse.Namespace) -> int:
+    from momakitchen.models import model_names
+    from momakitchen.train import preset_config, train
+
+    if args.model not in model_names():
+        raise MomaError(f"unknown model {args.model!r}; known models: {', '.join(model_names())}")
+    overrides = {
+        name: value for name, value in (
+            ("epochs", args.epochs), ("batch_size", args.batch_size),
+            ("max_steps", args.max_steps), ("num_workers", args.workers),
+            ("num_threads", args.threads), ("seed", args.seed),
+        ) if value is not None
+    }
+    config = preset_config(args.preset, args.model, progress=not args.quiet, **overrides)
+    data = _dataset(args.data, "train")
+    result = train(config, data, None, Path(args.out), resume=args.resume)
+    last = result.history[-1] if result.history else {}
+    print(f"trained {args.model} ({args.preset} preset) on {len(data)} episodes: "
+          f"{result.global_step} steps, last epoch loss {last.get('loss', float('nan')):.4f}"
+          f" -> {args.out}")
+    return 0
+
+
+def run_evaluate(args: argparse.Namespace) -> int:
+    from momakitchen.eval.metrics import format_table
+    from momakitchen.train import evaluate, load_checkpoint
+
+    run_dir = Path(args.checkpoint)
+    if not run_dir.is_dir():
+        raise MomaError(f"checkpoint directory {str(run_dir)!r} does not exist")
+    load_checkpoint(run_dir, model=args.model)  # fails early on a checkpoint of another model
+    data = _dataset(args.data, args.split)
+    report = evaluate(run_dir, data, batch_size=args.batch_size, progress=not args.quiet)
+    report = {"data": str(args.data), "split": args.split, "checkpoint": str(run_dir),
+              **report}
+    out = Path(args.json)
+    if out.parent and not out.parent.exists():
+        out.parent.mkdir(parents=True, exist_ok=True)
+    atomic_write_text(out, json.dumps(report, indent=1, default=float) + "\n")
+    print(format_table({f"{report['model']} ({report['preset']})": report["metrics"]}))
+    print(f"{report['episodes']} {args.split} episodes -> {out}")
+    return 0
