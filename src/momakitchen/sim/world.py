@@ -127,14 +127,14 @@ class World:
     def _load(self, placed: Placed) -> BodyInfo:
         model = placed.model
         kind = get_category(placed.category).kind
-        path = model.path if getattr(model, "path", None) else str(
-            cached_urdf(model.urdf, placed.category))
+        # External assets are loaded from their own folder (meshes are relative to it).
+        path = model.path or str(cached_urdf(model.urdf, placed.category))
         fixed = kind in ("furniture", "appliance")
         try:
             body = p.loadURDF(
                 path, basePosition=[placed.x, placed.y, placed.z],
                 baseOrientation=_quat_z(placed.yaw), useFixedBase=fixed,
-                globalScaling=float(getattr(model, "scale", 1.0)),
+                globalScaling=float(model.scale),
                 flags=p.URDF_USE_INERTIA_FROM_FILE, physicsClientId=self.client,
             )
         except p.error as exc:
