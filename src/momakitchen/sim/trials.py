@@ -242,7 +242,8 @@ class TrialRunner:
         grasps = [g for g in grasps if score(g) > -0.2]
         return grasps[: self.config.max_grasp_candidates]
 
-    def _plan(self, base_xy: np.ndarray) -> tuple[Stage, _Plan | None, float]:
+    def _plan(self, base_xy: np.ndarray, bodies: list[int]
+              ) -> tuple[Stage, _Plan | None, float]:
         """IK for pre-grasp and grasp poses over the grasp candidates; (stage, plan, t_ik)."""
         robot, cfg = self.robot, self.config
         t_ik = 0.0
@@ -267,7 +268,7 @@ class TrialRunner:
                 t_ik += time.perf_counter() - t0
                 if grasp is None or not grasp.success:
                     continue
-                if self._arm_collides(pre.q) or self._arm_collides(grasp.q):
+                if self._arm_collides(pre.q, bodies) or self._arm_collides(grasp.q, bodies):
                     collided = True
                     continue
                 return Stage.SUCCESS, _Plan(g, pre.q, grasp.q, pos, normal, quat), t_ik
@@ -281,9 +282,9 @@ class TrialRunner:
         gap = np.maximum(np.maximum(lo - [x, y], [x, y] - hi), 0.0)
         return self._scene_bodies[np.hypot(gap[:, 0], gap[:, 1]) <= radius].tolist()
 
-    def _arm_collides(self, q: np.ndarray) -> bool:
+    def _arm_collides(self, q: np.ndarray, bodies: list[int]) -> bool:
         self.robot.set_joint_positions(q)
-        return bool(self.robot.arm_collisions(self._arm_bodies, allow=self._allow))
+        return bool(self.robot.arm_collisions(bodies, allow=self._allow))
 
     # ---------------------------------------------------------------- execution
     def _drive(self, q_from: np.ndarray, q_to: np.ndarray, waypoints: int, steps: int) -> None:
@@ -421,8 +422,8 @@ class TrialRunner:
         half_diagonal = 0.5 * float(np.hypot(*robot.spec.footprint))
         if robot.base_collisions(self._near(x, y, half_diagonal + 0.02)):
             return TrialResult(Stage.BASE_COLLISION, t_check=time.perf_counter() - t0)
-        self._arm_bodies = [self._floor, *self._near(x, y, robot.workspace()[1] + 0.5)]
-        stage, plan, t_ik = self._plan(np.array([x, y]))
+        arm_bodies = [self._floor, *self._near(x, y, robot.workspace()[1] + 0.5)]
+        stage, plan, t_ik = self._plan(np.array([x, y]), arm_bodies)
         t1 = time.perf_counter()
         if plan is None:
             return TrialResult(stage, t_check=t1 - t0 - t_ik, t_ik=t_ik)
