@@ -2,21 +2,11 @@ import pytest
 import torch
 
 from momakitchen.data.synthetic import SyntheticConfig, SyntheticEpisodes
-from momakitchen.models import ModelConfig
+from momakitchen.models.config import TINY_MODEL
 from momakitchen.train import TrainConfig
 
 torch.set_num_threads(1)
 
-TINY_MODEL = ModelConfig(
-    embed_dim=32,
-    num_tokens=8,
-    num_heads=4,
-    num_robot_tokens=2,
-    width=0.125,
-    global_npoints=(64, 32),
-    floor_npoints=32,
-    nsample_scale=0.25,
-)
 
 
 def tiny_train_config(**changes) -> TrainConfig:

@@ -101,3 +101,17 @@ class ModelConfig:
         if "global_npoints" in d:
             d["global_npoints"] = tuple(d["global_npoints"])
         return cls(**d)
+
+
+# A model small enough to run every architecture in well under a second and to train in
+# seconds on one core (tests, smoke runs; not for results).
+TINY_MODEL = ModelConfig(
+    embed_dim=32,
+    num_tokens=8,
+    num_heads=4,
+    num_robot_tokens=2,
+    width=0.125,
+    global_npoints=(64, 32),
+    floor_npoints=32,
+    nsample_scale=0.25,
+)

@@ -17,7 +17,7 @@ import os
 import torch.distributed as dist
 
 from momakitchen.data.synthetic import SyntheticConfig, SyntheticEpisodes
-from momakitchen.models.config import ModelConfig
+from momakitchen.models.config import TINY_MODEL
 from momakitchen.train.config import TrainConfig
 from momakitchen.train.trainer import train
 
@@ -27,16 +27,7 @@ def smoke_config(model: str, epochs: int, batch_size: int) -> TrainConfig:
     return TrainConfig(
         model=model,
         preset="custom",
-        model_config=ModelConfig(
-            embed_dim=32,
-            num_tokens=8,
-            num_heads=4,
-            num_robot_tokens=2,
-            width=0.125,
-            global_npoints=(64, 32),
-            floor_npoints=32,
-            nsample_scale=0.25,
-        ),
+        model_config=TINY_MODEL,
         num_global=256,
         num_floor=128,
         epochs=epochs,
