@@ -315,6 +315,9 @@ def _train(
                     {"kind": "train", "epoch": epoch + 1, "step": step, "lr": f"{lr:.6g}",
                      "loss": f"{loss_val:.6g}", "mse": f"{out['mse'].item():.6g}"}
                 )
+                # Keep the CSV current during long epochs (resume trims rows past the
+                # checkpoint's step).
+                _write_log(log_path, rows)
         seconds = time.perf_counter() - t0
         if world > 1:
             dist.all_reduce(loss_sum)
