@@ -17,11 +17,13 @@ the shard's bytes and the driver writes them, so no shared file system is needed
 
 from __future__ import annotations
 
+import ctypes
 import dataclasses
 import fcntl
 import json
 import multiprocessing
 import os
+import signal
 import sys
 import tempfile
 import threading
@@ -208,7 +210,14 @@ def _worker_init(parent_pid: int) -> None:
     SIGKILLed run would otherwise wait for work forever (and finish queued scenes while a
     resumed run writes the same directory)."""
 
-    def watch() -> None:
+    if sys.platform.startswith("linux"):
+        # The kernel kills the worker the moment the driver dies: no orphan can write a
+        # temporary shard after a resumed run has cleaned up (PR_SET_PDEATHSIG = 1).
+        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL)
+    if os.getppid() != parent_pid:  # the driver died before the line above took effect
+        os._exit(1)
+
+    def watch() -> None:  # elsewhere: poll (a worker busy in C code notices later)
         while os.getppid() == parent_pid:
             time.sleep(0.5)
         os._exit(1)  # its temporary shard, if any, is removed by the next run
