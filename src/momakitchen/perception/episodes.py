@@ -15,6 +15,7 @@ import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
+import pybullet as p
 
 from momakitchen.data.episode import SEMANTIC_CLASSES, ConfigurationLabels, Episode
 from momakitchen.errors import MomaError
@@ -24,7 +25,13 @@ from momakitchen.robots import get_robot_spec, robot_descriptor
 from momakitchen.scene.configuration import Configuration, SceneConfig, sample_scene
 from momakitchen.scene.geometry import box_corners, corners_of, overlap_matrix
 from momakitchen.scene.layout import Layout, scene_rng
-from momakitchen.sim.labels import DenseMapConfig, Labels, dense_map, label_configuration
+from momakitchen.sim.labels import (
+    DenseMapConfig,
+    Labels,
+    dense_map,
+    label_configuration,
+    world_to_base,
+)
 from momakitchen.sim.trials import TrialConfig
 from momakitchen.sim.world import World
 
@@ -171,8 +178,6 @@ def semantic_map(world: World, body: np.ndarray, link: np.ndarray) -> np.ndarray
 def target_links(world: World) -> list[int]:
     """Link indices of the target's moving part (the opened joint's link and its
     descendants)."""
-    import pybullet as p
-
     t = world.target
     c = world.client
     parents = {j: p.getJointInfo(t.body_id, j, physicsClientId=c)[16]
@@ -254,8 +259,7 @@ def make_episode(cfg: Configuration, labels: Labels, index: int, base, camera_to
     f_pts = pts[floor]
     f_pts = f_pts[voxel_downsample(f_pts, config.cloud.floor_voxel)]
     # Dense labels in the viewpoint's base frame: trial positions moved into it.
-    world_to_base = np.linalg.inv(base_to_world(base))
-    trials = labels.positions @ world_to_base[:2, :2].T + world_to_base[:2, 3]
+    trials = world_to_base(labels.positions, base)
     f_label = dense_map(trials, labels.outcomes, f_pts[:, :2], config.dense)
     spec = get_robot_spec(cfg.robot)
     return Episode(

@@ -78,11 +78,6 @@ def overlaps(a: Footprint, b: Footprint) -> bool:
     return bool(overlap_matrix(a.corners()[None], b.corners()[None])[0, 0])
 
 
-def overlaps_any(a: Footprint, others: list[Footprint] | tuple[Footprint, ...]) -> bool:
-    """True if ``a`` overlaps any footprint in ``others``."""
-    return bool(overlap_matrix(a.corners()[None], corners_of(others)).any())
-
-
 def semicircle_grid(
     center: tuple[float, float], radius: float, spacing: float, facing: float = np.pi / 2
 ) -> np.ndarray:
