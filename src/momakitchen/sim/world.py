@@ -104,10 +104,17 @@ class World:
     def _build_room(self) -> None:
         c, room = self.client, self.layout.room
         rng = scene_rng(self.layout.scene_id, APPEARANCE_STREAM)
-        floor = p.loadURDF("plane.urdf", useFixedBase=True, physicsClientId=c)
         tone = rng.uniform(0.45, 0.8)
-        p.changeVisualShape(floor, -1, rgbaColor=[tone, tone * 0.92, tone * 0.8, 1],
-                            physicsClientId=c)
+        # Collision: a 200 m slab (as pybullet_data's plane.urdf). Visual: a 5 mm slab the
+        # size of the room; the renderer's cost grows with the screen area a triangle spans,
+        # and plane.urdf's 100 m visual made the floor cost a quarter of every frame.
+        col = p.createCollisionShape(p.GEOM_BOX, halfExtents=[100, 100, 5],
+                                     collisionFramePosition=[0, 0, -5], physicsClientId=c)
+        vis = p.createVisualShape(p.GEOM_BOX, halfExtents=[room.width / 2, room.depth / 2, 0.0025],
+                                  visualFramePosition=[room.width / 2, room.depth / 2, -0.0025],
+                                  rgbaColor=[tone, tone * 0.92, tone * 0.8, 1], physicsClientId=c)
+        floor = p.createMultiBody(0, col, vis, physicsClientId=c)
+        p.changeDynamics(floor, -1, lateralFriction=1.0, physicsClientId=c)
         self.bodies["floor"] = BodyInfo("floor", "floor", "structure", floor)
         wall_rgba = [*rng.uniform(0.75, 0.95, size=3).tolist(), 1.0]
         t, h = 0.1, room.wall_height
