@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import torch
@@ -11,6 +12,9 @@ from momakitchen.models.config import ModelConfig
 from momakitchen.models.loss import WeightedMSELoss
 from momakitchen.models.pointnet2 import PointMLP
 from momakitchen.robots.spec import DESCRIPTOR_DIM
+
+# Initial value of every prediction (a typical mean label is a few per cent).
+PRIOR = 0.05
 
 
 class Backbone(nn.Module):
@@ -45,9 +49,12 @@ class AffordanceHead(nn.Module):
         self.mlp = PointMLP(in_channels + robot_ch, [hidden])
         self.drop = nn.Dropout(dropout)
         self.out = nn.Linear(hidden, 1)
-        # Start from a flat 0.5 map: with random output weights the first steps spend
-        # themselves shrinking those weights (to lower the mean), which stalls learning.
+        # Start from a flat map at a small prior (as detection heads do for rare classes):
+        # affordance maps are mostly zero, and from 0.5 the first epoch is spent lowering
+        # the mean, driving the sigmoid into saturation where per-point detail stops
+        # getting a gradient.
         nn.init.zeros_(self.out.weight)
+        nn.init.constant_(self.out.bias, math.log(PRIOR / (1.0 - PRIOR)))
 
     def forward(self, feats: torch.Tensor, robot: torch.Tensor) -> torch.Tensor:
         if self.use_robot:

@@ -7,8 +7,14 @@ centroid); the robot descriptor becomes ``num_robot_tokens`` tokens. Floor token
 [global tokens, robot tokens] with multi-head cross-attention; feature propagation brings
 the attended floor tokens back to every floor point; a head gives a sigmoid per point.
 
+Visual alignment also anchors the floor to the target: the centroid of the target's points
+(alignment channel +1) gives every floor point its offset to the target as an input
+feature, next to its own position. Affordance is mostly a function of that offset (reach,
+approach side) and of what stands in between, so the floor branch no longer has to
+discover where the target is through attention alone.
+
 Ablations switch parts off: ``use_robot`` (robot tokens), ``use_alignment`` (the alignment
-channel), ``use_global`` (the global cloud).
+channel and the target-relative floor features), ``use_global`` (the global cloud).
 """
 
 from __future__ import annotations
@@ -28,6 +34,36 @@ from momakitchen.models.pointnet2 import (
     fourier_features,
 )
 from momakitchen.robots.spec import DESCRIPTOR_DIM
+
+
+def target_centroid(xyz: torch.Tensor, align: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
+    """Mean position of the real points flagged as target (alignment +1); zeros if none.
+
+    Shapes:
+        - ``xyz``: (B, N, 3), ``align``: (B, N), ``mask``: (B, N) bool; output: (B, 3)
+    """
+    w = ((align > 0.5) & mask).to(xyz.dtype)
+    return (xyz * w.unsqueeze(-1)).sum(1) / w.sum(1, keepdim=True).clamp_min(1.0)
+
+
+def floor_features(fxyz: torch.Tensor, target: torch.Tensor | None, pos_freqs: int
+                   ) -> torch.Tensor:
+    """Encoded floor positions, plus the encoded offset to the target and its horizontal
+    distance when ``target`` is given.
+
+    Shapes:
+        - ``fxyz``: (B, Nf, 3), ``target``: (B, 3) or None
+        - output: (B, Nf, ``floor_channels(pos_freqs, target is not None)``)
+    """
+    parts = [fourier_features(fxyz, pos_freqs)]
+    if target is not None:
+        rel = fxyz - target.unsqueeze(1)
+        parts += [fourier_features(rel, pos_freqs), rel[..., :2].norm(dim=-1, keepdim=True)]
+    return torch.cat(parts, -1)
+
+
+def floor_channels(pos_freqs: int, relative: bool) -> int:
+    return fourier_channels(pos_freqs) * (2 if relative else 1) + (1 if relative else 0)
 
 
 class Tokenizer(nn.Module):
@@ -159,7 +195,8 @@ class NavAffBackbone(Backbone):
         if use_robot:
             self.robot_tokenizer = RobotTokenizer(dim, cfg.num_robot_tokens)
         self.pos_freqs = cfg.pos_freqs
-        pos_ch = fourier_channels(cfg.pos_freqs)
+        self.relative = use_global and use_alignment
+        pos_ch = floor_channels(cfg.pos_freqs, self.relative)
         self.floor_sa1 = SetAbstractionMSG(
             cfg.floor_npoints, (0.1, 0.2), (ns(16), ns(32)), pos_ch,
             [[ch(32), ch(32), ch(64)], [ch(64), ch(64), ch(128)]],
@@ -197,7 +234,11 @@ class NavAffBackbone(Backbone):
             pads.append(torch.zeros(b, rtok.shape[1], dtype=torch.bool, device=fxyz.device))
         kv, kv_pad = torch.cat(keys, 1), torch.cat(pads, 1)
 
-        fpos = fourier_features(fxyz, self.pos_freqs)
+        target = None
+        if self.relative:
+            target = target_centroid(batch["global_xyz"], batch["global_align"],
+                                     batch["global_mask"])
+        fpos = floor_features(fxyz, target, self.pos_freqs)
         x1, f1, m1 = self.floor_sa1(fxyz, fpos, fmask)
         x2, f2, m2 = self.floor_sa2(x1, f1, m1)
         q = self.floor_tokenizer(f2, x2)
