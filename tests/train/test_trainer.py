@@ -181,9 +181,15 @@ def _overfit(tmp_path, make_config, steps):
 
 
 def test_overfitting_four_episodes_quick(tmp_path, make_config):
-    """Quick variant for the default suite: 60 steps on 4 episodes at least halve the MSE."""
-    before, after = _overfit(tmp_path, make_config, 60)
-    assert after < before / 2, (before, after)
+    """Quick variant for the default suite: 120 steps on 4 episodes get at least twice as
+    close as the best flat map (the head starts near flat, so that is the bar to beat)."""
+    from momakitchen.data.synthetic import SyntheticConfig, SyntheticEpisodes
+
+    data = SyntheticEpisodes(SyntheticConfig(num_episodes=4, num_global=256, num_floor=128))
+    labels = collate_episodes([data[i] for i in range(4)], 256, 128)
+    flat_mse = float(labels["floor_label"][labels["floor_mask"]].var(unbiased=False))
+    _, after = _overfit(tmp_path, make_config, 120)
+    assert after < flat_mse / 2, (flat_mse, after)
 
 
 @pytest.mark.slow
