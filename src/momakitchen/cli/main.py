@@ -16,7 +16,7 @@ from momakitchen import __version__
 from momakitchen.errors import MomaError
 
 # Module names under momakitchen.cli, in the order they appear in --help.
-COMMANDS = ("robots", "scene", "label", "generate", "dataset", "learn")
+COMMANDS = ("robots", "scene", "label", "generate", "dataset", "learn", "msr")
 
 
 class _Parser(argparse.ArgumentParser):

@@ -18,8 +18,29 @@ from momakitchen.errors import MomaError
 from momakitchen.robots.spec import DESCRIPTOR_DIM, DESCRIPTOR_VERSION
 
 SPLIT_CHOICES = ("train", "test", "all")
-_CLOUD_FIELDS = ("descriptor", "global_xyz", "global_rgb", "global_align", "floor_xyz",
-                 "floor_label")
+# The stored arrays a model sample is made of.
+CLOUD_FIELDS = ("descriptor", "global_xyz", "global_rgb", "global_align", "floor_xyz",
+                "floor_label")
+
+
+def episode_sample(arrays: dict[str, np.ndarray], scene_id: int, config_index: int,
+                   episode_index: int, robot: str) -> dict[str, Any]:
+    """A model sample (see :class:`EpisodeDataset`) from an episode's stored arrays
+    (``CLOUD_FIELDS``; ``floor_label`` may be left out)."""
+    sample: dict[str, Any] = {
+        "global_xyz": torch.from_numpy(arrays["global_xyz"].astype(np.float32)),
+        "global_rgb": torch.from_numpy(arrays["global_rgb"].astype(np.float32) / 255.0),
+        "global_align": torch.from_numpy(arrays["global_align"].astype(np.float32)),
+        "floor_xyz": torch.from_numpy(arrays["floor_xyz"].astype(np.float32)),
+        "robot": torch.from_numpy(arrays["descriptor"].astype(np.float32)),
+        "scene_id": scene_id,
+        "config_index": config_index,
+        "episode_index": episode_index,
+        "robot_name": robot,
+    }
+    if "floor_label" in arrays:
+        sample["floor_label"] = torch.from_numpy(arrays["floor_label"].astype(np.float32))
+    return sample
 
 
 class EpisodeDataset(Dataset):
@@ -106,21 +127,10 @@ class EpisodeDataset(Dataset):
         if not -len(self) <= i < len(self):
             raise IndexError(i)
         file, sid, c, e, robot = self.index[i]
-        a = self._shard(file).arrays(c, e, _CLOUD_FIELDS)
+        a = self._shard(file).arrays(c, e, CLOUD_FIELDS)
         if a["descriptor"].shape != (DESCRIPTOR_DIM,):
             raise MomaError(f"{file} episode {c}/{e}: descriptor shape {a['descriptor'].shape}")
-        sample: dict[str, Any] = {
-            "global_xyz": torch.from_numpy(a["global_xyz"].astype(np.float32)),
-            "global_rgb": torch.from_numpy(a["global_rgb"].astype(np.float32) / 255.0),
-            "global_align": torch.from_numpy(a["global_align"].astype(np.float32)),
-            "floor_xyz": torch.from_numpy(a["floor_xyz"].astype(np.float32)),
-            "floor_label": torch.from_numpy(a["floor_label"].astype(np.float32)),
-            "robot": torch.from_numpy(a["descriptor"].astype(np.float32)),
-            "scene_id": sid,
-            "config_index": c,
-            "episode_index": e,
-            "robot_name": robot,
-        }
+        sample = episode_sample(a, sid, c, e, robot)
         return self.transform(sample) if self.transform else sample
 
     def close(self) -> None:

@@ -406,21 +406,34 @@ class TrialRunner:
         return bool(opened >= need), float(opened)
 
     # ---------------------------------------------------------------- trial
-    def run(self, x: float, y: float, yaw: float | None = None) -> TrialResult:
-        """One trial with the base at ``(x, y)`` facing the target (or ``yaw``)."""
-        t0 = time.perf_counter()
-        world, robot = self.world, self.robot
-        if robot.cup_link is not None:
-            robot.suction_off()
-        if self._dirty:  # checks only teleport the robot; physics may have moved anything
-            self._restore()
-        anchor = world.configuration.target.anchor
+    def _place(self, x: float, y: float, yaw: float | None) -> bool:
+        """Put the base at ``(x, y)`` facing the target (or ``yaw``), the arm at home;
+        True if the base then collides with the scene."""
+        robot = self.robot
+        anchor = self.world.configuration.target.anchor
         if yaw is None:
             yaw = math.atan2(anchor[1] - y, anchor[0] - x)
         robot.place_base(x, y, yaw)
         robot.set_joint_positions(robot.home)
         half_diagonal = 0.5 * float(np.hypot(*robot.spec.footprint))
-        if robot.base_collisions(self._near(x, y, half_diagonal + 0.02)):
+        return bool(robot.base_collisions(self._near(x, y, half_diagonal + 0.02)))
+
+    def base_free(self, x: float, y: float, yaw: float | None = None) -> bool:
+        """Whether the base fits at ``(x, y)`` facing the target: the first check of
+        :meth:`run`, without the rest of the trial."""
+        if self._dirty:
+            self._restore()
+        return not self._place(x, y, yaw)
+
+    def run(self, x: float, y: float, yaw: float | None = None) -> TrialResult:
+        """One trial with the base at ``(x, y)`` facing the target (or ``yaw``)."""
+        t0 = time.perf_counter()
+        robot = self.robot
+        if robot.cup_link is not None:
+            robot.suction_off()
+        if self._dirty:  # checks only teleport the robot; physics may have moved anything
+            self._restore()
+        if self._place(x, y, yaw):
             return TrialResult(Stage.BASE_COLLISION, t_check=time.perf_counter() - t0)
         arm_bodies = [self._floor, *self._near(x, y, robot.workspace()[1] + 0.5)]
         stage, plan, t_ik = self._plan(np.array([x, y]), arm_bodies)

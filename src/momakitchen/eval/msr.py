@@ -1,0 +1,315 @@
+"""Closed-loop manipulation success rate (MSR, DESIGN.md §3.7).
+
+For each configuration of a split, the world is rebuilt from ``(scene_id, configuration
+index)`` and the dataset's generation config, one episode (view) of it is chosen, and each
+method scores that episode's floor points. The best point (Top-1) and the best five
+points at least ``min_spread`` apart (Top-5) are moved from the viewpoint's base frame to
+the world; the robot's base is driven there facing the target and
+:meth:`momakitchen.sim.trials.TrialRunner.run` (the labelling's trial, same code path)
+executes the manipulation in physics. Top-1 MSR is the success rate of the first point,
+Top-5 MSR the mean success over the (up to) five points.
+
+Methods: a trained run (its prediction), ``oracle`` (the ground-truth map), ``random``
+(random visible floor points within the arm's reach of the target: the paper's Random) and
+``nearest`` (the visible floor points nearest to the target where the base fits:
+conventional "go close" navigation).
+"""
+
+from __future__ import annotations
+
+from collections import defaultdict
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from momakitchen.data import manifest as mf
+from momakitchen.data.shard import SceneShard
+from momakitchen.data.torch_dataset import CLOUD_FIELDS, episode_sample
+from momakitchen.errors import MomaError
+
+BASELINES = ("random", "nearest", "oracle")
+SPLITS = ("test", "train", "all")
+_PRODUCER = "momakitchen.perception.episodes.scene_records"
+
+
+@dataclass(frozen=True)
+class MsrConfig:
+    """Settings of an MSR run.
+
+    Attributes:
+        top_k: points tried per method and configuration (Top-k MSR).
+        min_spread: minimum distance (m) between the Top-k points.
+        seed: seeds the episode chosen per configuration and the random baseline.
+        split: configurations of which split (``test``, ``train`` or ``all``).
+        max_configs: evaluate only the first this many configurations (0: all).
+    """
+
+    top_k: int = 5
+    min_spread: float = 0.2
+    seed: int = 0
+    split: str = "test"
+    max_configs: int = 0
+
+    def __post_init__(self) -> None:
+        if not 1 <= self.top_k <= 20:
+            raise MomaError(f"MsrConfig.top_k must be in [1, 20], got {self.top_k!r}")
+        if not 0.0 <= self.min_spread <= 2.0:
+            raise MomaError(f"MsrConfig.min_spread must be in [0, 2] m, got {self.min_spread!r}")
+        if self.seed < 0:
+            raise MomaError(f"MsrConfig.seed must be >= 0, got {self.seed!r}")
+        if self.split not in SPLITS:
+            raise MomaError(f"MsrConfig.split must be one of {SPLITS}, got {self.split!r}")
+        if self.max_configs < 0:
+            raise MomaError(f"MsrConfig.max_configs must be >= 0, got {self.max_configs!r}")
+
+
+def select_points(xy: np.ndarray, scores: np.ndarray, k: int, min_spread: float,
+                  accept: Callable[[int], bool] | None = None) -> list[int]:
+    """Greedy Top-k: points in order of decreasing score (ties: lower index first), each
+    kept if it is at least ``min_spread`` from those kept and ``accept(index)`` holds.
+
+    Shapes: ``xy`` (N, 2), ``scores`` (N,); returns up to ``k`` indices, best first.
+    """
+    order = np.argsort(-np.asarray(scores, np.float64), kind="stable")
+    kept: list[int] = []
+    for i in order:
+        i = int(i)
+        if any(np.hypot(*(xy[i] - xy[j])) < min_spread for j in kept):
+            continue
+        if accept is not None and not accept(i):
+            continue
+        kept.append(i)
+        if len(kept) == k:
+            break
+    return kept
+
+
+def base_to_world_xy(points: np.ndarray, base: Sequence[float]) -> np.ndarray:
+    """Floor points (N, 2) of a viewpoint's base frame to world xy (N, 2)."""
+    x, y, yaw = base
+    c, s = np.cos(yaw), np.sin(yaw)
+    px, py = points[:, 0], points[:, 1]
+    return np.stack([x + c * px - s * py, y + s * px + c * py], axis=1)
+
+
+def _rate(values: list[float]) -> float:
+    return float(np.mean(values)) if values else 0.0
+
+
+class _Checkpoint:
+    """A trained run as an MSR method: its prediction on the episode's floor points."""
+
+    def __init__(self, run_dir: str | Path) -> None:
+        from momakitchen.data.batch import EpisodeCollator
+        from momakitchen.train.checkpoint import load_checkpoint
+
+        run = load_checkpoint(run_dir)
+        self.model = run.model.eval()
+        self.name = run.config.model
+        self.collate = EpisodeCollator(run.config.num_global, None, run.config.seed)
+
+    def __call__(self, sample: dict[str, Any]) -> np.ndarray:
+        from momakitchen.train.evaluate import predict_batch
+
+        batch = self.collate([sample])
+        return predict_batch(self.model, batch)[0].numpy().astype(np.float64)
+
+
+def _configuration(root: Path, file: str, scene: Any, ci: int, gen: Any,
+                   models: dict[str, _Checkpoint], names: Sequence[str], config: MsrConfig
+                   ) -> dict[str, Any] | None:
+    """Rebuild configuration ``ci`` of ``scene``, let every method choose its points on one
+    episode and run their trials; the configuration's record (None: no usable episode)."""
+    from momakitchen.robots.spec import get_robot_spec
+    from momakitchen.sim.labels import world_to_base
+    from momakitchen.sim.trials import TrialRunner
+    from momakitchen.sim.world import World
+
+    sid = scene.layout.scene_id
+    with SceneShard(root / file) as shard:
+        labels = shard.configuration(ci)
+        episodes = [e for e in shard.episode_indices(ci) if shard.num_points(ci, e)[1] > 0]
+        if ci >= len(scene.configurations) or not episodes:
+            return None
+        cfg = scene.configurations[ci]
+        if cfg.robot != labels.robot:
+            raise MomaError(f"{file} configuration {ci}: stored robot {labels.robot!r} but the "
+                            f"rebuilt world has {cfg.robot!r} (another momakitchen version?)")
+        rng = np.random.default_rng([config.seed, sid, ci])
+        ep = int(episodes[int(rng.integers(len(episodes)))])
+        episode = shard.episode(ci, ep)
+    floor_xy = episode.floor_xyz[:, :2].astype(np.float64)
+    world_xy = base_to_world_xy(floor_xy, episode.base_pose)
+    target_xy = world_to_base(np.asarray([cfg.target.anchor[:2]]), episode.base_pose)[0]
+    dist = np.hypot(*(floor_xy - target_xy).T)
+    reach = get_robot_spec(cfg.robot).reach
+    record: dict[str, Any] = {"scene_id": sid, "config_index": ci, "episode_index": ep,
+                              "robot": cfg.robot, "target": labels.target,
+                              "feasible": bool(labels.trial_outcomes.any()), "methods": {}}
+    with World(scene.layout) as world:
+        world.load_configuration(cfg)
+        runner = TrialRunner(world, cfg.robot, gen.trial)
+        # Trials do not depend on earlier ones (the world is restored before each), so a
+        # point chosen by several methods runs once.
+        trials: dict[int, Any] = {}
+        try:
+            for name in names:
+                accept = None
+                if name == "oracle":
+                    scores = episode.floor_label.astype(np.float64)
+                elif name == "random":
+                    scores = np.random.default_rng([config.seed, sid, ci, 1]).random(len(dist))
+                    if (dist <= reach).any():
+                        scores = np.where(dist <= reach, scores, -1.0)
+                elif name == "nearest":
+                    scores = -dist
+                    accept = _base_free(runner, world_xy)
+                else:
+                    arrays = {f: getattr(episode, f) for f in CLOUD_FIELDS}
+                    scores = models[name](episode_sample(arrays, sid, ci, ep, cfg.robot))
+                chosen = select_points(floor_xy, scores, config.top_k, config.min_spread, accept)
+                for i in chosen:
+                    if i not in trials:
+                        trials[i] = runner.run(*world_xy[i])
+                record["methods"][name] = {
+                    "points": [[round(float(v), 4) for v in world_xy[i]] for i in chosen],
+                    "outcomes": [int(trials[i].success) for i in chosen],
+                    "stages": [int(trials[i].stage) for i in chosen],
+                }
+        finally:
+            runner.close()
+    return record
+
+
+def _base_free(runner: Any, world_xy: np.ndarray) -> Callable[[int], bool]:
+    return lambda i: runner.base_free(*world_xy[i])
+
+
+def _load_dataset(root: Path) -> dict[str, Any]:
+    if not root.is_dir():
+        raise MomaError(f"dataset directory {str(root)!r} does not exist")
+    manifest = mf.load_manifest(root)
+    if manifest.get("producer") != _PRODUCER or "config" not in manifest:
+        raise MomaError(f"{root} was not made by the simulator-backed generator (producer "
+                        f"{manifest.get('producer')!r}): MSR needs the generation config to "
+                        "rebuild its worlds")
+    return manifest
+
+
+def run_msr(
+    data: str | Path,
+    checkpoints: Sequence[str | Path] = (),
+    methods: Sequence[str] = (),
+    config: MsrConfig | None = None,
+    progress: bool = False,
+) -> dict[str, Any]:
+    """MSR of trained runs and baselines on the configurations of a dataset split.
+
+    Returns ``{"config", "configurations", "methods": {name: {"top1", "topk", "trials",
+    "per_robot", "per_category"}}, "records": [...]}`` (``topk``: Top-``top_k`` MSR). A
+    record holds, per configuration and method, the chosen world points, their outcomes
+    (1 success, 0 failure) and stages. The same dataset, methods and config give the same
+    result.
+    """
+    from tqdm.auto import tqdm
+
+    from momakitchen.perception.episodes import GenerationConfig
+    from momakitchen.scene.configuration import sample_scene
+
+    config = config or MsrConfig()
+    unknown = [m for m in methods if m not in BASELINES]
+    if unknown:
+        raise MomaError(f"unknown MSR method {unknown[0]!r}; methods: {', '.join(BASELINES)} "
+                        "(or --checkpoint RUN)")
+    if not checkpoints and not methods:
+        raise MomaError("give at least one --checkpoint or --method")
+    root = Path(data)
+    manifest = _load_dataset(root)
+    try:
+        gen = GenerationConfig.from_dict(manifest["config"])
+    except (TypeError, KeyError, ValueError) as exc:
+        raise MomaError(f"{root}: unreadable generation config in manifest.json ({exc})") from exc
+
+    models: dict[str, _Checkpoint] = {}
+    for run_dir in checkpoints:
+        model = _Checkpoint(run_dir)
+        name = model.name if model.name not in models else f"{model.name}:{Path(run_dir).name}"
+        models[name] = model
+    names = [*models, *methods]
+
+    todo: list[tuple[int, int, str]] = []  # (scene_id, config_index, shard file)
+    for key in sorted(manifest["shards"], key=int):
+        entry = manifest["shards"][key]
+        if config.split != "all" and entry["split"] != config.split:
+            continue
+        todo += [(int(key), c, entry["file"]) for c in range(len(entry["episodes_per_config"]))]
+    if config.max_configs:
+        todo = todo[:config.max_configs]
+    if not todo:
+        raise MomaError(f"dataset {str(root)!r} has no {config.split} configurations")
+
+    records = []
+    scene = None
+    for sid, ci, file in tqdm(todo, desc="msr", unit="config", disable=not progress):
+        if scene is None or scene.layout.scene_id != sid:
+            scene = sample_scene(sid, gen.scene)
+        record = _configuration(root, file, scene, ci, gen, models, names, config)
+        if record is not None:
+            records.append(record)
+
+    return {
+        "dataset": str(root),
+        "config": {"top_k": config.top_k, "min_spread": config.min_spread,
+                   "seed": config.seed, "split": config.split,
+                   "max_configs": config.max_configs},
+        "configurations": len(records),
+        "feasible_configurations": sum(r["feasible"] for r in records),
+        "methods": {name: _summary(records, name) for name in names},
+        "records": records,
+    }
+
+
+def _summary(records: list[dict[str, Any]], name: str) -> dict[str, Any]:
+    """Rates of one method: overall, on feasible configurations (where some labelling trial
+    succeeded), per robot and per target category."""
+    def rates(recs: list[dict[str, Any]]) -> dict[str, Any]:
+        outcomes = [r["methods"][name]["outcomes"] for r in recs]
+        return {"top1": _rate([float(o[0]) if o else 0.0 for o in outcomes]),
+                "topk": _rate([_rate(o) for o in outcomes]), "configurations": len(recs)}
+
+    groups: dict[str, dict[str, list[dict[str, Any]]]] = {"per_robot": defaultdict(list),
+                                                          "per_category": defaultdict(list)}
+    for r in records:
+        groups["per_robot"][r["robot"]].append(r)
+        groups["per_category"][r["target"].split("/")[0]].append(r)
+    overall = rates(records)
+    feasible = rates([r for r in records if r["feasible"]])
+    return {
+        "top1": overall["top1"], "topk": overall["topk"],
+        "top1_feasible": feasible["top1"], "topk_feasible": feasible["topk"],
+        "trials": sum(len(r["methods"][name]["outcomes"]) for r in records),
+        **{g: {k: rates(v) for k, v in sorted(d.items())} for g, d in groups.items()},
+    }
+
+
+def format_msr_table(result: dict[str, Any]) -> str:
+    """A plain-text table: method, Top-1 and Top-k MSR (all and feasible configurations),
+    trials run."""
+    k = result["config"]["top_k"]
+    rows = [("method", "Top-1 MSR", f"Top-{k} MSR", "Top-1 (feasible)", f"Top-{k} (feasible)",
+             "trials")]
+    for name, m in result["methods"].items():
+        rows.append((name, *(f"{100 * m[key]:.1f} %" for key in
+                             ("top1", "topk", "top1_feasible", "topk_feasible")),
+                     str(m["trials"])))
+    widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
+    lines = ["  ".join(c.ljust(w) if i == 0 else c.rjust(w)
+                       for i, (c, w) in enumerate(zip(r, widths, strict=True))) for r in rows]
+    lines.insert(1, "-" * len(lines[0]))
+    lines.append(f"({result['configurations']} configurations of the "
+                 f"{result['config']['split']} split, {result['feasible_configurations']} "
+                 "feasible: some labelling trial succeeded)")
+    return "\n".join(lines)
