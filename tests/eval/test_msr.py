@@ -1,0 +1,131 @@
+"""MSR: point selection, frames, the labelling's trial, determinism and bad input."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from momakitchen.errors import MomaError
+from momakitchen.eval.msr import MsrConfig, base_to_world_xy, run_msr, select_points
+from momakitchen.sim.labels import world_to_base
+from momakitchen.sim.trials import TrialRunner
+
+
+@pytest.fixture(scope="module")
+def real_dataset(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Scene 0 (a test scene) from the simulator-backed producer: 2 configurations x 2 views."""
+    from momakitchen.data.generator import GenerateRequest, generate_dataset
+    from momakitchen.perception.episodes import GenerationConfig, ViewConfig, scene_records
+    from momakitchen.scene.configuration import SceneConfig
+
+    root = tmp_path_factory.mktemp("msr") / "ds"
+    cfg = GenerationConfig(scene=SceneConfig(configs_per_scene=2), views=ViewConfig(episodes=2))
+    generate_dataset(GenerateRequest(out=root, num_scenes=1), scene_records, cfg,
+                     progress=False, write_card=False)
+    return root
+
+
+def test_select_points_orders_by_score_and_spreads():
+    xy = np.array([[0.0, 0.0], [0.05, 0.0], [0.5, 0.0], [1.0, 0.0], [1.5, 0.0]])
+    scores = np.array([0.9, 0.8, 0.7, 0.1, 0.7])
+    assert select_points(xy, scores, 3, 0.2) == [0, 2, 4]  # 1 is near 0; tie: lower index
+    assert select_points(xy, scores, 5, 0.0) == [0, 1, 2, 4, 3]
+    assert select_points(xy, scores, 3, 0.2, accept=lambda i: i != 2) == [0, 4, 3]
+    assert select_points(xy, scores, 10, 0.6) == [0, 4]  # fewer than k spread points exist
+
+
+def test_base_to_world_inverts_world_to_base():
+    rng = np.random.default_rng(0)
+    base = (1.3, -0.4, 2.1)
+    pts = rng.uniform(-3, 3, (50, 2))
+    np.testing.assert_allclose(base_to_world_xy(world_to_base(pts, base), base), pts, atol=1e-12)
+
+
+def test_msr_runs_the_labelling_trial(real_dataset, monkeypatch):
+    """MSR outcomes are exactly what TrialRunner.run returned, the function that labelling
+    (label_configuration) calls for every grid position."""
+    from momakitchen.perception.episodes import GenerationConfig
+    from momakitchen.scene.configuration import sample_scene
+    from momakitchen.sim.labels import label_configuration
+    from momakitchen.sim.world import World
+
+    calls: list[tuple[float, float, int]] = []
+    original = TrialRunner.run
+
+    def recording(self, x, y, yaw=None):
+        result = original(self, x, y, yaw)
+        calls.append((round(float(x), 4), round(float(y), 4), int(result.success)))
+        return result
+
+    monkeypatch.setattr(TrialRunner, "run", recording)
+    result = run_msr(real_dataset, methods=["oracle", "nearest"],
+                     config=MsrConfig(max_configs=1))
+    rec = result["records"][0]
+    ran = {(x, y): ok for x, y, ok in calls}
+    chosen = [(tuple(p), o) for m in rec["methods"].values()
+              for p, o in zip(m["points"], m["outcomes"], strict=True)]
+    assert chosen and len(ran) == len({p for p, _ in chosen})  # one run per distinct point
+    assert all(ran[p] == o for p, o in chosen)
+
+    calls.clear()
+    manifest = json.loads((real_dataset / "manifest.json").read_text())
+    gen = GenerationConfig.from_dict(manifest["config"])
+    scene = sample_scene(0, gen.scene)
+    with World(scene.layout) as world:
+        labels = label_configuration(world, scene.configurations[0], trial_config=gen.trial)
+    assert len(calls) == len(labels.positions)
+    assert [ok for *_, ok in calls] == labels.outcomes.tolist()
+
+
+def test_msr_is_deterministic_and_oracle_beats_random(real_dataset):
+    cfg = MsrConfig(seed=3)
+    a = run_msr(real_dataset, methods=["oracle", "random", "nearest"], config=cfg)
+    b = run_msr(real_dataset, methods=["oracle", "random", "nearest"], config=cfg)
+    assert a == b
+    assert a["configurations"] == 2
+    m = a["methods"]
+    assert m["oracle"]["topk"] >= m["random"]["topk"]
+    assert set(m["oracle"]["per_robot"]) == {r["robot"] for r in a["records"]}
+    for rec in a["records"]:
+        for method in rec["methods"].values():
+            assert len(method["points"]) <= 5
+            pts = np.array(method["points"]).reshape(-1, 2)
+            d = np.hypot(*(pts[:, None] - pts[None]).transpose(2, 0, 1))
+            assert (d[np.triu_indices(len(pts), 1)] >= 0.2 - 1e-3).all()
+
+
+def test_msr_bad_input(real_dataset, tmp_path):
+    from momakitchen.data.generator import GenerateRequest, generate_dataset
+    from momakitchen.data.synthetic_scene import SyntheticSceneConfig, synthetic_scene_records
+
+    with pytest.raises(MomaError, match="unknown MSR method 'best'"):
+        run_msr(real_dataset, methods=["best"])
+    with pytest.raises(MomaError, match="at least one"):
+        run_msr(real_dataset)
+    with pytest.raises(MomaError, match="does not exist"):
+        run_msr(tmp_path / "nope", methods=["oracle"])
+    synthetic = tmp_path / "synthetic"
+    generate_dataset(GenerateRequest(out=synthetic, num_scenes=1), synthetic_scene_records,
+                     SyntheticSceneConfig(), progress=False, write_card=False)
+    with pytest.raises(MomaError, match="rebuild its worlds"):
+        run_msr(synthetic, methods=["oracle"])
+    with pytest.raises(MomaError, match="top_k"):
+        MsrConfig(top_k=0)
+
+
+def test_msr_cli(real_dataset, tmp_path, capsys):
+    from momakitchen.cli.main import main
+
+    out = tmp_path / "msr.json"
+    assert main(["msr", "--data", str(real_dataset), "--method", "random", "--json", str(out),
+                 "--max-configs", "1", "--quiet"]) == 0
+    assert json.loads(out.read_text())["methods"]["random"]["trials"] >= 1
+    assert "Top-1 MSR" in capsys.readouterr().out
+    assert main(["msr", "--data", str(real_dataset), "--checkpoint", str(tmp_path / "none"),
+                 "--json", str(out)]) == 2
+    assert main(["msr", "--data", str(real_dataset), "--method", "best", "--json",
+                 str(out)]) == 2
+    assert "unknown MSR method" in capsys.readouterr().err
