@@ -244,20 +244,39 @@ def sample_views(world: World, layout: Layout, cfg: Configuration, config: Gener
     return out
 
 
+def frame_clouds(depth: np.ndarray, rgb: np.ndarray, align: np.ndarray, intrinsics: Intrinsics,
+                 camera_to_base: np.ndarray, cloud: CloudConfig, max_depth: float
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The global and floor clouds of one RGB-D frame, in the robot base frame.
+
+    Used for generated views and for live frames (:func:`momakitchen.predict`) alike, so
+    a model sees the same clouds from both. Pixels with depth 0, NaN or beyond
+    ``max_depth`` are skipped.
+
+    Shapes:
+        - input: ``depth`` (H, W) metres, ``rgb`` (H, W, 3) uint8, ``align`` (H, W) int8
+          (+1 target, -1 obstacle, 0 else), ``camera_to_base`` (4, 4)
+        - output: global xyz (Ng, 3) float64, global rgb (Ng, 3) uint8, global alignment
+          (Ng,) int8, floor xyz (Nf, 3) float64 (points below ``cloud.floor_z``)
+    """
+    pts, idx = cloud_in_base(depth, intrinsics, camera_to_base, max_depth)
+    keep = voxel_downsample(pts, cloud.voxel)
+    g_idx = idx[keep]
+    f_pts = pts[pts[:, 2] < cloud.floor_z]
+    f_pts = f_pts[voxel_downsample(f_pts, cloud.floor_voxel)]
+    return pts[keep], rgb.reshape(-1, 3)[g_idx], align.reshape(-1)[g_idx], f_pts
+
+
 def make_episode(cfg: Configuration, labels: Labels, index: int, base, camera_to_world,
                  frame, sem: np.ndarray, config: GenerationConfig) -> Episode:
     """Build the episode record of one view (clouds in the viewpoint's base frame)."""
     intr = config.camera.intrinsics
     camera_to_base = np.linalg.inv(base_to_world(base)) @ camera_to_world
-    pts, idx = cloud_in_base(frame.depth, intr, camera_to_base, config.camera.max_depth)
-    keep = voxel_downsample(pts, config.cloud.voxel)
-    g_xyz, g_idx = pts[keep], idx[keep]
-    classes = sem.reshape(-1)[g_idx]
-    align = np.where(classes == _CLASS["target"], 1,
-                     np.where(classes == _CLASS["obstacle"], -1, 0)).astype(np.int8)
-    floor = pts[:, 2] < config.cloud.floor_z
-    f_pts = pts[floor]
-    f_pts = f_pts[voxel_downsample(f_pts, config.cloud.floor_voxel)]
+    align_px = np.where(sem == _CLASS["target"], 1,
+                        np.where(sem == _CLASS["obstacle"], -1, 0)).astype(np.int8)
+    g_xyz, g_rgb, align, f_pts = frame_clouds(frame.depth, frame.rgb, align_px, intr,
+                                              camera_to_base, config.cloud,
+                                              config.camera.max_depth)
     # Dense labels in the viewpoint's base frame: trial positions moved into it.
     trials = world_to_base(labels.positions, base)
     f_label = dense_map(trials, labels.outcomes, f_pts[:, :2], config.dense)
@@ -269,7 +288,7 @@ def make_episode(cfg: Configuration, labels: Labels, index: int, base, camera_to
         camera_pose=camera_to_world, base_pose=tuple(float(v) for v in base),
         camera_to_base=camera_to_base,
         global_xyz=g_xyz.astype(np.float32),
-        global_rgb=frame.rgb.reshape(-1, 3)[g_idx],
+        global_rgb=g_rgb,
         global_align=align,
         floor_xyz=f_pts.astype(np.float32), floor_label=f_label,
     )
