@@ -2,7 +2,10 @@
 
 Pipeline stages live in sub-packages: ``assets`` (procedural URDF), ``scene`` (layouts and
 configurations, pure data), ``robots``, ``sim`` (PyBullet worlds, trials, labels),
-``perception``, ``data``, ``models``, ``train``, ``eval`` and ``cli``.
+``perception``, ``data``, ``models``, ``train``, ``eval``, ``deploy`` and ``cli``.
+
+``momakitchen.predict(...)`` runs the bundled model on a robot's RGB-D frame (see
+:func:`momakitchen.deploy.predict.predict`).
 """
 
 __version__ = "0.1.0"
@@ -10,4 +13,13 @@ __version__ = "0.1.0"
 from momakitchen import bullet as _bullet  # noqa: F401  (imports PyBullet quietly, first)
 from momakitchen.errors import MomaError
 
-__all__ = ["MomaError", "__version__"]
+__all__ = ["MomaError", "__version__", "predict"]
+
+
+def __getattr__(name: str):
+    # Lazy: importing momakitchen must not import torch.
+    if name == "predict":
+        from momakitchen.deploy.predict import predict
+
+        return predict
+    raise AttributeError(f"module 'momakitchen' has no attribute {name!r}")

@@ -16,7 +16,8 @@ from momakitchen import __version__
 from momakitchen.errors import MomaError
 
 # Module names under momakitchen.cli, in the order they appear in --help.
-COMMANDS = ("robots", "scene", "label", "generate", "dataset", "learn", "msr")
+COMMANDS = ("demo", "robots", "scene", "label", "generate", "dataset", "learn", "msr",
+            "predict")
 
 
 class _Parser(argparse.ArgumentParser):

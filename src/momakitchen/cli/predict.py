@@ -1,0 +1,77 @@
+"""``momakitchen predict``: where should a real robot stop, from one RGB-D frame?
+
+Inputs: a depth image (16-bit PNG in millimetres or .npy in metres; 0 and NaN are
+invalid), the pinhole intrinsics, the camera-to-base transform (4x4, .npy or text), a
+target mask from your own segmenter (PNG or .npy, non-zero = target), optional obstacle
+masks and RGB, and the robot (a name, or --reach and --mount-height). Writes
+``prediction.json`` (Top-k base poses x, y, yaw in the base frame, and every floor point
+with its affordance and uncertainty) and ``prediction.png``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+from momakitchen.cli.common import non_negative_int, output_dir, positive_int
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("predict", help="affordance map and base poses from a robot's RGB-D frame",
+                       description=__doc__)
+    p.add_argument("--depth", required=True, help="depth: 16-bit PNG (mm) or .npy (m)")
+    p.add_argument("--intrinsics", required=True, nargs=4, type=float,
+                   metavar=("FX", "FY", "CX", "CY"), help="pinhole intrinsics in pixels")
+    p.add_argument("--extrinsics", required=True,
+                   help="camera-to-base 4x4 transform (.npy or whitespace text)")
+    p.add_argument("--target-mask", required=True, help="target mask (PNG or .npy)")
+    p.add_argument("--obstacle-mask", action="append", default=[],
+                   help="obstacle mask (repeatable)")
+    p.add_argument("--rgb", default=None, help="colour image (PNG or .npy), optional")
+    p.add_argument("--robot", default=None, help="registered robot name (momakitchen robots)")
+    p.add_argument("--reach", type=float, default=None, help="arm reach (m), if no --robot")
+    p.add_argument("--mount-height", type=float, default=None,
+                   help="arm mount height (m), if no --robot")
+    p.add_argument("--checkpoint", default=None, help="run directory (default: bundled model)")
+    p.add_argument("--top-k", type=positive_int, default=5)
+    p.add_argument("--mc-samples", type=non_negative_int, default=8,
+                   help="MC-dropout passes for the uncertainty (0: none)")
+    p.add_argument("--out", required=True, help="output directory")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from momakitchen.deploy.predict import (
+        load_depth,
+        load_extrinsics,
+        load_rgb,
+        predict,
+        write_outputs,
+    )
+    from momakitchen.errors import MomaError
+    from momakitchen.perception.camera import Intrinsics
+
+    if args.robot is None and (args.reach is None or args.mount_height is None):
+        raise MomaError("give --robot NAME, or both --reach and --mount-height")
+    if args.robot is not None and (args.reach is not None or args.mount_height is not None):
+        raise MomaError("give either --robot or --reach/--mount-height, not both")
+    if args.checkpoint is not None and not Path(args.checkpoint).is_dir():
+        raise MomaError(f"checkpoint directory {args.checkpoint!r} does not exist")
+    robot = args.robot or {"reach": args.reach, "mount_height": args.mount_height}
+    out = output_dir(args.out)
+    depth = load_depth(args.depth)
+    rgb = load_rgb(args.rgb) if args.rgb else None
+    t0 = time.perf_counter()
+    pred = predict(depth, args.intrinsics, args.extrinsics, args.target_mask, robot, rgb=rgb,
+                   obstacle_masks=args.obstacle_mask, checkpoint=args.checkpoint,
+                   top_k=args.top_k, mc_samples=args.mc_samples)
+    seconds = time.perf_counter() - t0
+    intr = Intrinsics(*args.intrinsics, depth.shape[1], depth.shape[0])
+    paths = write_outputs(pred, out, rgb, depth, intr, load_extrinsics(args.extrinsics))
+    best = pred.to_dict(floor_points=False)["poses"]
+    print(json.dumps({"poses": best, "floor_points": len(pred.floor_xyz),
+                      "seconds": round(seconds, 3)}, indent=1))
+    print(f"-> {paths['json']}, {paths['png']}")
+    return 0

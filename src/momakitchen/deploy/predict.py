@@ -1,0 +1,357 @@
+"""Inference on a real robot's RGB-D frame: where should the base stop?
+
+``predict`` turns one depth image (any resolution, any pinhole intrinsics), the camera's
+pose in the robot base frame, a target mask (from the user's own segmenter) and the robot
+into a navigation affordance map over the visible floor, the Top-k base poses and an
+uncertainty estimate. The clouds are built by the same function as the dataset's
+(:func:`momakitchen.perception.episodes.frame_clouds`), and the model runs through the
+same collation and forward pass as ``momakitchen evaluate``.
+
+Uncertainty: Monte-Carlo dropout. The map itself is the deterministic (eval-mode)
+prediction; ``mc_samples`` extra forward passes with dropout active give a per-point
+standard deviation. A robot can look again (or move closer) when the chosen point's
+uncertainty is high or its affordance low.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from momakitchen.errors import MomaError
+
+# The checkpoint shipped inside the package (see its CARD.md).
+DEFAULT_CHECKPOINT = Path(__file__).resolve().parent.parent / "checkpoints" / "navaff"
+
+
+def default_checkpoint() -> Path:
+    """The bundled NavAff run directory."""
+    if not (DEFAULT_CHECKPOINT / "model.safetensors").is_file():
+        raise MomaError(f"the bundled checkpoint is missing from {DEFAULT_CHECKPOINT}; "
+                        "pass a run directory from `momakitchen train`")
+    return DEFAULT_CHECKPOINT
+
+
+@dataclass(frozen=True)
+class Prediction:
+    """The result of :func:`predict`, in the robot base frame (x forward, y left, z up).
+
+    Shapes: ``floor_xyz`` (N, 3); ``affordance`` (N,) in [0, 1]; ``uncertainty`` (N,)
+    (MC-dropout standard deviation; zeros without MC samples); ``poses`` (k, 3) rows
+    ``x, y, yaw`` facing the target, best first; ``pose_scores`` and
+    ``pose_uncertainty`` (k,); ``target_xyz`` (3,) the target's centroid.
+    """
+
+    floor_xyz: np.ndarray
+    affordance: np.ndarray
+    uncertainty: np.ndarray
+    poses: np.ndarray
+    pose_scores: np.ndarray
+    pose_uncertainty: np.ndarray
+    target_xyz: np.ndarray
+    robot: str
+    model: str
+
+    def to_dict(self, floor_points: bool = True) -> dict[str, Any]:
+        out: dict[str, Any] = {
+            "frame": "robot base (x forward, y left, z up; metres, radians)",
+            "robot": self.robot,
+            "model": self.model,
+            "target_xyz": [round(float(v), 4) for v in self.target_xyz],
+            "poses": [
+                {"x": round(float(x), 4), "y": round(float(y), 4), "yaw": round(float(t), 4),
+                 "affordance": round(float(s), 4), "uncertainty": round(float(u), 4)}
+                for (x, y, t), s, u in zip(self.poses, self.pose_scores,
+                                           self.pose_uncertainty, strict=True)
+            ],
+        }
+        if floor_points:
+            out["floor_points"] = {
+                "columns": ["x", "y", "z", "affordance", "uncertainty"],
+                "rows": np.round(np.column_stack([self.floor_xyz, self.affordance,
+                                                  self.uncertainty]), 4).tolist(),
+            }
+        return out
+
+
+# ------------------------------------------------------------------------------ inputs
+def load_depth(depth: np.ndarray | str | os.PathLike) -> np.ndarray:
+    """Depth in metres (H, W) float32 from an array, a ``.npy`` file (metres) or a 16-bit
+    PNG (millimetres). Invalid pixels stay 0 or NaN (they are skipped later)."""
+    if isinstance(depth, (str, os.PathLike)):
+        path = Path(depth)
+        if not path.is_file():
+            raise MomaError(f"depth file {str(path)!r} does not exist")
+        if path.suffix.lower() == ".npy":
+            depth = _load_npy(path, "depth")
+        elif path.suffix.lower() == ".png":
+            img = _load_png(path, "depth")
+            if img.dtype != np.uint16:
+                raise MomaError(f"depth PNG {str(path)!r} must be 16-bit (millimetres), got "
+                                f"{img.dtype}")
+            depth = img.astype(np.float32) / 1000.0
+        else:
+            raise MomaError(f"depth file {str(path)!r}: use .npy (metres) or 16-bit .png (mm)")
+    arr = np.asarray(depth, dtype=np.float32)
+    if arr.ndim != 2:
+        raise MomaError(f"depth must be an (H, W) image, got shape {arr.shape}")
+    return arr
+
+
+def load_mask(mask: np.ndarray | str | os.PathLike, name: str) -> np.ndarray:
+    """A boolean (H, W) mask from an array, ``.npy`` or image file (non-zero = inside)."""
+    if isinstance(mask, (str, os.PathLike)):
+        path = Path(mask)
+        if not path.is_file():
+            raise MomaError(f"{name} file {str(path)!r} does not exist")
+        mask = _load_npy(path, name) if path.suffix.lower() == ".npy" else _load_png(path, name)
+    arr = np.asarray(mask)
+    if arr.ndim == 3:  # an RGB(A) mask image
+        arr = arr[..., :3].max(-1)
+    if arr.ndim != 2:
+        raise MomaError(f"{name} must be an (H, W) mask, got shape {arr.shape}")
+    return arr != 0
+
+
+def load_rgb(rgb: np.ndarray | str | os.PathLike) -> np.ndarray:
+    if isinstance(rgb, (str, os.PathLike)):
+        path = Path(rgb)
+        if not path.is_file():
+            raise MomaError(f"rgb file {str(path)!r} does not exist")
+        rgb = _load_npy(path, "rgb") if path.suffix.lower() == ".npy" else _load_png(path, "rgb")
+    arr = np.asarray(rgb)
+    if arr.ndim != 3 or arr.shape[2] not in (3, 4):
+        raise MomaError(f"rgb must be an (H, W, 3) image, got shape {arr.shape}")
+    if arr.dtype != np.uint8:
+        arr = np.clip(np.asarray(arr, np.float64) * (255 if arr.max() <= 1.0 else 1), 0, 255)
+        arr = arr.round().astype(np.uint8)
+    return np.ascontiguousarray(arr[..., :3])
+
+
+def _load_npy(path: Path, name: str) -> np.ndarray:
+    try:
+        return np.load(path, allow_pickle=False)
+    except (ValueError, OSError) as exc:
+        raise MomaError(f"{name} file {str(path)!r} is not a readable .npy array ({exc})") from exc
+
+
+def _load_png(path: Path, name: str) -> np.ndarray:
+    from PIL import Image, UnidentifiedImageError
+
+    try:
+        with Image.open(path) as img:
+            return np.array(img)
+    except (UnidentifiedImageError, OSError) as exc:
+        raise MomaError(f"{name} file {str(path)!r} is not a readable image ({exc})") from exc
+
+
+def load_extrinsics(tf: np.ndarray | str | os.PathLike) -> np.ndarray:
+    """A rigid camera-to-base transform (4, 4) from an array, ``.npy`` or text file (OpenCV
+    camera axes: x right, y down, z forward)."""
+    if isinstance(tf, (str, os.PathLike)):
+        path = Path(tf)
+        if not path.is_file():
+            raise MomaError(f"extrinsics file {str(path)!r} does not exist")
+        try:
+            tf = (_load_npy(path, "extrinsics") if path.suffix.lower() == ".npy"
+                  else np.loadtxt(path, dtype=np.float64))
+        except ValueError as exc:
+            raise MomaError(f"extrinsics file {str(path)!r}: {exc}") from exc
+    m = np.asarray(tf, dtype=np.float64)
+    if m.shape != (4, 4) or not np.isfinite(m).all():
+        raise MomaError(f"extrinsics must be a finite 4x4 matrix, got shape {m.shape}")
+    r = m[:3, :3]
+    if (np.abs(r.T @ r - np.eye(3)).max() > 1e-3 or abs(np.linalg.det(r) - 1) > 1e-3
+            or np.abs(m[3] - [0, 0, 0, 1]).max() > 1e-9):
+        raise MomaError("extrinsics are not a rigid transform (rotation must be orthonormal "
+                        "with determinant 1, last row 0 0 0 1)")
+    return m
+
+
+def robot_input(robot: str | Sequence[float] | Mapping[str, float]) -> tuple[str, np.ndarray]:
+    """A robot name from the registry, or a descriptor: ``{"reach", "mount_height"}`` (plus
+    optional ``"dof"`` (6) and ``"suction"`` (False)) or the full descriptor vector."""
+    from momakitchen.robots.spec import (
+        DESCRIPTOR_DIM,
+        get_robot_spec,
+        robot_descriptor,
+    )
+
+    if isinstance(robot, str):
+        return robot, np.asarray(robot_descriptor(get_robot_spec(robot)), np.float32)
+    if isinstance(robot, Mapping):
+        missing = {"reach", "mount_height"} - set(robot)
+        if missing:
+            raise MomaError(f"robot descriptor needs {sorted(missing)}")
+        vec = [robot["reach"], robot["mount_height"], robot.get("dof", 6) / 7.0,
+               1.0 if robot.get("suction", False) else 0.0]
+    else:
+        vec = list(robot)
+    d = np.asarray(vec, np.float32)
+    if d.shape != (DESCRIPTOR_DIM,) or not np.isfinite(d).all() or not (0.2 <= d[0] <= 3.0
+                                                                         and 0 <= d[1] <= 3.0):
+        raise MomaError(f"robot descriptor must be {DESCRIPTOR_DIM} finite numbers with reach "
+                        f"in [0.2, 3] m and mount height in [0, 3] m, got {vec}")
+    return "custom", d
+
+
+# ------------------------------------------------------------------------------ predict
+def predict(
+    depth: np.ndarray | str | os.PathLike,
+    intrinsics: Sequence[float] | Any,
+    camera_to_base: np.ndarray | str | os.PathLike,
+    target_mask: np.ndarray | str | os.PathLike,
+    robot: str | Sequence[float] | Mapping[str, float] = "panda",
+    *,
+    rgb: np.ndarray | str | os.PathLike | None = None,
+    obstacle_masks: Sequence[np.ndarray | str | os.PathLike] = (),
+    checkpoint: str | os.PathLike | Any | None = None,
+    top_k: int = 5,
+    min_spread: float = 0.2,
+    mc_samples: int = 8,
+    episode_id: tuple[int, int, int] | None = None,
+) -> Prediction:
+    """Affordance map and Top-k base poses from one RGB-D frame.
+
+    Args:
+        depth: (H, W) metres, or a ``.npy`` (metres) / 16-bit ``.png`` (millimetres) file;
+            0 and NaN are invalid and ignored.
+        intrinsics: ``(fx, fy, cx, cy)`` in pixels (OpenCV convention) or an
+            :class:`~momakitchen.perception.camera.Intrinsics`.
+        camera_to_base: (4, 4) rigid transform from the camera (x right, y down, z forward)
+            to the robot base frame (x forward, y left, z up, z = 0 on the floor).
+        target_mask: (H, W) mask of the target (e.g. from Grounded-SAM); non-zero = target.
+        robot: a registered robot name or a descriptor (see :func:`robot_input`).
+        rgb: optional (H, W, 3) image; without it the cloud is mid-grey.
+        obstacle_masks: optional (H, W) masks of obstacles (chairs, bins, ...).
+        checkpoint: a run directory (``momakitchen train``) or a loaded run; default: the
+            bundled model.
+        top_k, min_spread: number of poses and their minimum spacing (m).
+        mc_samples: MC-dropout passes for the uncertainty (0: none).
+        episode_id: ``(scene_id, config_index, episode_index)`` of a dataset episode, which
+            seeds the cloud down-sampling exactly as ``evaluate`` does; None for live frames.
+    """
+    import torch
+
+    from momakitchen.data.batch import EpisodeCollator
+    from momakitchen.eval.msr import select_points
+    from momakitchen.models.navaff import target_centroid
+    from momakitchen.perception.camera import Intrinsics
+    from momakitchen.perception.episodes import CameraConfig, CloudConfig, frame_clouds
+    from momakitchen.train.checkpoint import LoadedRun, load_checkpoint
+    from momakitchen.train.evaluate import predict_batch
+
+    if not 1 <= top_k <= 50:
+        raise MomaError(f"top_k must be in [1, 50], got {top_k}")
+    if mc_samples < 0:
+        raise MomaError(f"mc_samples must be >= 0, got {mc_samples}")
+    d = load_depth(depth)
+    h, w = d.shape
+    if isinstance(intrinsics, Intrinsics):
+        intr = intrinsics
+    else:
+        k = np.asarray(intrinsics, np.float64).reshape(-1)
+        if k.shape != (4,):
+            raise MomaError(f"intrinsics must be fx, fy, cx, cy; got {k.size} numbers")
+        intr = Intrinsics(float(k[0]), float(k[1]), float(k[2]), float(k[3]), w, h)
+    if (intr.height, intr.width) != (h, w):
+        raise MomaError(f"intrinsics are for {intr.width}x{intr.height} images but the depth "
+                        f"image is {w}x{h}")
+    tf = load_extrinsics(camera_to_base)
+    masks = {"target mask": load_mask(target_mask, "target mask")}
+    for i, m in enumerate(obstacle_masks):
+        masks[f"obstacle mask {i}"] = load_mask(m, f"obstacle mask {i}")
+    image = load_rgb(rgb) if rgb is not None else np.full((h, w, 3), 128, np.uint8)
+    for name, m in [*masks.items(), ("rgb", image[..., 0])]:
+        if m.shape != (h, w):
+            raise MomaError(f"{name} shape {m.shape} does not match the depth image {(h, w)}")
+    valid = np.isfinite(d) & (d > 0)
+    if not valid.any():
+        raise MomaError("the depth image has no valid pixel (all 0 or NaN)")
+    if not (masks["target mask"] & valid).any():
+        raise MomaError("the target mask is empty (no target pixel with a valid depth)")
+    name, descriptor = robot_input(robot)
+
+    align = np.zeros((h, w), np.int8)
+    for key, m in masks.items():
+        if key != "target mask":
+            align[m] = -1
+    align[masks["target mask"]] = 1
+    g_xyz, g_rgb, g_align, f_xyz = frame_clouds(np.where(valid, d, 0.0), image, align, intr, tf,
+                                                CloudConfig(), CameraConfig().max_depth)
+    if len(f_xyz) == 0:
+        raise MomaError("no floor is visible (no point below 2 cm in the base frame); check "
+                        "the extrinsics")
+    if not (g_align > 0).any():
+        raise MomaError("the target is beyond the depth range used (6 m)")
+
+    run = checkpoint if isinstance(checkpoint, LoadedRun) else load_checkpoint(
+        checkpoint if checkpoint is not None else default_checkpoint())
+    sample = {
+        "global_xyz": torch.from_numpy(g_xyz.astype(np.float32)),
+        "global_rgb": torch.from_numpy(g_rgb.astype(np.float32) / 255.0),
+        "global_align": torch.from_numpy(g_align.astype(np.float32)),
+        "floor_xyz": torch.from_numpy(f_xyz.astype(np.float32)),
+        "robot": torch.from_numpy(descriptor),
+    }
+    if episode_id is not None:
+        sample.update(zip(("scene_id", "config_index", "episode_index"), episode_id,
+                          strict=True))
+    batch = EpisodeCollator(run.config.num_global, None, run.config.seed)([sample])
+    affordance = predict_batch(run.model, batch)[0].numpy().astype(np.float64)
+    uncertainty = np.zeros_like(affordance)
+    if mc_samples:
+        uncertainty = _mc_dropout_std(run.model, batch, mc_samples)
+    target = target_centroid(batch["global_xyz"], batch["global_align"],
+                             batch["global_mask"])[0].numpy().astype(np.float64)
+
+    chosen = select_points(f_xyz[:, :2], affordance, top_k, min_spread)
+    poses = np.array([[f_xyz[i, 0], f_xyz[i, 1],
+                       math.atan2(target[1] - f_xyz[i, 1], target[0] - f_xyz[i, 0])]
+                      for i in chosen]).reshape(-1, 3)
+    return Prediction(
+        floor_xyz=f_xyz, affordance=affordance, uncertainty=uncertainty, poses=poses,
+        pose_scores=affordance[chosen], pose_uncertainty=uncertainty[chosen],
+        target_xyz=target, robot=name, model=run.config.model,
+    )
+
+
+def _mc_dropout_std(model: Any, batch: dict[str, Any], samples: int) -> np.ndarray:
+    """Per-floor-point standard deviation over ``samples`` forward passes with dropout on
+    (one batch of copies; a fixed seed so the estimate is reproducible). Shapes: (Nf,)."""
+    import torch
+
+    copies = {k: (v.expand(samples, *v.shape[1:]).contiguous() if torch.is_tensor(v)
+                  else v * samples) for k, v in batch.items() if k != "floor_label"}
+    was_training = model.training
+    with torch.random.fork_rng(), torch.no_grad():
+        torch.manual_seed(0)
+        model.train()
+        try:
+            preds = model(copies)["pred"]
+        finally:
+            model.train(was_training)
+    return preds.std(0).numpy().astype(np.float64)
+
+
+def write_outputs(pred: Prediction, out_dir: str | os.PathLike, rgb: np.ndarray | None = None,
+                  depth: np.ndarray | None = None, intrinsics: Any = None,
+                  camera_to_base: np.ndarray | None = None) -> dict[str, Path]:
+    """``prediction.json`` (poses and floor points) and ``prediction.png`` (overlay)."""
+    from momakitchen.deploy.figures import prediction_figure
+    from momakitchen.fileio import atomic_write_bytes, atomic_write_text
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    paths = {"json": out / "prediction.json", "png": out / "prediction.png"}
+    atomic_write_text(paths["json"], json.dumps(pred.to_dict(), indent=1) + "\n")
+    atomic_write_bytes(paths["png"], prediction_figure(pred, rgb, depth, intrinsics,
+                                                       camera_to_base))
+    return paths
