@@ -1,26 +1,10 @@
-"""Fixtures of the deployment tests: a tiny trained run and one real generated view."""
+"""Fixtures of the deployment tests: one real generated view."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
 import pytest
-
-
-@pytest.fixture(scope="session")
-def tiny_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """A NavAff run with the tiny test sizes, trained for a few steps on synthetic data."""
-    from momakitchen.data.synthetic import SyntheticConfig, SyntheticEpisodes
-    from momakitchen.models.config import TINY_MODEL
-    from momakitchen.train import train
-    from momakitchen.train.config import TrainConfig
-
-    data = SyntheticEpisodes(SyntheticConfig(num_episodes=4, num_global=256, num_floor=128))
-    cfg = TrainConfig(model="navaff", preset="custom", model_config=TINY_MODEL, num_global=256,
-                      num_floor=128, epochs=1, batch_size=2, progress=False)
-    out = tmp_path_factory.mktemp("run") / "tiny"
-    train(cfg, data, None, out)
-    return out
 
 
 @pytest.fixture(scope="session")

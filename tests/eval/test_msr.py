@@ -80,13 +80,19 @@ def test_msr_runs_the_labelling_trial(real_dataset, monkeypatch):
     assert [ok for *_, ok in calls] == labels.outcomes.tolist()
 
 
-def test_msr_is_deterministic_and_oracle_beats_random(real_dataset):
+def test_msr_is_deterministic_and_oracle_beats_random(real_dataset, tiny_run):
     cfg = MsrConfig(seed=3)
-    a = run_msr(real_dataset, methods=["oracle", "random", "nearest"], config=cfg)
-    b = run_msr(real_dataset, methods=["oracle", "random", "nearest"], config=cfg)
+    methods = ["oracle", "random", "nearest"]
+    a = run_msr(real_dataset, [tiny_run], methods, config=cfg)
+    b = run_msr(real_dataset, [tiny_run], methods, config=cfg)
     assert a == b
     assert a["configurations"] == 2
     m = a["methods"]
+    assert list(m) == ["navaff", *methods]
+    for rec in a["records"]:  # the model's own view of its chosen points
+        chosen = rec["methods"]["navaff"]
+        assert len(chosen["affordance"]) == len(chosen["uncertainty"]) == len(chosen["points"])
+        assert chosen["affordance"] == sorted(chosen["affordance"], reverse=True)
     assert m["oracle"]["topk"] >= m["random"]["topk"]
     assert set(m["oracle"]["per_robot"]) == {r["robot"] for r in a["records"]}
     for rec in a["records"]:

@@ -27,6 +27,7 @@ import numpy as np
 
 from momakitchen.errors import MomaError
 
+MC_SAMPLES = 8  # MC-dropout forward passes behind each uncertainty estimate
 # The checkpoint shipped inside the package (see its CARD.md).
 DEFAULT_CHECKPOINT = Path(__file__).resolve().parent.parent / "checkpoints" / "navaff"
 
@@ -215,7 +216,7 @@ def predict(
     checkpoint: str | os.PathLike | Any | None = None,
     top_k: int = 5,
     min_spread: float = 0.2,
-    mc_samples: int = 8,
+    mc_samples: int = MC_SAMPLES,
     episode_id: tuple[int, int, int] | None = None,
 ) -> Prediction:
     """Affordance map and Top-k base poses from one RGB-D frame.
@@ -308,7 +309,7 @@ def predict(
     affordance = predict_batch(run.model, batch)[0].numpy().astype(np.float64)
     uncertainty = np.zeros_like(affordance)
     if mc_samples:
-        uncertainty = _mc_dropout_std(run.model, batch, mc_samples)
+        uncertainty = mc_dropout_std(run.model, batch, mc_samples)
     target = target_centroid(batch["global_xyz"], batch["global_align"],
                              batch["global_mask"])[0].numpy().astype(np.float64)
 
@@ -323,7 +324,7 @@ def predict(
     )
 
 
-def _mc_dropout_std(model: Any, batch: dict[str, Any], samples: int) -> np.ndarray:
+def mc_dropout_std(model: Any, batch: dict[str, Any], samples: int) -> np.ndarray:
     """Per-floor-point standard deviation over ``samples`` forward passes with dropout on
     (one batch of copies; a fixed seed so the estimate is reproducible). Shapes: (Nf,)."""
     import torch

@@ -111,11 +111,14 @@ class _Checkpoint:
         self.name = run.config.model
         self.collate = EpisodeCollator(run.config.num_global, None, run.config.seed)
 
-    def __call__(self, sample: dict[str, Any]) -> np.ndarray:
+    def __call__(self, sample: dict[str, Any]) -> tuple[np.ndarray, np.ndarray]:
+        """The map and its MC-dropout standard deviation (as ``predict`` gives them)."""
+        from momakitchen.deploy.predict import MC_SAMPLES, mc_dropout_std
         from momakitchen.train.evaluate import predict_batch
 
         batch = self.collate([sample])
-        return predict_batch(self.model, batch)[0].numpy().astype(np.float64)
+        pred = predict_batch(self.model, batch)[0].numpy().astype(np.float64)
+        return pred, mc_dropout_std(self.model, batch, MC_SAMPLES)
 
 
 def _configuration(root: Path, file: str, scene: Any, ci: int, gen: Any,
@@ -157,7 +160,7 @@ def _configuration(root: Path, file: str, scene: Any, ci: int, gen: Any,
         trials: dict[int, Any] = {}
         try:
             for name in names:
-                accept = None
+                accept, std = None, None
                 if name == "oracle":
                     scores = episode.floor_label.astype(np.float64)
                 elif name == "random":
@@ -169,7 +172,7 @@ def _configuration(root: Path, file: str, scene: Any, ci: int, gen: Any,
                     accept = _base_free(runner, world_xy)
                 else:
                     arrays = {f: getattr(episode, f) for f in CLOUD_FIELDS}
-                    scores = models[name](episode_sample(arrays, sid, ci, ep, cfg.robot))
+                    scores, std = models[name](episode_sample(arrays, sid, ci, ep, cfg.robot))
                 chosen = select_points(floor_xy, scores, config.top_k, config.min_spread, accept)
                 for i in chosen:
                     if i not in trials:
@@ -179,6 +182,11 @@ def _configuration(root: Path, file: str, scene: Any, ci: int, gen: Any,
                     "outcomes": [int(trials[i].success) for i in chosen],
                     "stages": [int(trials[i].stage) for i in chosen],
                 }
+                if std is not None:  # what the model said at its chosen points
+                    record["methods"][name]["affordance"] = [round(float(scores[i]), 4)
+                                                             for i in chosen]
+                    record["methods"][name]["uncertainty"] = [round(float(std[i]), 5)
+                                                              for i in chosen]
         finally:
             runner.close()
     return record

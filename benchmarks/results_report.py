@@ -1,0 +1,113 @@
+"""Tables and the qualitative figure of docs/RESULTS.md from evaluate / msr outputs.
+
+Usage::
+
+    python benchmarks/results_report.py --data DIR --runs RUN... --metrics JSON... \
+        --msr JSON --out docs/RESULTS_tables.md --figure docs/img/qualitative.png
+
+``--metrics`` are ``momakitchen evaluate`` JSON files (one per run, same order as
+``--runs``); ``--msr`` is one ``momakitchen msr`` JSON holding the runs and baselines. The
+qualitative figure shows the ground truth and every run's map on the same test episodes
+(the first ``--examples`` test configurations with a successful trial, one view each).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+from momakitchen.data import EpisodeDataset
+from momakitchen.data.batch import EpisodeCollator
+from momakitchen.deploy.figures import _figure, floor_map
+from momakitchen.train.checkpoint import load_checkpoint
+from momakitchen.train.evaluate import predict_batch
+
+MAP_COLUMNS = (("rmse", "RMSE ↓"), ("logmse", "logMSE ↓"), ("pcc", "PCC ↑"), ("sim", "SIM ↑"),
+               ("ciou", "cIoU ↑"))
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--data", required=True)
+    ap.add_argument("--runs", nargs="+", required=True)
+    ap.add_argument("--metrics", nargs="+", required=True)
+    ap.add_argument("--msr", required=True)
+    ap.add_argument("--out", required=True)
+    ap.add_argument("--figure", required=True)
+    ap.add_argument("--examples", type=int, default=4)
+    args = ap.parse_args()
+    msr = json.loads(Path(args.msr).read_text())
+    k = msr["config"]["top_k"]
+    lines = ["| method | " + " | ".join(c for _, c in MAP_COLUMNS)
+             + f" | Top-1 MSR ↑ | Top-{k} MSR ↑ | Top-1 (feasible) | Top-{k} (feasible) |",
+             "|---" * (len(MAP_COLUMNS) + 5) + "|"]
+    names = []
+    for metrics_file in args.metrics:
+        report = json.loads(Path(metrics_file).read_text())
+        names.append(report["model"])
+        m, s = report["metrics"], msr["methods"].get(report["model"], {})
+        lines.append(f"| {report['model']} | " + " | ".join(f"{m[key]:.4f}" for key, _ in
+                                                           MAP_COLUMNS)
+                     + "".join(f" | {100 * s[key]:.1f} %" if s else " | –" for key in
+                               ("top1", "topk", "top1_feasible", "topk_feasible")) + " |")
+    for name, s in msr["methods"].items():
+        if name not in names:
+            lines.append(f"| {name} | " + " | ".join("–" for _ in MAP_COLUMNS)
+                         + "".join(f" | {100 * s[key]:.1f} %" for key in
+                                   ("top1", "topk", "top1_feasible", "topk_feasible")) + " |")
+    lines += ["", f"MSR on {msr['configurations']} {msr['config']['split']} configurations "
+              f"({msr['feasible_configurations']} feasible), seed {msr['config']['seed']}.", ""]
+    robots = sorted({r for s in msr["methods"].values() for r in s["per_robot"]})
+    lines += ["| Top-1 MSR per robot | " + " | ".join(robots) + " |",
+              "|---" * (len(robots) + 1) + "|"]
+    for name, s in msr["methods"].items():
+        lines.append(f"| {name} | " + " | ".join(
+            f"{100 * s['per_robot'][r]['top1']:.0f} % ({s['per_robot'][r]['configurations']})"
+            if r in s["per_robot"] else "–" for r in robots) + " |")
+    cats = sorted({c for s in msr["methods"].values() for c in s["per_category"]})
+    lines += ["", "| Top-1 MSR per target | " + " | ".join(cats) + " |",
+              "|---" * (len(cats) + 1) + "|"]
+    for name, s in msr["methods"].items():
+        lines.append(f"| {name} | " + " | ".join(
+            f"{100 * s['per_category'][c]['top1']:.0f} %" if c in s["per_category"] else "–"
+            for c in cats) + " |")
+    Path(args.out).write_text("\n".join(lines) + "\n")
+    print("\n".join(lines))
+    qualitative(args.data, args.runs, args.figure, args.examples)
+
+
+def qualitative(data_dir: str, runs: list[str], path: str, examples: int) -> None:
+    data = EpisodeDataset(data_dir, "test")
+    picked, seen = [], set()
+    for i, (_, sid, c, e, _) in enumerate(data.index):
+        if (sid, c) in seen or e != 5:
+            continue
+        sample = data[i]
+        if float(sample["floor_label"].max()) > 0.5:
+            picked.append(sample)
+            seen.add((sid, c))
+        if len(picked) == examples:
+            break
+    loaded = [load_checkpoint(r) for r in runs]
+    plt = _figure()
+    fig, axes = plt.subplots(len(picked), 1 + len(loaded),
+                             figsize=(3.6 * (1 + len(loaded)), 3.2 * len(picked)),
+                             constrained_layout=True, squeeze=False)
+    for row, sample in enumerate(picked):
+        xyz = sample["floor_xyz"].numpy()
+        gt = sample["floor_label"].numpy()
+        target = None
+        floor_map(axes[row, 0], xyz, gt, f"ground truth: scene {sample['scene_id']}, "
+                  f"{sample['robot_name']}", target)
+        for col, run in enumerate(loaded, start=1):
+            batch = EpisodeCollator(run.config.num_global, None, run.config.seed)([sample])
+            pred = predict_batch(run.model, batch)[0].numpy()
+            floor_map(axes[row, col], xyz, pred, f"{run.config.model} (max {pred.max():.2f})",
+                      vmax=max(float(pred.max()), 0.05))
+    fig.savefig(path, dpi=80)
+    print(f"-> {path}")
+
+
+if __name__ == "__main__":
+    main()
