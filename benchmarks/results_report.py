@@ -17,6 +17,8 @@ import argparse
 import json
 from pathlib import Path
 
+import numpy as np
+
 from momakitchen.data import EpisodeDataset
 from momakitchen.data.batch import EpisodeCollator
 from momakitchen.deploy.figures import _figure, floor_map
@@ -72,9 +74,47 @@ def main() -> None:
         lines.append(f"| {name} | " + " | ".join(
             f"{100 * s['per_category'][c]['top1']:.0f} %" if c in s["per_category"] else "–"
             for c in cats) + " |")
+    for name in msr["methods"]:
+        if any("uncertainty" in r["methods"][name] for r in msr["records"]):
+            lines += ["", *confidence_table(msr, name)]
     Path(args.out).write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
     qualitative(args.data, args.runs, args.figure, args.examples)
+
+
+def auroc(scores: np.ndarray, labels: np.ndarray) -> float:
+    """Probability that a random success scores higher than a random failure (ties 1/2)."""
+    pos, neg = scores[labels == 1], scores[labels == 0]
+    if not len(pos) or not len(neg):
+        return float("nan")
+    greater = (pos[:, None] > neg[None, :]).mean()
+    ties = (pos[:, None] == neg[None, :]).mean()
+    return float(greater + 0.5 * ties)
+
+
+def confidence_table(msr: dict, name: str) -> list[str]:
+    """Does the model's confidence at its Top-1 point predict the trial's outcome?"""
+    rows = [r["methods"][name] for r in msr["records"] if r["methods"][name]["outcomes"]]
+    ok = np.array([r["outcomes"][0] for r in rows])
+    aff = np.array([r["affordance"][0] for r in rows])
+    unc = np.array([r["uncertainty"][0] for r in rows])
+    out = [f"Confidence of {name} at its Top-1 point vs the trial outcome ({len(rows)} "
+           f"configurations, {ok.mean():.0%} succeeded). AUROC (0.5 = no signal): predicted "
+           f"affordance {auroc(aff, ok):.2f}; low uncertainty {auroc(-unc, ok):.2f}.", "",
+           "| tercile | affordance range | success | uncertainty range | success |",
+           "|---|---|---|---|---|"]
+    qs = [0, 1 / 3, 2 / 3, 1]
+    a_edges, u_edges = np.quantile(aff, qs), np.quantile(unc, qs)
+
+    def inside(v: np.ndarray, edges: np.ndarray, t: int) -> np.ndarray:
+        return (v >= edges[t]) & ((v <= edges[t + 1]) if t == 2 else (v < edges[t + 1]))
+
+    for t, label in enumerate(("low", "middle", "high")):
+        a_in, u_in = inside(aff, a_edges, t), inside(unc, u_edges, t)
+        out.append(f"| {label} | {a_edges[t]:.2f}–{a_edges[t + 1]:.2f} | "
+                   f"{ok[a_in].mean():.0%} ({a_in.sum()}) | {u_edges[t]:.3f}–{u_edges[t + 1]:.3f}"
+                   f" | {ok[u_in].mean():.0%} ({u_in.sum()}) |")
+    return out
 
 
 def qualitative(data_dir: str, runs: list[str], path: str, examples: int) -> None:
