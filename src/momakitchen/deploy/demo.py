@@ -31,6 +31,7 @@ def run_demo(out_dir: str | Path, scene_id: int = DEFAULT_SCENE_ID, robot: str |
     """
     from momakitchen.data.episode import SEMANTIC_CLASSES
     from momakitchen.deploy.predict import default_checkpoint, predict
+    from momakitchen.eval.msr import base_to_world_xy
     from momakitchen.fileio import atomic_write_bytes, atomic_write_text
     from momakitchen.perception.camera import base_to_world
     from momakitchen.perception.episodes import GenerationConfig, sample_views
@@ -86,7 +87,7 @@ def run_demo(out_dir: str | Path, scene_id: int = DEFAULT_SCENE_ID, robot: str |
         timed("predict")
 
         step(STEPS[3])
-        world_xy = _to_world(pred.poses[:, :2], base)
+        world_xy = base_to_world_xy(pred.poses[:, :2], base)
         runner = TrialRunner(world, cfg.robot, config.trial)
         try:
             trial = runner.run(*world_xy[0])
@@ -126,12 +127,6 @@ def run_demo(out_dir: str | Path, scene_id: int = DEFAULT_SCENE_ID, robot: str |
     result["seconds"]["total"] = round(time.perf_counter() - t0, 2)
     atomic_write_text(out / "result.json", json.dumps(result, indent=1) + "\n")
     return result
-
-
-def _to_world(xy: np.ndarray, base: tuple[float, float, float]) -> np.ndarray:
-    from momakitchen.eval.msr import base_to_world_xy
-
-    return base_to_world_xy(np.asarray(xy, np.float64).reshape(-1, 2), base)
 
 
 def report_figure(rgb: np.ndarray, depth: np.ndarray, intrinsics: Any,

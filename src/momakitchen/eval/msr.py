@@ -88,11 +88,11 @@ def select_points(xy: np.ndarray, scores: np.ndarray, k: int, min_spread: float,
 
 
 def base_to_world_xy(points: np.ndarray, base: Sequence[float]) -> np.ndarray:
-    """Floor points (N, 2) of a viewpoint's base frame to world xy (N, 2)."""
-    x, y, yaw = base
-    c, s = np.cos(yaw), np.sin(yaw)
-    px, py = points[:, 0], points[:, 1]
-    return np.stack([x + c * px - s * py, y + s * px + c * py], axis=1)
+    """Floor points (N, 2) of a viewpoint's base frame ``(x, y, yaw)`` to world xy (N, 2)."""
+    from momakitchen.perception.camera import base_to_world, transform
+
+    pts = np.asarray(points, np.float64).reshape(-1, 2)
+    return transform(base_to_world(tuple(base)), np.column_stack([pts, np.zeros(len(pts))]))[:, :2]
 
 
 def _rate(values: list[float]) -> float:

@@ -1,0 +1,29 @@
+"""The checkpoint shipped in the package: present, loadable, and the default everywhere."""
+
+from __future__ import annotations
+
+import json
+
+from momakitchen.deploy.predict import DEFAULT_CHECKPOINT, default_checkpoint
+from momakitchen.train import load_checkpoint
+
+
+def test_bundled_checkpoint_loads_and_is_small():
+    run = load_checkpoint(default_checkpoint(), model="navaff")
+    assert run.config.preset == "cpu"
+    files = {p.name: p.stat().st_size for p in DEFAULT_CHECKPOINT.iterdir()}
+    assert {"config.json", "model.safetensors", "CARD.md"} <= set(files)
+    assert sum(files.values()) < 5_000_000
+    card = (DEFAULT_CHECKPOINT / "CARD.md").read_text()
+    assert "momakitchen train" in card and "MSR" in card
+
+
+def test_demo_runs_on_defaults(tmp_path, capsys):
+    """The README's first command, with the bundled model."""
+    from momakitchen.cli.main import main
+
+    assert main(["demo", "--out", str(tmp_path)]) == 0
+    result = json.loads((tmp_path / "result.json").read_text())
+    assert result["checkpoint"] == "bundled" and result["model"] == "navaff"
+    assert (tmp_path / "report.png").is_file()
+    assert "report.png" in capsys.readouterr().out
