@@ -100,7 +100,8 @@ def confidence_table(msr: dict, name: str) -> list[str]:
     unc = np.array([r["uncertainty"][0] for r in rows])
     out = [f"Confidence of {name} at its Top-1 point vs the trial outcome ({len(rows)} "
            f"configurations, {ok.mean():.0%} succeeded). AUROC (0.5 = no signal): predicted "
-           f"affordance {auroc(aff, ok):.2f}; low uncertainty {auroc(-unc, ok):.2f}.", "",
+           f"affordance {auroc(aff, ok):.2f}; low uncertainty {auroc(-unc, ok):.2f}; low relative "
+           f"uncertainty (std / affordance) {auroc(-unc / np.maximum(aff, 1e-3), ok):.2f}.", "",
            "| tercile | affordance range | success | uncertainty range | success |",
            "|---|---|---|---|---|"]
     qs = [0, 1 / 3, 2 / 3, 1]
