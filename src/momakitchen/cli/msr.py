@@ -25,7 +25,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                         description=__doc__)
     ms.add_argument("--data", required=True, help="dataset directory (momakitchen generate)")
     ms.add_argument("--checkpoint", action="append", default=[], metavar="RUN",
-                    help="run directory of a trained model (repeatable)")
+                    help="run directory of a trained model (repeatable; with neither "
+                         "--checkpoint nor --method: the bundled model)")
     ms.add_argument("--method", action="append", default=[], metavar="METHOD",
                     help=f"baseline: {', '.join(BASELINES)} (repeatable)")
     ms.add_argument("--json", required=True, help="where to write the results (JSON)")

@@ -214,7 +214,8 @@ def run_msr(
     config: MsrConfig | None = None,
     progress: bool = False,
 ) -> dict[str, Any]:
-    """MSR of trained runs and baselines on the configurations of a dataset split.
+    """MSR of trained runs and baselines on the configurations of a dataset split
+    (neither given: the bundled model).
 
     Returns ``{"config", "configurations", "methods": {name: {"top1", "topk", "trials",
     "per_robot", "per_category"}}, "records": [...]}`` (``topk``: Top-``top_k`` MSR). A
@@ -232,8 +233,10 @@ def run_msr(
     if unknown:
         raise MomaError(f"unknown MSR method {unknown[0]!r}; methods: {', '.join(BASELINES)} "
                         "(or --checkpoint RUN)")
-    if not checkpoints and not methods:
-        raise MomaError("give at least one --checkpoint or --method")
+    if not checkpoints and not methods:  # the bundled model, as everywhere else
+        from momakitchen.deploy.predict import default_checkpoint
+
+        checkpoints = [default_checkpoint()]
     root = Path(data)
     manifest = _load_dataset(root)
     try:
