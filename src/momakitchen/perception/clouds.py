@@ -22,10 +22,15 @@ def voxel_downsample(points: np.ndarray, voxel: float) -> np.ndarray:
     # stable sort behind np.unique(return_index=True)), and the smallest original index
     # of each group is its first point.
     keys = (cells[:, 0] * span[1] + cells[:, 1]) * span[2] + cells[:, 2]
+    # Points from an image come in pixel order, and neighbouring pixels mostly share a
+    # voxel: only the first point of each run of equal keys can be a voxel's first point,
+    # so the sort runs on those (3-5x fewer for a 640x480 frame; the result is the same).
+    runs = np.flatnonzero(np.r_[True, keys[1:] != keys[:-1]])
+    keys = keys[runs]
     order = np.argsort(keys)
     sorted_keys = keys[order]
     starts = np.flatnonzero(np.r_[True, sorted_keys[1:] != sorted_keys[:-1]])
-    return np.sort(np.minimum.reduceat(order, starts))
+    return runs[np.sort(np.minimum.reduceat(order, starts))]
 
 
 def cloud_in_base(depth: np.ndarray, intrinsics: Intrinsics, camera_to_base: np.ndarray,
