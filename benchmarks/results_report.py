@@ -74,12 +74,34 @@ def main() -> None:
         lines.append(f"| {name} | " + " | ".join(
             f"{100 * s['per_category'][c]['top1']:.0f} %" if c in s["per_category"] else "–"
             for c in cats) + " |")
+    lines += ["", *per_scene_table([json.loads(Path(f).read_text()) for f in args.metrics], msr)]
     for name in msr["methods"]:
         if any("uncertainty" in r["methods"][name] for r in msr["records"]):
             lines += ["", *confidence_table(msr, name)]
     Path(args.out).write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
     qualitative(args.data, args.runs, args.figure, args.examples)
+
+
+def per_scene_table(reports: list[dict], msr: dict) -> list[str]:
+    """Per test scene: each run's RMSE and PCC, and every MSR method's Top-1 rate."""
+    methods = list(msr["methods"])
+    top1: dict[str, dict[str, list[int]]] = {}
+    for r in msr["records"]:
+        for name in methods:
+            o = r["methods"][name]["outcomes"]
+            top1.setdefault(str(r["scene_id"]), {}).setdefault(name, []).append(o[0] if o else 0)
+    head = ["scene", "episodes"] + [f"{r['model']} RMSE / PCC" for r in reports] + [
+        f"{m} Top-1" for m in methods]
+    out = ["Per test scene (map metrics over its episodes; MSR over its configurations):", "",
+           "| " + " | ".join(head) + " |", "|---" * len(head) + "|"]
+    for scene in sorted(reports[0]["per_scene"], key=int):
+        cells = [scene, str(int(reports[0]["per_scene"][scene]["episodes"]))]
+        cells += [f"{r['per_scene'][scene]['rmse']:.3f} / {r['per_scene'][scene]['pcc']:.2f}"
+                  for r in reports]
+        cells += [f"{np.mean(top1.get(scene, {}).get(m, [0])):.0%}" for m in methods]
+        out.append("| " + " | ".join(cells) + " |")
+    return out
 
 
 def auroc(scores: np.ndarray, labels: np.ndarray) -> float:
