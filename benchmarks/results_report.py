@@ -21,7 +21,7 @@ import numpy as np
 
 from momakitchen.data import EpisodeDataset
 from momakitchen.data.batch import EpisodeCollator
-from momakitchen.deploy.figures import _figure, floor_map
+from momakitchen.deploy.figures import floor_map, pyplot
 from momakitchen.train.checkpoint import load_checkpoint
 from momakitchen.train.evaluate import predict_batch
 
@@ -153,16 +153,15 @@ def qualitative(data_dir: str, runs: list[str], path: str, examples: int) -> Non
         if len(picked) == examples:
             break
     loaded = [load_checkpoint(r) for r in runs]
-    plt = _figure()
+    plt = pyplot()
     fig, axes = plt.subplots(len(picked), 1 + len(loaded),
                              figsize=(3.6 * (1 + len(loaded)), 3.2 * len(picked)),
                              constrained_layout=True, squeeze=False)
     for row, sample in enumerate(picked):
         xyz = sample["floor_xyz"].numpy()
         gt = sample["floor_label"].numpy()
-        target = None
         floor_map(axes[row, 0], xyz, gt, f"ground truth: scene {sample['scene_id']}, "
-                  f"{sample['robot_name']}", target)
+                  f"{sample['robot_name']}")
         for col, run in enumerate(loaded, start=1):
             batch = EpisodeCollator(run.config.num_global, None, run.config.seed)([sample])
             pred = predict_batch(run.model, batch)[0].numpy()

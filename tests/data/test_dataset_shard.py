@@ -23,23 +23,22 @@ from momakitchen.errors import MomaError
 CFG = SyntheticSceneConfig(configs_per_scene=2, episodes_per_config=2)
 
 
+def _assert_fields_equal(a, b, same_array) -> None:
+    for f in dataclasses.fields(a):
+        va, vb = getattr(a, f.name), getattr(b, f.name)
+        if isinstance(va, np.ndarray):
+            assert same_array(va, vb) and np.array_equal(va, vb), f.name
+        else:
+            assert va == vb, f.name
+
+
 def _assert_records_equal(a, b) -> None:
     assert len(a) == len(b)
     for (la, ea), (lb, eb) in zip(a, b, strict=True):
-        for f in dataclasses.fields(la):
-            va, vb = getattr(la, f.name), getattr(lb, f.name)
-            if isinstance(va, np.ndarray):
-                assert va.dtype == vb.dtype and np.array_equal(va, vb), f.name
-            else:
-                assert va == vb, f.name
+        _assert_fields_equal(la, lb, lambda x, y: x.dtype == y.dtype)
         assert len(ea) == len(eb)
         for x, y in zip(ea, eb, strict=True):
-            for f in dataclasses.fields(x):
-                va, vb = getattr(x, f.name), getattr(y, f.name)
-                if isinstance(va, np.ndarray):
-                    assert va.shape == vb.shape and np.array_equal(va, vb), f.name
-                else:
-                    assert va == vb, f.name
+            _assert_fields_equal(x, y, lambda u, v: u.shape == v.shape)
 
 
 def test_round_trip_is_exact_and_bytes_reproducible(tmp_path):

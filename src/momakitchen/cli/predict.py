@@ -63,13 +63,14 @@ def run(args: argparse.Namespace) -> int:
     out = output_dir(args.out)
     depth = load_depth(args.depth)
     rgb = load_rgb(args.rgb) if args.rgb else None
+    extrinsics = load_extrinsics(args.extrinsics)
     t0 = time.perf_counter()
-    pred = predict(depth, args.intrinsics, args.extrinsics, args.target_mask, robot, rgb=rgb,
+    pred = predict(depth, args.intrinsics, extrinsics, args.target_mask, robot, rgb=rgb,
                    obstacle_masks=args.obstacle_mask, checkpoint=args.checkpoint,
                    top_k=args.top_k, mc_samples=args.mc_samples)
     seconds = time.perf_counter() - t0
     intr = Intrinsics(*args.intrinsics, depth.shape[1], depth.shape[0])
-    paths = write_outputs(pred, out, rgb, depth, intr, load_extrinsics(args.extrinsics))
+    paths = write_outputs(pred, out, rgb, depth, intr, extrinsics)
     best = pred.to_dict(floor_points=False)["poses"]
     print(json.dumps({"poses": best, "floor_points": len(pred.floor_xyz),
                       "seconds": round(seconds, 3)}, indent=1))

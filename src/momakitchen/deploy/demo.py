@@ -134,9 +134,9 @@ def report_figure(rgb: np.ndarray, depth: np.ndarray, intrinsics: Any,
                   result: dict[str, Any]) -> bytes:
     """The demo's report: what the robot sees, what the model predicts, where the robot
     went, what happened, and the ground truth from the grid of trials."""
-    from momakitchen.deploy.figures import _figure, floor_map, image_overlay, png_bytes
+    from momakitchen.deploy.figures import floor_map, image_overlay, png_bytes, pyplot
 
-    plt = _figure()
+    plt = pyplot()
     fig, axes = plt.subplots(2, 3, figsize=(16, 9.6), constrained_layout=True)
     fig.suptitle(
         f"Where should the {result['robot']} stop to manipulate the {result['target']}? "

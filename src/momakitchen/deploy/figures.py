@@ -8,7 +8,8 @@ from typing import Any
 import numpy as np
 
 
-def _figure():
+def pyplot():
+    """matplotlib.pyplot on the Agg backend (figures are written to files, never shown)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -20,7 +21,7 @@ def _figure():
 def png_bytes(fig: Any) -> bytes:
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=100)
-    _figure().close(fig)
+    pyplot().close(fig)
     return buf.getvalue()
 
 
@@ -87,7 +88,7 @@ def floor_map(ax: Any, xyz: np.ndarray, values: np.ndarray, title: str,
 def prediction_figure(pred: Any, rgb: np.ndarray | None, depth: np.ndarray | None,
                       intrinsics: Any, camera_to_base: np.ndarray | None) -> bytes:
     """PNG: the map over the image (when an image is given), top-down map, uncertainty."""
-    plt = _figure()
+    plt = pyplot()
     with_image = rgb is not None and intrinsics is not None and camera_to_base is not None
     n = 3 if with_image else 2
     fig, axes = plt.subplots(1, n, figsize=(5.2 * n, 4.6), constrained_layout=True)

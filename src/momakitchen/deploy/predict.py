@@ -239,15 +239,12 @@ def predict(
         episode_id: ``(scene_id, config_index, episode_index)`` of a dataset episode, which
             seeds the cloud down-sampling exactly as ``evaluate`` does; None for live frames.
     """
-    import torch
-
-    from momakitchen.data.batch import EpisodeCollator
+    from momakitchen.data.torch_dataset import episode_sample
     from momakitchen.eval.msr import select_points
     from momakitchen.models.navaff import target_centroid
     from momakitchen.perception.camera import Intrinsics
     from momakitchen.perception.episodes import CameraConfig, CloudConfig, frame_clouds
     from momakitchen.train.checkpoint import LoadedRun, load_checkpoint
-    from momakitchen.train.evaluate import predict_batch
 
     if not 1 <= top_k <= 50:
         raise MomaError(f"top_k must be in [1, 50], got {top_k}")
@@ -295,21 +292,10 @@ def predict(
 
     run = checkpoint if isinstance(checkpoint, LoadedRun) else load_checkpoint(
         checkpoint if checkpoint is not None else default_checkpoint())
-    sample = {
-        "global_xyz": torch.from_numpy(g_xyz.astype(np.float32)),
-        "global_rgb": torch.from_numpy(g_rgb.astype(np.float32) / 255.0),
-        "global_align": torch.from_numpy(g_align.astype(np.float32)),
-        "floor_xyz": torch.from_numpy(f_xyz.astype(np.float32)),
-        "robot": torch.from_numpy(descriptor),
-    }
-    if episode_id is not None:
-        sample.update(zip(("scene_id", "config_index", "episode_index"), episode_id,
-                          strict=True))
-    batch = EpisodeCollator(run.config.num_global, None, run.config.seed)([sample])
-    affordance = predict_batch(run.model, batch)[0].numpy().astype(np.float64)
-    uncertainty = np.zeros_like(affordance)
-    if mc_samples:
-        uncertainty = mc_dropout_std(run.model, batch, mc_samples)
+    ids = episode_id if episode_id is not None else (-1, -1, -1)
+    sample = episode_sample({"global_xyz": g_xyz, "global_rgb": g_rgb, "global_align": g_align,
+                             "floor_xyz": f_xyz, "descriptor": descriptor}, *ids, name)
+    batch, affordance, uncertainty = run_model(run, sample, mc_samples)
     target = target_centroid(batch["global_xyz"], batch["global_align"],
                              batch["global_mask"])[0].numpy().astype(np.float64)
 
@@ -322,6 +308,21 @@ def predict(
         pose_scores=affordance[chosen], pose_uncertainty=uncertainty[chosen],
         target_xyz=target, robot=name, model=run.config.model,
     )
+
+
+def run_model(run: Any, sample: dict[str, Any], mc_samples: int
+              ) -> tuple[dict[str, Any], np.ndarray, np.ndarray]:
+    """A loaded run on one sample, collated as ``evaluate`` does (every floor point): the
+    batch, the map (Nf,) and its MC-dropout standard deviation (Nf,; zeros if
+    ``mc_samples`` is 0)."""
+    from momakitchen.data.batch import EpisodeCollator
+    from momakitchen.train.evaluate import predict_batch
+
+    batch = EpisodeCollator(run.config.num_global, None, run.config.seed)([sample])
+    affordance = predict_batch(run.model, batch)[0].numpy().astype(np.float64)
+    if not mc_samples:
+        return batch, affordance, np.zeros_like(affordance)
+    return batch, affordance, mc_dropout_std(run.model, batch, mc_samples)
 
 
 def mc_dropout_std(model: Any, batch: dict[str, Any], samples: int) -> np.ndarray:

@@ -100,28 +100,23 @@ def _rate(values: list[float]) -> float:
 
 
 class _Checkpoint:
-    """A trained run as an MSR method: its prediction on the episode's floor points."""
+    """A trained run as an MSR method: its map of the episode's floor points and the
+    map's MC-dropout standard deviation, exactly as ``predict`` computes them."""
 
     def __init__(self, run_dir: str | Path) -> None:
-        from momakitchen.data.batch import EpisodeCollator
         from momakitchen.train.checkpoint import load_checkpoint
 
-        run = load_checkpoint(run_dir)
-        self.model = run.model.eval()
-        self.name = run.config.model
-        self.collate = EpisodeCollator(run.config.num_global, None, run.config.seed)
+        self.run = load_checkpoint(run_dir)
+        self.name = self.run.config.model
 
     def __call__(self, sample: dict[str, Any]) -> tuple[np.ndarray, np.ndarray]:
-        """The map and its MC-dropout standard deviation (as ``predict`` gives them)."""
-        from momakitchen.deploy.predict import MC_SAMPLES, mc_dropout_std
-        from momakitchen.train.evaluate import predict_batch
+        from momakitchen.deploy.predict import MC_SAMPLES, run_model
 
-        batch = self.collate([sample])
-        pred = predict_batch(self.model, batch)[0].numpy().astype(np.float64)
-        return pred, mc_dropout_std(self.model, batch, MC_SAMPLES)
+        _, pred, std = run_model(self.run, sample, MC_SAMPLES)
+        return pred, std
 
 
-def _configuration(root: Path, file: str, scene: Any, ci: int, gen: Any,
+def _configuration(shard: SceneShard, scene: Any, ci: int, gen: Any,
                    models: dict[str, _Checkpoint], names: Sequence[str], config: MsrConfig
                    ) -> dict[str, Any] | None:
     """Rebuild configuration ``ci`` of ``scene``, let every method choose its points on one
@@ -132,18 +127,18 @@ def _configuration(root: Path, file: str, scene: Any, ci: int, gen: Any,
     from momakitchen.sim.world import World
 
     sid = scene.layout.scene_id
-    with SceneShard(root / file) as shard:
-        labels = shard.configuration(ci)
-        episodes = [e for e in shard.episode_indices(ci) if shard.num_points(ci, e)[1] > 0]
-        if ci >= len(scene.configurations) or not episodes:
-            return None
-        cfg = scene.configurations[ci]
-        if cfg.robot != labels.robot:
-            raise MomaError(f"{file} configuration {ci}: stored robot {labels.robot!r} but the "
-                            f"rebuilt world has {cfg.robot!r} (another momakitchen version?)")
-        rng = np.random.default_rng([config.seed, sid, ci])
-        ep = int(episodes[int(rng.integers(len(episodes)))])
-        episode = shard.episode(ci, ep)
+    labels = shard.configuration(ci)
+    episodes = [e for e in shard.episode_indices(ci) if shard.num_points(ci, e)[1] > 0]
+    if ci >= len(scene.configurations) or not episodes:
+        return None
+    cfg = scene.configurations[ci]
+    if cfg.robot != labels.robot:
+        raise MomaError(f"{shard.path.name} configuration {ci}: stored robot {labels.robot!r} "
+                        f"but the rebuilt world has {cfg.robot!r} (another momakitchen "
+                        "version?)")
+    rng = np.random.default_rng([config.seed, sid, ci])
+    ep = int(episodes[int(rng.integers(len(episodes)))])
+    episode = shard.episode(ci, ep)
     floor_xy = episode.floor_xyz[:, :2].astype(np.float64)
     world_xy = base_to_world_xy(floor_xy, episode.base_pose)
     target_xy = world_to_base(np.asarray([cfg.target.anchor[:2]]), episode.base_pose)[0]
@@ -263,13 +258,20 @@ def run_msr(
         raise MomaError(f"dataset {str(root)!r} has no {config.split} configurations")
 
     records = []
-    scene = None
-    for sid, ci, file in tqdm(todo, desc="msr", unit="config", disable=not progress):
-        if scene is None or scene.layout.scene_id != sid:
-            scene = sample_scene(sid, gen.scene)
-        record = _configuration(root, file, scene, ci, gen, models, names, config)
-        if record is not None:
-            records.append(record)
+    scene, shard = None, None
+    try:
+        for sid, ci, file in tqdm(todo, desc="msr", unit="config", disable=not progress):
+            if scene is None or scene.layout.scene_id != sid:  # todo is grouped by scene
+                scene = sample_scene(sid, gen.scene)
+                if shard is not None:
+                    shard.close()
+                shard = SceneShard(root / file)
+            record = _configuration(shard, scene, ci, gen, models, names, config)
+            if record is not None:
+                records.append(record)
+    finally:
+        if shard is not None:
+            shard.close()
 
     return {
         "dataset": str(root),
