@@ -19,12 +19,15 @@ def dataset(tmp_path_factory):
 def run(dataset, tmp_path_factory):
     out = tmp_path_factory.mktemp("runs") / "navaff"
     assert main(["train", "--data", str(dataset), "--model", "navaff", "--out", str(out),
-                 "--max-steps", "2", "--batch-size", "2", "--quiet"]) == 0
+                 "--max-steps", "2", "--batch-size", "2", "--lambda-zero", "0.3",
+                 "--quiet"]) == 0
     return out
 
 
 def test_train_then_evaluate(run, dataset, tmp_path, capsys):
     assert (run / "model.safetensors").is_file() and (run / "loss_curve.png").is_file()
+    saved = json.loads((run / "config.json").read_text())["train_config"]
+    assert saved["max_steps"] == 2 and saved["model_config"]["lambda_zero"] == 0.3
     report_path = tmp_path / "eval.json"
     assert main(["evaluate", "--data", str(dataset), "--checkpoint", str(run),
                  "--json", str(report_path), "--quiet"]) == 0

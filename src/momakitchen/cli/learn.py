@@ -13,7 +13,7 @@ import argparse
 import json
 from pathlib import Path
 
-from momakitchen.cli.common import non_negative_int, positive_int
+from momakitchen.cli.common import non_negative_float, non_negative_int, positive_int
 from momakitchen.errors import MomaError
 from momakitchen.fileio import atomic_write_text
 
@@ -41,6 +41,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     tr.add_argument("--threads", type=non_negative_int, default=None,
                     help="torch threads per process (0: torch's default)")
     tr.add_argument("--seed", type=non_negative_int, default=None)
+    tr.add_argument("--lambda-zero", type=non_negative_float, default=None,
+                    help="loss weight on zero-valued labels (the paper's lambda; preset 0.7)")
     tr.add_argument("--resume", action="store_true", help="continue the run in --out")
     tr.add_argument("--quiet", action="store_true", help="no progress bars")
     tr.set_defaults(func=run_train)
@@ -83,6 +85,8 @@ def run_train(args: argparse.Namespace) -> int:
         ) if value is not None
     }
     config = preset_config(args.preset, args.model, progress=not args.quiet, **overrides)
+    if args.lambda_zero is not None:
+        config = config.replace_model(lambda_zero=args.lambda_zero)
     data = _dataset(args.data, "train")
     result = train(config, data, None, Path(args.out), resume=args.resume)
     last = result.history[-1] if result.history else {}
