@@ -17,7 +17,7 @@ from momakitchen.errors import MomaError
 
 # Module names under momakitchen.cli, in the order they appear in --help.
 COMMANDS = ("demo", "robots", "scene", "label", "generate", "dataset", "learn", "msr",
-            "predict")
+            "benchmark", "predict")
 
 
 class _Parser(argparse.ArgumentParser):

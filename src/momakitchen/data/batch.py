@@ -120,10 +120,10 @@ def validate_sample(sample: Mapping[str, Any]) -> dict[str, Any]:
         raise MomaError(
             f"robot descriptor must have shape ({DESCRIPTOR_DIM},), got {robot.shape}"
         )
-    out["global_xyz"] = xyz[gmask]
-    out["global_rgb"] = rgb[gmask]
-    out["global_align"] = align[gmask]
-    out["floor_xyz"] = fxyz[fmask]
+    # (a mask that keeps everything is not applied: no copies)
+    out["global_xyz"], out["global_rgb"], out["global_align"] = (
+        (xyz, rgb, align) if gmask.all() else (xyz[gmask], rgb[gmask], align[gmask]))
+    out["floor_xyz"] = fxyz if fmask.all() else fxyz[fmask]
     out["robot"] = robot
     if "floor_label" in sample and sample["floor_label"] is not None:
         label = _as_array(sample["floor_label"], "floor_label")

@@ -18,7 +18,8 @@ from __future__ import annotations
 import json
 import math
 import os
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -218,6 +219,7 @@ def predict(
     min_spread: float = 0.2,
     mc_samples: int = MC_SAMPLES,
     episode_id: tuple[int, int, int] | None = None,
+    threads: int | None = 1,
 ) -> Prediction:
     """Affordance map and Top-k base poses from one RGB-D frame.
 
@@ -238,6 +240,10 @@ def predict(
         mc_samples: MC-dropout passes for the uncertainty (0: none).
         episode_id: ``(scene_id, config_index, episode_index)`` of a dataset episode, which
             seeds the cloud down-sampling exactly as ``evaluate`` does; None for live frames.
+        threads: torch threads for the model while it runs (the previous setting is
+            restored). One is fastest for a single frame: the model is many small
+            operations, and a second thread mostly waits (BENCHMARKS.md). None: leave
+            torch's setting.
     """
     from momakitchen.data.torch_dataset import episode_sample
     from momakitchen.eval.msr import select_points
@@ -250,6 +256,8 @@ def predict(
         raise MomaError(f"top_k must be in [1, 50], got {top_k}")
     if mc_samples < 0:
         raise MomaError(f"mc_samples must be >= 0, got {mc_samples}")
+    if threads is not None and threads < 1:
+        raise MomaError(f"threads must be >= 1 or None, got {threads}")
     d = load_depth(depth)
     h, w = d.shape
     if isinstance(intrinsics, Intrinsics):
@@ -295,7 +303,8 @@ def predict(
     ids = episode_id if episode_id is not None else (-1, -1, -1)
     sample = episode_sample({"global_xyz": g_xyz, "global_rgb": g_rgb, "global_align": g_align,
                              "floor_xyz": f_xyz, "descriptor": descriptor}, *ids, name)
-    batch, affordance, uncertainty = run_model(run, sample, mc_samples)
+    with torch_threads(threads):
+        batch, affordance, uncertainty = run_model(run, sample, mc_samples)
     target = target_centroid(batch["global_xyz"], batch["global_align"],
                              batch["global_mask"])[0].numpy().astype(np.float64)
 
@@ -308,6 +317,21 @@ def predict(
         pose_scores=affordance[chosen], pose_uncertainty=uncertainty[chosen],
         target_xyz=target, robot=name, model=run.config.model,
     )
+
+
+@contextmanager
+def torch_threads(n: int | None) -> Iterator[None]:
+    """Run the block with ``n`` torch intra-op threads (None: unchanged), then restore."""
+    import torch
+
+    before = torch.get_num_threads()
+    if n is not None and n != before:
+        torch.set_num_threads(n)
+    try:
+        yield
+    finally:
+        if torch.get_num_threads() != before:
+            torch.set_num_threads(before)
 
 
 def run_model(run: Any, sample: dict[str, Any], mc_samples: int

@@ -74,16 +74,18 @@ def select_points(xy: np.ndarray, scores: np.ndarray, k: int, min_spread: float,
     Shapes: ``xy`` (N, 2), ``scores`` (N,); returns up to ``k`` indices, best first.
     """
     order = np.argsort(-np.asarray(scores, np.float64), kind="stable")
+    xy = np.asarray(xy)
+    # free[i]: i is at least min_spread from every kept point (updated as points are kept)
+    free = np.ones(len(order), bool)
     kept: list[int] = []
     for i in order:
         i = int(i)
-        if any(np.hypot(*(xy[i] - xy[j])) < min_spread for j in kept):
-            continue
-        if accept is not None and not accept(i):
+        if not free[i] or (accept is not None and not accept(i)):
             continue
         kept.append(i)
         if len(kept) == k:
             break
+        free &= np.hypot(xy[:, 0] - xy[i, 0], xy[:, 1] - xy[i, 1]) >= min_spread
     return kept
 
 

@@ -131,18 +131,26 @@ def backproject(depth: np.ndarray, intrinsics: Intrinsics) -> tuple[np.ndarray, 
     Invalid pixels (0, negative, NaN or inf) are skipped.
 
     Shapes: ``depth`` (H, W) metres; returns points (N, 3) float64 in the camera frame and
-    the flat pixel indices (N,) they came from.
+    the flat pixel indices (N,) they came from. The points are a transposed (3, N) array,
+    so each coordinate is contiguous (see :func:`transform`).
     """
     if depth.shape != (intrinsics.height, intrinsics.width):
         raise MomaError(f"depth shape {depth.shape} does not match the intrinsics "
                         f"({intrinsics.height}, {intrinsics.width})")
-    flat = depth.reshape(-1).astype(np.float64)
+    flat = depth.reshape(-1)
     idx = np.flatnonzero(np.isfinite(flat) & (flat > 0))
-    z = flat[idx]
     v, u = np.divmod(idx, intrinsics.width)
-    x = (u - intrinsics.cx) * z / intrinsics.fx
-    y = (v - intrinsics.cy) * z / intrinsics.fy
-    return np.stack([x, y, z], axis=1), idx
+    out = np.empty((3, len(idx)))
+    x, y, z = out
+    z[:] = flat[idx]
+    # x = (u - cx) * z / fx, in place: large temporaries cost a page fault per 4 kB
+    np.subtract(u, intrinsics.cx, out=x)
+    x *= z
+    x /= intrinsics.fx
+    np.subtract(v, intrinsics.cy, out=y)
+    y *= z
+    y /= intrinsics.fy
+    return out.T, idx
 
 
 def project(points_cam: np.ndarray, intrinsics: Intrinsics) -> np.ndarray:
@@ -156,14 +164,22 @@ def transform(tf: np.ndarray, points: np.ndarray) -> np.ndarray:
     """Apply a (4, 4) rigid transform to points. Shapes: (N, 3) -> (N, 3).
 
     Written as three multiply-adds per axis: a BLAS matrix product on an (N, 3) array
-    costs 15x more CPU here (its threads spin on a busy machine).
+    costs 15x more CPU here (its threads spin on a busy machine). The result is a
+    transposed (3, N) array, so each coordinate is contiguous; with such an input (as
+    :func:`backproject` returns) every operation runs on contiguous memory.
     """
-    pts = np.asarray(points, float)
-    out = np.empty_like(pts)
-    for i in range(3):
-        out[:, i] = (pts[:, 0] * tf[i, 0] + pts[:, 1] * tf[i, 1] + pts[:, 2] * tf[i, 2]
-                     + tf[i, 3])
-    return out
+    pts = np.asarray(points, float).T
+    out = np.empty((3, pts.shape[1]))
+    tmp = np.empty(pts.shape[1])
+    # out[i] = pts[0] * tf[i, 0] + pts[1] * tf[i, 1] + pts[2] * tf[i, 2] + tf[i, 3], the
+    # same operations in the same order, in place (fresh large arrays cost page faults)
+    for i, o in enumerate(out):
+        np.multiply(pts[0], tf[i, 0], out=o)
+        for j in (1, 2):
+            np.multiply(pts[j], tf[i, j], out=tmp)
+            o += tmp
+        o += tf[i, 3]
+    return out.T
 
 
 def base_to_world(base: tuple[float, float, float]) -> np.ndarray:

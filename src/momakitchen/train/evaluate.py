@@ -25,11 +25,14 @@ def predict_batch(model: AffordanceModel, batch: dict[str, Any]) -> torch.Tensor
         - output: (B, Nf) in [0, 1]; 0 on padded floor points
     """
     was_training = model.training
-    model.eval()
+    if was_training:  # switching modes walks every module: skip it when already in eval
+        model.eval()
     unlabeled = {k: v for k, v in batch.items() if k != "floor_label"}
-    pred = model(unlabeled)["pred"]
-    model.train(was_training)
-    return pred
+    try:
+        return model(unlabeled)["pred"]
+    finally:
+        if was_training:
+            model.train()
 
 
 def evaluate(

@@ -1,0 +1,357 @@
+"""The benchmark report (``momakitchen benchmark``): the paper's tables and figures for one
+generated dataset.
+
+From trained runs and the dataset it writes, into one directory:
+
+- ``RESULTS.md``: methods x (RMSE, logMSE, PCC, SIM, cIoU, Top-1 / Top-k MSR), MSR per
+  robot and per target category, the ablation table, the per-scene table, the loss-weight
+  sweep and the confidence analysis;
+- ``qualitative.png`` (ground truth next to every run's map on the same test episodes) and
+  ``lambda_sweep.png`` (PCC and RMSE against the loss weight on zero labels);
+- ``benchmark.json`` (every number above), ``metrics/`` (one ``evaluate`` report per run)
+  and ``msr.json`` when MSR ran here.
+
+Map metrics come from ``RUN/test.json`` when ``momakitchen evaluate`` already wrote it for
+this dataset's test split, otherwise the run is evaluated now. MSR covers the main runs and
+the ``random``, ``nearest`` and ``oracle`` baselines; a previous ``momakitchen msr`` JSON can
+be passed instead of running it again.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from momakitchen.errors import MomaError
+from momakitchen.fileio import atomic_write_bytes, atomic_write_text
+
+MAP_COLUMNS = (("rmse", "RMSE ↓"), ("logmse", "logMSE ↓"), ("pcc", "PCC ↑"), ("sim", "SIM ↑"),
+               ("ciou", "cIoU ↑"))
+MSR_KEYS = ("top1", "topk", "top1_feasible", "topk_feasible")
+
+
+@dataclass(frozen=True)
+class BenchmarkRequest:
+    """What ``momakitchen benchmark`` reports on.
+
+    Attributes:
+        data: dataset directory (``momakitchen generate``).
+        runs: the compared models' run directories (``momakitchen train``), one per model.
+        out: output directory.
+        ablations: runs of ablated models (``navaff-no-*``), compared with the ``navaff`` run
+            of ``runs`` on the map metrics.
+        sweep: runs that differ only in the loss weight on zero labels (lambda).
+        msr: a ``momakitchen msr`` JSON covering ``runs`` and the baselines; None: run MSR.
+        max_configs: MSR on only the first N test configurations (0: all).
+        examples: rows of the qualitative figure.
+        progress: progress bars.
+    """
+
+    data: Path
+    runs: tuple[Path, ...]
+    out: Path
+    ablations: tuple[Path, ...] = ()
+    sweep: tuple[Path, ...] = ()
+    msr: Path | None = None
+    max_configs: int = 0
+    examples: int = 4
+    progress: bool = True
+
+    def __post_init__(self) -> None:
+        if not self.runs:
+            raise MomaError("benchmark needs at least one run (--runs)")
+        if not (Path(self.data) / "manifest.json").is_file():
+            raise MomaError(f"{str(self.data)!r} is not a dataset directory (no manifest.json)")
+        for run in (*self.runs, *self.ablations, *self.sweep):
+            if not (Path(run) / "config.json").is_file():
+                raise MomaError(f"{str(run)!r} is not a run directory (no config.json)")
+        if self.msr is not None and not Path(self.msr).is_file():
+            raise MomaError(f"MSR file {str(self.msr)!r} does not exist")
+        if self.max_configs < 0:
+            raise MomaError(f"max_configs must be >= 0, got {self.max_configs}")
+        if not 1 <= self.examples <= 12:
+            raise MomaError(f"examples must be in [1, 12], got {self.examples}")
+
+
+def run_metrics(run: Path, data: Path, out_dir: Path, progress: bool) -> dict[str, Any]:
+    """The test-split ``evaluate`` report of a run: its ``test.json`` when that was made on
+    this dataset, else computed now. Either way a copy lands in ``out_dir``."""
+    from momakitchen.data import EpisodeDataset
+    from momakitchen.train import evaluate
+
+    cached = run / "test.json"
+    report = None
+    if cached.is_file():
+        try:
+            report = json.loads(cached.read_text())
+        except json.JSONDecodeError:
+            report = None
+        if report is not None and (report.get("split") != "test" or Path(
+                report.get("data", "")).resolve() != data.resolve()):
+            report = None
+    if report is None:
+        report = {"data": str(data), "split": "test", "checkpoint": str(run),
+                  **evaluate(run, EpisodeDataset(data, "test"), progress=progress)}
+    out_dir.mkdir(parents=True, exist_ok=True)
+    atomic_write_text(out_dir / f"{run.name}.json", json.dumps(report, indent=1, default=float)
+                      + "\n")
+    return report
+
+
+def run_benchmark(req: BenchmarkRequest, log: Callable[[str], None] = print) -> dict[str, Any]:
+    """Compute and write the report (see the module docstring). Returns ``benchmark.json``'s
+    content."""
+    from momakitchen.eval.msr import BASELINES, MsrConfig, run_msr
+    from momakitchen.train.checkpoint import load_checkpoint
+
+    data, out = Path(req.data), Path(req.out)
+    out.mkdir(parents=True, exist_ok=True)
+    names = [Path(r).name for r in (*req.runs, *req.ablations, *req.sweep)]
+    if len(set(names)) != len(names):
+        raise MomaError(f"run directories need distinct names, got {names}")
+    configs = {Path(r): load_checkpoint(r).config for r in (*req.runs, *req.ablations,
+                                                             *req.sweep)}
+    models = [configs[Path(r)].model for r in req.runs]
+    if len(set(models)) != len(models):
+        raise MomaError(f"--runs need one run per model, got models {models}")
+
+    t0 = time.perf_counter()
+    metrics = {}
+    for r in (*req.runs, *req.ablations, *req.sweep):
+        log(f"map metrics: {r}")
+        metrics[Path(r)] = run_metrics(Path(r), data, out / "metrics", req.progress)
+    if req.msr is not None:
+        msr = json.loads(Path(req.msr).read_text())
+        missing = [m for m in (*models, *BASELINES) if m not in msr.get("methods", {})]
+        if missing:
+            raise MomaError(f"MSR file {str(req.msr)!r} lacks methods {missing}")
+    else:
+        log("MSR: models and baselines in closed loop")
+        msr = run_msr(data, [str(r) for r in req.runs], list(BASELINES),
+                      MsrConfig(max_configs=req.max_configs), progress=req.progress)
+        atomic_write_text(out / "msr.json", json.dumps(msr, indent=1) + "\n")
+
+    main_reports = [metrics[Path(r)] for r in req.runs]
+    lines = ["## Methods", "", *main_table(main_reports, msr), "",
+             *msr_breakdown(msr)]
+    full = next((metrics[Path(r)] for r in req.runs if configs[Path(r)].model == "navaff"),
+                None)
+    ablation_rows = [metrics[Path(r)] for r in req.ablations]
+    if ablation_rows:
+        if full is None:
+            raise MomaError("the ablation table needs a navaff run among --runs")
+        lines += ["", "## Ablations", "", *ablation_table(full, ablation_rows)]
+    lines += ["", "## Per scene", "", *per_scene_table(main_reports, msr)]
+    sweep = sorted(((configs[Path(r)].model_config.lambda_zero, metrics[Path(r)])
+                    for r in req.sweep), key=lambda t: t[0])
+    if sweep:
+        atomic_write_bytes(out / "lambda_sweep.png", sweep_figure(sweep))
+        lines += ["", "## Loss weight", "", *sweep_table(sweep, configs, req.sweep),
+                  "", "![PCC and RMSE against lambda](lambda_sweep.png)"]
+    for name in msr["methods"]:
+        if any("uncertainty" in r["methods"][name] for r in msr["records"]):
+            lines += ["", "## Confidence", "", *confidence_table(msr, name)]
+    log("qualitative figure")
+    atomic_write_bytes(out / "qualitative.png",
+                       qualitative_figure(data, [Path(r) for r in req.runs], req.examples))
+    lines += ["", "## Examples", "", "Ground truth and each model's map on the same test "
+              "episodes:", "", "![qualitative](qualitative.png)"]
+    atomic_write_text(out / "RESULTS.md", "# Benchmark\n\n" + "\n".join(lines) + "\n")
+    result = {
+        "data": str(data),
+        "runs": {str(r): {k: metrics[Path(r)][k] for k in ("model", "metrics")}
+                 for r in (*req.runs, *req.ablations)},
+        "sweep": [{"lambda_zero": lam, "metrics": rep["metrics"]} for lam, rep in sweep],
+        "msr": {name: {k: s[k] for k in MSR_KEYS} for name, s in msr["methods"].items()},
+        "msr_configurations": msr["configurations"],
+        "seconds": round(time.perf_counter() - t0, 1),
+    }
+    atomic_write_text(out / "benchmark.json", json.dumps(result, indent=1, default=float) + "\n")
+    return result
+
+
+def _row(cells: Sequence[str]) -> str:
+    return "| " + " | ".join(cells) + " |"
+
+
+def main_table(reports: Sequence[dict], msr: dict) -> list[str]:
+    """Methods x map metrics and MSR; baselines without maps get dashes."""
+    k = msr["config"]["top_k"]
+    head = ["method", *(c for _, c in MAP_COLUMNS), "Top-1 MSR ↑", f"Top-{k} MSR ↑",
+            "Top-1 (feasible)", f"Top-{k} (feasible)"]
+    lines = [_row(head), "|---" * len(head) + "|"]
+
+    def rates(name: str) -> list[str]:
+        s = msr["methods"].get(name)
+        return [f"{100 * s[key]:.1f} %" if s else "–" for key in MSR_KEYS]
+
+    for rep in reports:
+        lines.append(_row([rep["model"], *(f"{rep['metrics'][key]:.4f}" for key, _ in
+                                           MAP_COLUMNS), *rates(rep["model"])]))
+    for name in msr["methods"]:
+        if name not in {r["model"] for r in reports}:
+            lines.append(_row([name, *("–" for _ in MAP_COLUMNS), *rates(name)]))
+    return [*lines, "", f"Map metrics on {reports[0]['episodes']} test episodes. MSR on "
+                    f"{msr['configurations']} {msr['config']['split']} configurations "
+                    f"({msr['feasible_configurations']} with at least one successful grid "
+                    f"trial: 'feasible'), seed {msr['config']['seed']}."]
+
+
+def msr_breakdown(msr: dict) -> list[str]:
+    """Top-1 MSR per robot (with configuration counts) and per target category."""
+    robots = sorted({r for s in msr["methods"].values() for r in s["per_robot"]})
+    lines = [_row(["Top-1 MSR per robot", *robots]), "|---" * (len(robots) + 1) + "|"]
+    for name, s in msr["methods"].items():
+        lines.append(_row([name, *(
+            f"{100 * s['per_robot'][r]['top1']:.0f} % ({s['per_robot'][r]['configurations']})"
+            if r in s["per_robot"] else "–" for r in robots)]))
+    cats = sorted({c for s in msr["methods"].values() for c in s["per_category"]})
+    lines += ["", _row(["Top-1 MSR per target", *cats]), "|---" * (len(cats) + 1) + "|"]
+    for name, s in msr["methods"].items():
+        lines.append(_row([name, *(f"{100 * s['per_category'][c]['top1']:.0f} %"
+                                   if c in s["per_category"] else "–" for c in cats)]))
+    return lines
+
+
+def ablation_table(full: dict, ablations: Sequence[dict]) -> list[str]:
+    """The full model and its ablations on the map metrics, with the change in PCC."""
+    from momakitchen.models.registry import get_model_entry
+
+    head = ["model", "removes", *(c for _, c in MAP_COLUMNS), "Δ PCC"]
+    lines = [_row(head), "|---" * len(head) + "|"]
+    for rep in (full, *ablations):
+        removed = "–" if rep is full else get_model_entry(rep["model"]).description
+        lines.append(_row([rep["model"], removed,
+                           *(f"{rep['metrics'][key]:.4f}" for key, _ in MAP_COLUMNS),
+                           f"{rep['metrics']['pcc'] - full['metrics']['pcc']:+.4f}"]))
+    return lines
+
+
+def per_scene_table(reports: Sequence[dict], msr: dict) -> list[str]:
+    """Per test scene: each run's RMSE and PCC, and every MSR method's Top-1 rate."""
+    methods = list(msr["methods"])
+    top1: dict[str, dict[str, list[int]]] = {}
+    for r in msr["records"]:
+        for name in methods:
+            o = r["methods"][name]["outcomes"]
+            top1.setdefault(str(r["scene_id"]), {}).setdefault(name, []).append(o[0] if o else 0)
+    head = ["scene", "episodes", *(f"{r['model']} RMSE / PCC" for r in reports),
+            *(f"{m} Top-1" for m in methods)]
+    out = ["Map metrics over each scene's episodes; MSR over its configurations.", "",
+           _row(head), "|---" * len(head) + "|"]
+    for scene in sorted(reports[0]["per_scene"], key=int):
+        cells = [scene, str(int(reports[0]["per_scene"][scene]["episodes"]))]
+        cells += [f"{r['per_scene'][scene]['rmse']:.3f} / {r['per_scene'][scene]['pcc']:.2f}"
+                  for r in reports]
+        cells += [f"{np.mean(top1[scene][m]):.0%}" if scene in top1 else "–" for m in methods]
+        out.append(_row(cells))
+    return out
+
+
+def sweep_table(sweep: Sequence[tuple[float, dict]], configs: dict, runs: Sequence[Path]
+                ) -> list[str]:
+    steps = {configs[Path(r)].max_steps for r in runs}
+    lines = [f"Runs that differ only in λ, the loss weight on zero-valued labels (applied on a "
+             f"random half of the steps); optimiser steps: {', '.join(map(str, sorted(steps)))}"
+             " (0: the preset's epochs).", "",
+             _row(["λ", *(c for _, c in MAP_COLUMNS)]), "|---" * (len(MAP_COLUMNS) + 1) + "|"]
+    for lam, rep in sweep:
+        lines.append(_row([f"{lam:g}", *(f"{rep['metrics'][key]:.4f}" for key, _ in
+                                         MAP_COLUMNS)]))
+    return lines
+
+
+def sweep_figure(sweep: Sequence[tuple[float, dict]]) -> bytes:
+    """PCC and RMSE against lambda (two panels), as PNG bytes."""
+    from momakitchen.deploy.figures import png_bytes, pyplot
+
+    plt = pyplot()
+    lam = [s[0] for s in sweep]
+    fig, axes = plt.subplots(1, 2, figsize=(8, 3.2), constrained_layout=True)
+    for ax, key, label in zip(axes, ("pcc", "rmse"), ("PCC ↑", "RMSE ↓"), strict=True):
+        ax.plot(lam, [s[1]["metrics"][key] for s in sweep], "o-", color="tab:blue")
+        ax.set_xlabel("λ (weight on zero-valued labels)")
+        ax.set_title(label)
+        ax.grid(alpha=0.3)
+    return png_bytes(fig)
+
+
+def auroc(scores: np.ndarray, labels: np.ndarray) -> float:
+    """Probability that a random success scores higher than a random failure (ties 1/2)."""
+    pos, neg = scores[labels == 1], scores[labels == 0]
+    if not len(pos) or not len(neg):
+        return float("nan")
+    greater = (pos[:, None] > neg[None, :]).mean()
+    ties = (pos[:, None] == neg[None, :]).mean()
+    return float(greater + 0.5 * ties)
+
+
+def confidence_table(msr: dict, name: str) -> list[str]:
+    """Does the model's confidence at its Top-1 point predict the trial's outcome?"""
+    rows = [r["methods"][name] for r in msr["records"] if r["methods"][name]["outcomes"]]
+    ok = np.array([r["outcomes"][0] for r in rows])
+    aff = np.array([r["affordance"][0] for r in rows])
+    unc = np.array([r["uncertainty"][0] for r in rows])
+    out = [f"Confidence of {name} at its Top-1 point vs the trial outcome ({len(rows)} "
+           f"configurations, {ok.mean():.0%} succeeded). AUROC (0.5 = no signal): predicted "
+           f"affordance {auroc(aff, ok):.2f}; low uncertainty {auroc(-unc, ok):.2f}; low relative "
+           f"uncertainty (std / affordance) {auroc(-unc / np.maximum(aff, 1e-3), ok):.2f}.", "",
+           "| tercile | affordance range | success | uncertainty range | success |",
+           "|---|---|---|---|---|"]
+    qs = [0, 1 / 3, 2 / 3, 1]
+    a_edges, u_edges = np.quantile(aff, qs), np.quantile(unc, qs)
+
+    def inside(v: np.ndarray, edges: np.ndarray, t: int) -> np.ndarray:
+        return (v >= edges[t]) & ((v <= edges[t + 1]) if t == 2 else (v < edges[t + 1]))
+
+    for t, label in enumerate(("low", "middle", "high")):
+        a_in, u_in = inside(aff, a_edges, t), inside(unc, u_edges, t)
+        out.append(f"| {label} | {a_edges[t]:.2f}–{a_edges[t + 1]:.2f} | "
+                   f"{ok[a_in].mean():.0%} ({a_in.sum()}) | {u_edges[t]:.3f}–{u_edges[t + 1]:.3f}"
+                   f" | {ok[u_in].mean():.0%} ({u_in.sum()}) |")
+    return out
+
+
+def qualitative_figure(data_dir: Path, runs: Sequence[Path], examples: int) -> bytes:
+    """Ground truth and every run's map on the same test episodes: the last view of the first
+    ``examples`` test configurations that have a successful trial. PNG bytes."""
+    from momakitchen.data import EpisodeDataset
+    from momakitchen.data.batch import EpisodeCollator
+    from momakitchen.deploy.figures import floor_map, png_bytes, pyplot
+    from momakitchen.train.checkpoint import load_checkpoint
+    from momakitchen.train.evaluate import predict_batch
+
+    data = EpisodeDataset(data_dir, "test")
+    last_view: dict[tuple[int, int], int] = {}
+    for i, (_, sid, c, _e, _) in enumerate(data.index):
+        last_view[(sid, c)] = i
+    picked = []
+    for i in last_view.values():
+        sample = data[i]
+        if float(sample["floor_label"].max()) > 0.5:
+            picked.append(sample)
+        if len(picked) == examples:
+            break
+    if not picked:
+        raise MomaError(f"no test configuration of {str(data_dir)!r} has a successful trial")
+    loaded = [load_checkpoint(r) for r in runs]
+    plt = pyplot()
+    fig, axes = plt.subplots(len(picked), 1 + len(loaded),
+                             figsize=(3.6 * (1 + len(loaded)), 3.2 * len(picked)),
+                             constrained_layout=True, squeeze=False)
+    for row, sample in enumerate(picked):
+        xyz = sample["floor_xyz"].numpy()
+        floor_map(axes[row, 0], xyz, sample["floor_label"].numpy(),
+                  f"ground truth: scene {sample['scene_id']}, {sample['robot_name']}")
+        for col, run in enumerate(loaded, start=1):
+            batch = EpisodeCollator(run.config.num_global, None, run.config.seed)([sample])
+            pred = predict_batch(run.model, batch)[0].numpy()
+            floor_map(axes[row, col], xyz, pred, f"{run.config.model} (max {pred.max():.2f})",
+                      vmax=max(float(pred.max()), 0.05))
+    return png_bytes(fig)
