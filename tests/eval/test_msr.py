@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -12,20 +11,6 @@ from momakitchen.errors import MomaError
 from momakitchen.eval.msr import MsrConfig, base_to_world_xy, run_msr, select_points
 from momakitchen.sim.labels import world_to_base
 from momakitchen.sim.trials import TrialRunner
-
-
-@pytest.fixture(scope="module")
-def real_dataset(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """Scene 0 (a test scene) from the simulator-backed producer: 2 configurations x 2 views."""
-    from momakitchen.data.generator import GenerateRequest, generate_dataset
-    from momakitchen.perception.episodes import GenerationConfig, ViewConfig, scene_records
-    from momakitchen.scene.configuration import SceneConfig
-
-    root = tmp_path_factory.mktemp("msr") / "ds"
-    cfg = GenerationConfig(scene=SceneConfig(configs_per_scene=2), views=ViewConfig(episodes=2))
-    generate_dataset(GenerateRequest(out=root, num_scenes=1), scene_records, cfg,
-                     progress=False, write_card=False)
-    return root
 
 
 def test_select_points_orders_by_score_and_spreads():

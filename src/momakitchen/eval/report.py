@@ -98,10 +98,10 @@ def run_metrics(run: Path, data: Path, out_dir: Path, progress: bool) -> dict[st
     if report is None:
         report = {"data": str(data), "split": "test", "checkpoint": str(run),
                   **evaluate(run, EpisodeDataset(data, "test"), progress=progress)}
+    text = json.dumps(report, indent=1, default=float) + "\n"
     out_dir.mkdir(parents=True, exist_ok=True)
-    atomic_write_text(out_dir / f"{run.name}.json", json.dumps(report, indent=1, default=float)
-                      + "\n")
-    return report
+    atomic_write_text(out_dir / f"{run.name}.json", text)
+    return json.loads(text)  # as read back from a file (string keys), whatever its source
 
 
 def run_benchmark(req: BenchmarkRequest, log: Callable[[str], None] = print) -> dict[str, Any]:
@@ -310,11 +310,13 @@ def confidence_table(msr: dict, name: str) -> list[str]:
     def inside(v: np.ndarray, edges: np.ndarray, t: int) -> np.ndarray:
         return (v >= edges[t]) & ((v <= edges[t + 1]) if t == 2 else (v < edges[t + 1]))
 
+    def success(m: np.ndarray) -> str:
+        return f"{ok[m].mean():.0%} ({m.sum()})" if m.any() else "– (0)"
+
     for t, label in enumerate(("low", "middle", "high")):
         a_in, u_in = inside(aff, a_edges, t), inside(unc, u_edges, t)
-        out.append(f"| {label} | {a_edges[t]:.2f}–{a_edges[t + 1]:.2f} | "
-                   f"{ok[a_in].mean():.0%} ({a_in.sum()}) | {u_edges[t]:.3f}–{u_edges[t + 1]:.3f}"
-                   f" | {ok[u_in].mean():.0%} ({u_in.sum()}) |")
+        out.append(f"| {label} | {a_edges[t]:.2f}–{a_edges[t + 1]:.2f} | {success(a_in)} | "
+                   f"{u_edges[t]:.3f}–{u_edges[t + 1]:.3f} | {success(u_in)} |")
     return out
 
 
