@@ -135,3 +135,28 @@ def test_every_parameter_gets_a_gradient(name, tiny_config, samples):
     out["loss"].backward()
     missing = [n for n, p in model.named_parameters() if p.grad is None]
     assert not missing
+
+
+@pytest.mark.parametrize("name", sorted(EXPECTED))
+def test_mc_samples_split_the_backbone_where_the_dropout_starts(name, tiny_config, samples):
+    """sample_predictions runs encode once: it must hold no dropout, and with dropout off
+    the samples must equal the plain forward pass."""
+    from momakitchen.models.base import Backbone
+
+    model = build_model(name, tiny_config)
+    backbone = model.backbone
+    if type(backbone).encode is Backbone.encode:  # the whole backbone counts as encode
+        assert not any(isinstance(m, torch.nn.Dropout) or getattr(m, "dropout", 0)
+                       for m in backbone.modules())
+    batch = collate_episodes(samples[:1])
+    model.eval()
+    with torch.no_grad():
+        plain = model({k: v for k, v in batch.items() if k != "floor_label"})["pred"]
+    for m in model.modules():  # dropout off, everything else as in sampling
+        if isinstance(m, torch.nn.Dropout):
+            m.p = 0.0
+        if isinstance(m, torch.nn.MultiheadAttention):
+            m.dropout = 0.0
+    sampled = model.sample_predictions(batch, 3)
+    assert sampled.shape == (3, plain.shape[1])
+    torch.testing.assert_close(sampled, plain.expand(3, -1), atol=1e-6, rtol=0)

@@ -350,20 +350,13 @@ def run_model(run: Any, sample: dict[str, Any], mc_samples: int
 
 
 def mc_dropout_std(model: Any, batch: dict[str, Any], samples: int) -> np.ndarray:
-    """Per-floor-point standard deviation over ``samples`` forward passes with dropout on
-    (one batch of copies; a fixed seed so the estimate is reproducible). Shapes: (Nf,)."""
+    """Per-floor-point standard deviation over ``samples`` predictions with dropout on
+    (a fixed seed so the estimate is reproducible). Shapes: (Nf,)."""
     import torch
 
-    copies = {k: (v.expand(samples, *v.shape[1:]).contiguous() if torch.is_tensor(v)
-                  else v * samples) for k, v in batch.items() if k != "floor_label"}
-    was_training = model.training
-    with torch.random.fork_rng(), torch.no_grad():
+    with torch.random.fork_rng():
         torch.manual_seed(0)
-        model.train()
-        try:
-            preds = model(copies)["pred"]
-        finally:
-            model.train(was_training)
+        preds = model.sample_predictions(batch, samples)
     return preds.std(0).numpy().astype(np.float64)
 
 

@@ -27,8 +27,20 @@ class Backbone(nn.Module):
 
     out_channels: int
 
-    def forward(self, batch: dict[str, Any]) -> torch.Tensor:  # pragma: no cover - abstract
-        raise NotImplementedError
+    def encode(self, batch: dict[str, Any]) -> dict[str, torch.Tensor]:
+        """The deterministic part (no dropout), run once for MC-dropout sampling: a dict of
+        tensors with the batch on dim 0. Default: the whole backbone, which is right for
+        backbones without dropout (a test checks the registered ones)."""
+        if type(self).forward is Backbone.forward:
+            raise NotImplementedError(f"{type(self).__name__} defines neither forward nor encode")
+        return {"feats": self.forward(batch)}
+
+    def decode(self, ctx: dict[str, torch.Tensor]) -> torch.Tensor:
+        """The rest of the backbone, from :meth:`encode`'s output. Shapes: (B, Nf, C)."""
+        return ctx["feats"]
+
+    def forward(self, batch: dict[str, Any]) -> torch.Tensor:
+        return self.decode(self.encode(batch))
 
 
 class AffordanceHead(nn.Module):
@@ -89,6 +101,26 @@ class AffordanceModel(nn.Module):
         if "floor_label" in batch:
             out.update(self.criterion(pred, batch["floor_label"], batch["floor_mask"]))
         return out
+
+
+    @torch.no_grad()
+    def sample_predictions(self, batch: dict[str, Any], samples: int) -> torch.Tensor:
+        """``samples`` predictions of one episode with dropout active (MC dropout). The
+        deterministic part of the backbone runs once, the rest on ``samples`` copies. Uses
+        the global torch RNG. Shapes: a batch of one episode -> (samples, Nf)."""
+        if batch["floor_xyz"].shape[0] != 1:
+            raise ValueError("sample_predictions takes a batch of one episode")
+        was_training = self.training
+        try:
+            self.eval()
+            ctx = self.backbone.encode(batch)
+            self.train()
+            copies = {k: v.expand(samples, *v.shape[1:]).contiguous() for k, v in ctx.items()}
+            feats = self.backbone.decode(copies)
+            robot = batch["robot"].expand(samples, -1)
+            return self.head(feats, robot) * batch["floor_mask"].to(feats.dtype)
+        finally:
+            self.train(was_training)
 
 
 def num_parameters(model: nn.Module) -> int:

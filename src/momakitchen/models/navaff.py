@@ -32,6 +32,7 @@ from momakitchen.models.pointnet2 import (
     SetAbstractionMSG,
     fourier_channels,
     fourier_features,
+    three_nn_weights,
 )
 from momakitchen.robots.spec import DESCRIPTOR_DIM
 
@@ -216,7 +217,9 @@ class NavAffBackbone(Backbone):
         self.fp1 = FeaturePropagation(pos_ch + self.fp2.out_channels, [ch(128), ch(128)])
         self.out_channels = self.fp1.out_channels
 
-    def forward(self, batch: dict[str, Any]) -> torch.Tensor:
+    def encode(self, batch: dict[str, Any]) -> dict[str, torch.Tensor]:
+        """Everything before the cross-attention (no dropout): keys, floor tokens and the
+        floor hierarchy that feature propagation needs."""
         fxyz, fmask = batch["floor_xyz"], batch["floor_mask"]
         b = fxyz.shape[0]
         keys, pads = [], []
@@ -241,8 +244,19 @@ class NavAffBackbone(Backbone):
         fpos = floor_features(fxyz, target, self.pos_freqs)
         x1, f1, m1 = self.floor_sa1(fxyz, fpos, fmask)
         x2, f2, m2 = self.floor_sa2(x1, f1, m1)
-        q = self.floor_tokenizer(f2, x2)
+        # Feature propagation's neighbours depend on the geometry only: found here, once.
+        nn2 = three_nn_weights(x1, x2, m2)
+        nn1 = three_nn_weights(fxyz, x1, m1)
+        return {"q": self.floor_tokenizer(f2, x2), "kv": kv, "kv_pad": kv_pad, "fxyz": fxyz,
+                "fpos": fpos, "x1": x1, "f1": f1, "m1": m1, "x2": x2, "m2": m2,
+                "nn2_idx": nn2[0], "nn2_w": nn2[1], "nn1_idx": nn1[0], "nn1_w": nn1[1]}
+
+    def decode(self, ctx: dict[str, torch.Tensor]) -> torch.Tensor:
+        """Cross-attention (where the dropout is) and feature propagation."""
+        q = ctx["q"]
         for block in self.blocks:
-            q = block(q, kv, kv_pad)
-        up1 = self.fp2(x1, x2, f1, q, m2)
-        return self.fp1(fxyz, x1, fpos, up1, m1)
+            q = block(q, ctx["kv"], ctx["kv_pad"])
+        up1 = self.fp2(ctx["x1"], ctx["x2"], ctx["f1"], q, ctx["m2"],
+                       (ctx["nn2_idx"], ctx["nn2_w"]))
+        return self.fp1(ctx["fxyz"], ctx["x1"], ctx["fpos"], up1, ctx["m1"],
+                        (ctx["nn1_idx"], ctx["nn1_w"]))

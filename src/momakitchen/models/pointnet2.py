@@ -398,8 +398,11 @@ class FeaturePropagation(nn.Module):
         dst_feats: torch.Tensor | None,
         src_feats: torch.Tensor,
         src_mask: torch.Tensor,
+        neighbors: tuple[torch.Tensor, torch.Tensor] | None = None,
     ) -> torch.Tensor:
-        idx, w = three_nn_weights(dst_xyz, src_xyz, src_mask)
+        """``neighbors``: :func:`three_nn_weights` of (dst_xyz, src_xyz, src_mask) when
+        already known (they depend on the geometry only)."""
+        idx, w = neighbors or three_nn_weights(dst_xyz, src_xyz, src_mask)
         interp = (gather_points(src_feats, idx) * w.unsqueeze(-1)).sum(2)
         x = interp if dst_feats is None else torch.cat([dst_feats, interp], -1)
         return self.mlp(x)

@@ -139,18 +139,27 @@ def backproject(depth: np.ndarray, intrinsics: Intrinsics) -> tuple[np.ndarray, 
                         f"({intrinsics.height}, {intrinsics.width})")
     flat = depth.reshape(-1)
     idx = np.flatnonzero(np.isfinite(flat) & (flat > 0))
-    v, u = np.divmod(idx, intrinsics.width)
     out = np.empty((3, len(idx)))
+    backproject_into(flat, idx, intrinsics, out)
+    return out.T, idx
+
+
+def backproject_into(flat_depth: np.ndarray, idx: np.ndarray, intrinsics: Intrinsics,
+                     out: np.ndarray) -> None:
+    """Camera-frame coordinates of the pixels ``idx`` of a flattened depth image, written
+    into ``out`` (3, n) as rows x, y, z: ``x = (u - cx) * z / fx``, likewise y.
+
+    In place: fresh large temporaries cost a page fault per 4 kB.
+    """
+    v, u = np.divmod(idx, intrinsics.width)
     x, y, z = out
-    z[:] = flat[idx]
-    # x = (u - cx) * z / fx, in place: large temporaries cost a page fault per 4 kB
+    z[:] = flat_depth[idx]
     np.subtract(u, intrinsics.cx, out=x)
     x *= z
     x /= intrinsics.fx
     np.subtract(v, intrinsics.cy, out=y)
     y *= z
     y /= intrinsics.fy
-    return out.T, idx
 
 
 def project(points_cam: np.ndarray, intrinsics: Intrinsics) -> np.ndarray:
@@ -170,16 +179,22 @@ def transform(tf: np.ndarray, points: np.ndarray) -> np.ndarray:
     """
     pts = np.asarray(points, float).T
     out = np.empty((3, pts.shape[1]))
-    tmp = np.empty(pts.shape[1])
-    # out[i] = pts[0] * tf[i, 0] + pts[1] * tf[i, 1] + pts[2] * tf[i, 2] + tf[i, 3], the
-    # same operations in the same order, in place (fresh large arrays cost page faults)
+    transform_into(tf, pts, out)
+    return out.T
+
+
+def transform_into(tf: np.ndarray, rows: np.ndarray, out: np.ndarray) -> None:
+    """Apply a (4, 4) rigid transform to points given as rows (3, n) x, y, z, writing the
+    rows of the result into ``out`` (3, n):
+    ``out[i] = x * tf[i, 0] + y * tf[i, 1] + z * tf[i, 2] + tf[i, 3]``, in that order,
+    in place."""
+    tmp = np.empty(rows.shape[1])
     for i, o in enumerate(out):
-        np.multiply(pts[0], tf[i, 0], out=o)
+        np.multiply(rows[0], tf[i, 0], out=o)
         for j in (1, 2):
-            np.multiply(pts[j], tf[i, j], out=tmp)
+            np.multiply(rows[j], tf[i, j], out=tmp)
             o += tmp
         o += tf[i, 3]
-    return out.T
 
 
 def base_to_world(base: tuple[float, float, float]) -> np.ndarray:

@@ -2,9 +2,27 @@
 
 from __future__ import annotations
 
+import os
+from collections.abc import Callable
+from concurrent.futures import Future, ThreadPoolExecutor
+from typing import Any
+
 import numpy as np
 
-from momakitchen.perception.camera import Intrinsics, backproject, transform
+from momakitchen.errors import MomaError
+from momakitchen.perception.camera import Intrinsics, backproject_into, transform_into
+
+_POOL: tuple[int, ThreadPoolExecutor] | None = None
+
+
+def background(fn: Callable[..., Any], *args: Any) -> Future:
+    """Run ``fn(*args)`` on this process's helper thread. NumPy releases the GIL inside
+    its loops over large arrays, so cloud building overlaps two such tasks on two cores.
+    (A forked child gets a new thread: threads do not survive fork.)"""
+    global _POOL
+    if _POOL is None or _POOL[0] != os.getpid():
+        _POOL = (os.getpid(), ThreadPoolExecutor(1, thread_name_prefix="momakitchen-clouds"))
+    return _POOL[1].submit(fn, *args)
 
 
 def voxel_downsample(points: np.ndarray, voxel: float) -> np.ndarray:
@@ -40,10 +58,28 @@ def voxel_downsample(points: np.ndarray, voxel: float) -> np.ndarray:
 
 def cloud_in_base(depth: np.ndarray, intrinsics: Intrinsics, camera_to_base: np.ndarray,
                   max_depth: float) -> tuple[np.ndarray, np.ndarray]:
-    """Back-project valid pixels (0 < depth <= max_depth) into the robot base frame.
+    """Back-project valid pixels (0 < depth <= max_depth; NaN and inf are invalid) into the
+    robot base frame: :func:`~momakitchen.perception.camera.backproject` then
+    :func:`~momakitchen.perception.camera.transform`, the same arithmetic, each half of
+    the pixels on its own thread.
 
-    Returns points (N, 3) float64 in the base frame and their flat pixel indices (N,).
+    Returns points (N, 3) float64 in the base frame (a transposed (3, N) array) and their
+    flat pixel indices (N,).
     """
-    d = np.where(depth <= max_depth, depth, 0.0)
-    pts, idx = backproject(d, intrinsics)
-    return transform(camera_to_base, pts), idx
+    if depth.shape != (intrinsics.height, intrinsics.width):
+        raise MomaError(f"depth shape {depth.shape} does not match the intrinsics "
+                        f"({intrinsics.height}, {intrinsics.width})")
+    flat = depth.reshape(-1)
+    idx = np.flatnonzero((flat > 0) & (flat <= max_depth))  # False for NaN
+    out = np.empty((3, len(idx)))
+
+    def part(sl: slice) -> None:
+        cam = np.empty((3, len(idx[sl])))
+        backproject_into(flat, idx[sl], intrinsics, cam)
+        transform_into(camera_to_base, cam, out[:, sl])
+
+    half = len(idx) // 2
+    first = background(part, slice(0, half))
+    part(slice(half, len(idx)))
+    first.result()
+    return out.T, idx

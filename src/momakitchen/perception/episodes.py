@@ -20,7 +20,7 @@ import pybullet as p
 from momakitchen.data.episode import SEMANTIC_CLASSES, ConfigurationLabels, Episode
 from momakitchen.errors import MomaError
 from momakitchen.perception.camera import Intrinsics, base_to_world, look_at, render
-from momakitchen.perception.clouds import cloud_in_base, voxel_downsample
+from momakitchen.perception.clouds import background, cloud_in_base, voxel_downsample
 from momakitchen.robots import get_robot_spec, robot_descriptor
 from momakitchen.scene.configuration import Configuration, SceneConfig, sample_scene
 from momakitchen.scene.geometry import box_corners, corners_of, overlap_matrix
@@ -260,11 +260,15 @@ def frame_clouds(depth: np.ndarray, rgb: np.ndarray, align: np.ndarray, intrinsi
           (Ng,) int8, floor xyz (Nf, 3) float64 (points below ``cloud.floor_z``)
     """
     pts, idx = cloud_in_base(depth, intrinsics, camera_to_base, max_depth)
+
+    def floor() -> np.ndarray:
+        f_pts = pts[pts[:, 2] < cloud.floor_z]
+        return f_pts[voxel_downsample(f_pts, cloud.floor_voxel)]
+
+    f_future = background(floor)  # the floor cloud on the helper thread meanwhile
     keep = voxel_downsample(pts, cloud.voxel)
     g_idx = idx[keep]
-    f_pts = pts[pts[:, 2] < cloud.floor_z]
-    f_pts = f_pts[voxel_downsample(f_pts, cloud.floor_voxel)]
-    return pts[keep], rgb.reshape(-1, 3)[g_idx], align.reshape(-1)[g_idx], f_pts
+    return pts[keep], rgb.reshape(-1, 3)[g_idx], align.reshape(-1)[g_idx], f_future.result()
 
 
 def make_episode(cfg: Configuration, labels: Labels, index: int, base, camera_to_world,
