@@ -102,7 +102,6 @@ class AffordanceModel(nn.Module):
             out.update(self.criterion(pred, batch["floor_label"], batch["floor_mask"]))
         return out
 
-
     @torch.no_grad()
     def sample_predictions(self, batch: dict[str, Any], samples: int) -> torch.Tensor:
         """``samples`` predictions of one episode with dropout active (MC dropout). The
