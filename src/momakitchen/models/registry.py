@@ -74,13 +74,13 @@ for _entry in (
         "navaff-no-vam",
         lambda c: NavAffBackbone(c, use_alignment=False),
         False,
-        "NavAff without the visual-alignment channel",
+        "NavAff without visual alignment (target channel, floor-to-target offsets)",
     ),
     ModelEntry(
         "navaff-no-global",
         lambda c: NavAffBackbone(c, use_global=False),
         False,
-        "NavAff without the global cloud (robot tokens as keys)",
+        "NavAff without the global cloud (robot tokens as keys, no target cue)",
     ),
 ):
     register_model(_entry)
