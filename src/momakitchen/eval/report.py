@@ -64,6 +64,10 @@ class BenchmarkRequest:
     progress: bool = True
 
     def __post_init__(self) -> None:
+        for name in ("runs", "ablations", "sweep"):
+            object.__setattr__(self, name, tuple(Path(r) for r in getattr(self, name)))
+        object.__setattr__(self, "data", Path(self.data))
+        object.__setattr__(self, "out", Path(self.out))
         if not self.runs:
             raise MomaError("benchmark needs at least one run (--runs)")
         if not (Path(self.data) / "manifest.json").is_file():
@@ -110,22 +114,24 @@ def run_benchmark(req: BenchmarkRequest, log: Callable[[str], None] = print) -> 
     from momakitchen.eval.msr import BASELINES, MsrConfig, run_msr
     from momakitchen.train.checkpoint import load_checkpoint
 
-    data, out = Path(req.data), Path(req.out)
-    out.mkdir(parents=True, exist_ok=True)
-    names = [Path(r).name for r in (*req.runs, *req.ablations, *req.sweep)]
+    data, out = req.data, req.out
+    every = (*req.runs, *req.ablations, *req.sweep)
+    names = [r.name for r in every]
     if len(set(names)) != len(names):
         raise MomaError(f"run directories need distinct names, got {names}")
-    configs = {Path(r): load_checkpoint(r).config for r in (*req.runs, *req.ablations,
-                                                             *req.sweep)}
-    models = [configs[Path(r)].model for r in req.runs]
+    configs = {r: load_checkpoint(r).config for r in every}
+    models = [configs[r].model for r in req.runs]
     if len(set(models)) != len(models):
         raise MomaError(f"--runs need one run per model, got models {models}")
+    if req.ablations and "navaff" not in models:
+        raise MomaError("the ablation table needs a navaff run among --runs")
+    out.mkdir(parents=True, exist_ok=True)
 
     t0 = time.perf_counter()
     metrics = {}
-    for r in (*req.runs, *req.ablations, *req.sweep):
+    for r in every:
         log(f"map metrics: {r}")
-        metrics[Path(r)] = run_metrics(Path(r), data, out / "metrics", req.progress)
+        metrics[r] = run_metrics(r, data, out / "metrics", req.progress)
     if req.msr is not None:
         msr = json.loads(Path(req.msr).read_text())
         missing = [m for m in (*models, *BASELINES) if m not in msr.get("methods", {})]
@@ -137,35 +143,34 @@ def run_benchmark(req: BenchmarkRequest, log: Callable[[str], None] = print) -> 
                       MsrConfig(max_configs=req.max_configs), progress=req.progress)
         atomic_write_text(out / "msr.json", json.dumps(msr, indent=1) + "\n")
 
-    main_reports = [metrics[Path(r)] for r in req.runs]
-    lines = ["## Methods", "", *main_table(main_reports, msr), "",
-             *msr_breakdown(msr)]
-    full = next((metrics[Path(r)] for r in req.runs if configs[Path(r)].model == "navaff"),
-                None)
-    ablation_rows = [metrics[Path(r)] for r in req.ablations]
-    if ablation_rows:
-        if full is None:
-            raise MomaError("the ablation table needs a navaff run among --runs")
-        lines += ["", "## Ablations", "", *ablation_table(full, ablation_rows)]
+    main_reports = [metrics[r] for r in req.runs]
+    lines = ["## Methods", "", *main_table(main_reports, msr), "", *msr_breakdown(msr)]
+    if req.ablations:
+        full = metrics[req.runs[models.index("navaff")]]
+        lines += ["", "## Ablations", "",
+                  *ablation_table(full, [metrics[r] for r in req.ablations])]
     lines += ["", "## Per scene", "", *per_scene_table(main_reports, msr)]
-    sweep = sorted(((configs[Path(r)].model_config.lambda_zero, metrics[Path(r)])
-                    for r in req.sweep), key=lambda t: t[0])
+    sweep = sorted(((configs[r].model_config.lambda_zero, metrics[r]) for r in req.sweep),
+                   key=lambda t: t[0])
     if sweep:
         atomic_write_bytes(out / "lambda_sweep.png", sweep_figure(sweep))
         lines += ["", "## Loss weight", "", *sweep_table(sweep, configs, req.sweep),
                   "", "![PCC and RMSE against lambda](lambda_sweep.png)"]
-    for name in msr["methods"]:
-        if any("uncertainty" in r["methods"][name] for r in msr["records"]):
-            lines += ["", "## Confidence", "", *confidence_table(msr, name)]
+    confident = [name for name in msr["methods"]
+                 if any("uncertainty" in r["methods"][name] for r in msr["records"])]
+    if confident:
+        lines += ["", "## Confidence"]
+        for name in confident:
+            lines += ["", *confidence_table(msr, name)]
     log("qualitative figure")
     atomic_write_bytes(out / "qualitative.png",
-                       qualitative_figure(data, [Path(r) for r in req.runs], req.examples))
+                       qualitative_figure(data, req.runs, req.examples))
     lines += ["", "## Examples", "", "Ground truth and each model's map on the same test "
               "episodes:", "", "![qualitative](qualitative.png)"]
     atomic_write_text(out / "RESULTS.md", "# Benchmark\n\n" + "\n".join(lines) + "\n")
     result = {
         "data": str(data),
-        "runs": {str(r): {k: metrics[Path(r)][k] for k in ("model", "metrics")}
+        "runs": {str(r): {k: metrics[r][k] for k in ("model", "metrics")}
                  for r in (*req.runs, *req.ablations)},
         "sweep": [{"lambda_zero": lam, "metrics": rep["metrics"]} for lam, rep in sweep],
         "msr": {name: {k: s[k] for k in MSR_KEYS} for name, s in msr["methods"].items()},
@@ -256,7 +261,7 @@ def per_scene_table(reports: Sequence[dict], msr: dict) -> list[str]:
 
 def sweep_table(sweep: Sequence[tuple[float, dict]], configs: dict, runs: Sequence[Path]
                 ) -> list[str]:
-    steps = {configs[Path(r)].max_steps for r in runs}
+    steps = {configs[r].max_steps for r in runs}
     lines = [f"Runs that differ only in λ, the loss weight on zero-valued labels (applied on a "
              f"random half of the steps); optimiser steps: {', '.join(map(str, sorted(steps)))}"
              " (0: the preset's epochs).", "",
