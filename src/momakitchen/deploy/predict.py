@@ -182,6 +182,7 @@ def robot_input(robot: str | Sequence[float] | Mapping[str, float]) -> tuple[str
     optional ``"dof"`` (6) and ``"suction"`` (False)) or the full descriptor vector."""
     from momakitchen.robots.spec import (
         DESCRIPTOR_DIM,
+        descriptor_values,
         get_robot_spec,
         robot_descriptor,
     )
@@ -192,8 +193,8 @@ def robot_input(robot: str | Sequence[float] | Mapping[str, float]) -> tuple[str
         missing = {"reach", "mount_height"} - set(robot)
         if missing:
             raise MomaError(f"robot descriptor needs {sorted(missing)}")
-        vec = [robot["reach"], robot["mount_height"], robot.get("dof", 6) / 7.0,
-               1.0 if robot.get("suction", False) else 0.0]
+        vec = list(descriptor_values(robot["reach"], robot["mount_height"],
+                                     robot.get("dof", 6), robot.get("suction", False)))
     else:
         vec = list(robot)
     d = np.asarray(vec, np.float32)

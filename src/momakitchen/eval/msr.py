@@ -97,6 +97,10 @@ def base_to_world_xy(points: np.ndarray, base: Sequence[float]) -> np.ndarray:
     return transform(base_to_world(tuple(base)), np.column_stack([pts, np.zeros(len(pts))]))[:, :2]
 
 
+# The rates of a method's summary, as columns of every MSR table.
+RATE_KEYS = ("top1", "topk", "top1_feasible", "topk_feasible")
+
+
 def _rate(values: list[float]) -> float:
     return float(np.mean(values)) if values else 0.0
 
@@ -317,8 +321,7 @@ def format_msr_table(result: dict[str, Any]) -> str:
     rows = [("method", "Top-1 MSR", f"Top-{k} MSR", "Top-1 (feasible)", f"Top-{k} (feasible)",
              "trials")]
     for name, m in result["methods"].items():
-        rows.append((name, *(f"{100 * m[key]:.1f} %" for key in
-                             ("top1", "topk", "top1_feasible", "topk_feasible")),
+        rows.append((name, *(f"{100 * m[key]:.1f} %" for key in RATE_KEYS),
                      str(m["trials"])))
     widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
     lines = ["  ".join(c.ljust(w) if i == 0 else c.rjust(w)

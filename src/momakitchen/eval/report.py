@@ -29,11 +29,11 @@ from typing import Any
 import numpy as np
 
 from momakitchen.errors import MomaError
+from momakitchen.eval.msr import RATE_KEYS
 from momakitchen.fileio import atomic_write_bytes, atomic_write_text
 
 MAP_COLUMNS = (("rmse", "RMSE ↓"), ("logmse", "logMSE ↓"), ("pcc", "PCC ↑"), ("sim", "SIM ↑"),
                ("ciou", "cIoU ↑"))
-MSR_KEYS = ("top1", "topk", "top1_feasible", "topk_feasible")
 
 
 @dataclass(frozen=True)
@@ -173,7 +173,7 @@ def run_benchmark(req: BenchmarkRequest, log: Callable[[str], None] = print) -> 
         "runs": {str(r): {k: metrics[r][k] for k in ("model", "metrics")}
                  for r in (*req.runs, *req.ablations)},
         "sweep": [{"lambda_zero": lam, "metrics": rep["metrics"]} for lam, rep in sweep],
-        "msr": {name: {k: s[k] for k in MSR_KEYS} for name, s in msr["methods"].items()},
+        "msr": {name: {k: s[k] for k in RATE_KEYS} for name, s in msr["methods"].items()},
         "msr_configurations": msr["configurations"],
         "seconds": round(time.perf_counter() - t0, 1),
     }
@@ -194,7 +194,7 @@ def main_table(reports: Sequence[dict], msr: dict) -> list[str]:
 
     def rates(name: str) -> list[str]:
         s = msr["methods"].get(name)
-        return [f"{100 * s[key]:.1f} %" if s else "–" for key in MSR_KEYS]
+        return [f"{100 * s[key]:.1f} %" if s else "–" for key in RATE_KEYS]
 
     for rep in reports:
         lines.append(_row([rep["model"], *(f"{rep['metrics'][key]:.4f}" for key, _ in

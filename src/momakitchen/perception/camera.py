@@ -134,14 +134,19 @@ def backproject(depth: np.ndarray, intrinsics: Intrinsics) -> tuple[np.ndarray, 
     the flat pixel indices (N,) they came from. The points are a transposed (3, N) array,
     so each coordinate is contiguous (see :func:`transform`).
     """
-    if depth.shape != (intrinsics.height, intrinsics.width):
-        raise MomaError(f"depth shape {depth.shape} does not match the intrinsics "
-                        f"({intrinsics.height}, {intrinsics.width})")
+    check_depth_shape(depth, intrinsics)
     flat = depth.reshape(-1)
     idx = np.flatnonzero(np.isfinite(flat) & (flat > 0))
     out = np.empty((3, len(idx)))
     backproject_into(flat, idx, intrinsics, out)
     return out.T, idx
+
+
+def check_depth_shape(depth: np.ndarray, intrinsics: Intrinsics) -> None:
+    """Raise MomaError unless ``depth`` is (height, width) of ``intrinsics``."""
+    if depth.shape != (intrinsics.height, intrinsics.width):
+        raise MomaError(f"depth shape {depth.shape} does not match the intrinsics "
+                        f"({intrinsics.height}, {intrinsics.width})")
 
 
 def backproject_into(flat_depth: np.ndarray, idx: np.ndarray, intrinsics: Intrinsics,

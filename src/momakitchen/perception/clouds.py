@@ -9,8 +9,12 @@ from typing import Any
 
 import numpy as np
 
-from momakitchen.errors import MomaError
-from momakitchen.perception.camera import Intrinsics, backproject_into, transform_into
+from momakitchen.perception.camera import (
+    Intrinsics,
+    backproject_into,
+    check_depth_shape,
+    transform_into,
+)
 
 _POOL: tuple[int, ThreadPoolExecutor] | None = None
 
@@ -66,9 +70,7 @@ def cloud_in_base(depth: np.ndarray, intrinsics: Intrinsics, camera_to_base: np.
     Returns points (N, 3) float64 in the base frame (a transposed (3, N) array) and their
     flat pixel indices (N,).
     """
-    if depth.shape != (intrinsics.height, intrinsics.width):
-        raise MomaError(f"depth shape {depth.shape} does not match the intrinsics "
-                        f"({intrinsics.height}, {intrinsics.width})")
+    check_depth_shape(depth, intrinsics)
     flat = depth.reshape(-1)
     idx = np.flatnonzero((flat > 0) & (flat <= max_depth))  # False for NaN
     out = np.empty((3, len(idx)))

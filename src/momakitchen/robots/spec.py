@@ -120,9 +120,11 @@ def robot_descriptor(spec: RobotSpec) -> tuple[float, ...]:
 
     The first two entries are the paper's descriptor ``[reach, mount height]``.
     """
-    return (
-        float(spec.reach),
-        float(spec.mount_height),
-        spec.dof / 7.0,
-        1.0 if spec.end_effector == "suction" else 0.0,
-    )
+    return descriptor_values(spec.reach, spec.mount_height, spec.dof,
+                             spec.end_effector == "suction")
+
+
+def descriptor_values(reach: float, mount_height: float, dof: int, suction: bool
+                      ) -> tuple[float, ...]:
+    """The descriptor of a robot given by its numbers (one not in the registry)."""
+    return (float(reach), float(mount_height), dof / 7.0, 1.0 if suction else 0.0)
