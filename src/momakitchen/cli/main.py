@@ -1,7 +1,9 @@
 """Entry point of the ``momakitchen`` console script.
 
-Each subcommand lives in its own module exposing ``add_parser(subparsers)`` (which sets
-``func`` on its parser) so that the list below is the single place commands are registered.
+Each subcommand lives in a module exposing ``add_parser(subparsers)`` (which sets ``func``
+on its parser); the table below is the single place commands are registered. Only the
+module of the command being run is imported: some build their help from registries that
+import torch, which would add seconds to every ``generate`` or ``check``.
 Every user error becomes one line on stderr and exit status 2, never a traceback.
 """
 
@@ -15,9 +17,13 @@ import sys
 from momakitchen import __version__
 from momakitchen.errors import MomaError
 
-# Module names under momakitchen.cli, in the order they appear in --help.
-COMMANDS = ("demo", "robots", "scene", "label", "generate", "dataset", "learn", "msr",
-            "benchmark", "predict")
+# Command -> the module under momakitchen.cli that defines it, in the order of --help.
+COMMANDS = {
+    "demo": "demo", "robots": "robots", "scene": "scene", "label": "label",
+    "generate": "generate", "check": "dataset", "stats": "dataset",
+    "export-reference": "dataset", "import-reference": "dataset", "train": "learn",
+    "evaluate": "learn", "msr": "msr", "benchmark": "benchmark", "predict": "predict",
+}
 
 
 class _Parser(argparse.ArgumentParser):
@@ -27,20 +33,26 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message}\n")
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The command-line parser; with a known ``command``, only that command's module is
+    imported (its parser is the one argparse will use), otherwise all of them."""
     parser = _Parser(
         prog="momakitchen",
         description="Affordance-grounded last-mile navigation for mobile manipulation.",
     )
     parser.add_argument("--version", action="version", version=f"momakitchen {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
-    for name in COMMANDS:
+    modules = [COMMANDS[command]] if command in COMMANDS else dict.fromkeys(COMMANDS.values())
+    for name in modules:
         importlib.import_module(f"momakitchen.cli.{name}").add_parser(sub)
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
+    argv = sys.argv[1:] if argv is None else argv
+    # The command is the first word that is not an option (the top level has no option
+    # that takes a value).
+    parser = build_parser(next((a for a in argv if not a.startswith("-")), None))
     try:
         args = parser.parse_args(argv)
     except SystemExit as exc:  # usage errors (status 2) and --help / --version (0)

@@ -188,16 +188,20 @@ class TrialRunner:
             self._allow = [(self.target.body_id, self.target.link_index),
                            (self.target.body_id, self.target.joint_index)]
         self._suction = self.robot.cup_link is not None
-        # Free bodies away from the target rest until something touches them (Bullet's
-        # deactivation): they cost no solver time, and contact wakes them as usual.
+        # Free bodies away from the target, and the other furniture (their doors and
+        # drawers), rest until something touches them (Bullet's deactivation): they cost
+        # no solver time, and contact wakes them as usual.
         grasp_point = world.grasp_in_world()[0]
         self._resting = []
         for info in world.bodies.values():
-            if info.kind in ("rigid", "obstacle") and info.body_id != self.target.body_id:
+            if info.body_id == self.target.body_id or info.kind == "structure":
+                continue
+            if info.kind in ("rigid", "obstacle"):
                 lo, hi = world.aabb(info.body_id)
                 if np.linalg.norm(np.maximum(np.maximum(lo - grasp_point, grasp_point - hi),
-                                             0)) > 0.25:
-                    self._resting.append(info.body_id)
+                                             0)) <= 0.25:
+                    continue
+            self._resting.append(info.body_id)
         self._solver_before = p.getPhysicsEngineParameters(physicsClientId=c)[
             "numSolverIterations"]
         p.setPhysicsEngineParameter(numSolverIterations=self.config.solver_iterations,
@@ -208,11 +212,14 @@ class TrialRunner:
 
     def _restore(self) -> None:
         """Back to the saved state. Activation (sleeping) is not part of PyBullet's saved
-        state, so it is set again: a body woken in one trial must not stay awake."""
+        state, so it is set again: a body woken in one trial must not stay awake.
+
+        Sleeping must be enabled first: PyBullet wakes a body that may not sleep on the
+        next step, and the resting bodies would cost solver time in every step."""
         self.world.restore_state(self._state)
         for body in self._resting:
-            p.changeDynamics(body, -1, activationState=p.ACTIVATION_STATE_SLEEP,
-                             physicsClientId=self._client)
+            for state in (p.ACTIVATION_STATE_ENABLE_SLEEPING, p.ACTIVATION_STATE_SLEEP):
+                p.changeDynamics(body, -1, activationState=state, physicsClientId=self._client)
         self._dirty = False  # True once physics has run since the last restore
 
     def close(self) -> None:
