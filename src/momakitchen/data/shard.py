@@ -52,7 +52,7 @@ SCENES_DIR = "scenes"
 SHARD_PATTERN = re.compile(r"^scene_(\d{6,})\.h5$")
 TMP_PREFIX = ".tmp-"
 COMPRESSION = "gzip"
-COMPRESSION_LEVEL = 2  # level 4 costs 30 % more time for 2 % smaller shards
+COMPRESSION_LEVEL = 1  # level 2 costs 16 % more time for 1.4 % smaller shards
 
 SceneRecords = list[tuple[ConfigurationLabels, list[Episode]]]
 

@@ -305,7 +305,8 @@ class Robot:
 
     def _reset_arm(self, q: Sequence[float]) -> None:
         # One call for all joints: five times faster than resetJointState per joint.
-        p.resetJointStatesMultiDof(self.body, self.arm_joints, [[float(v)] for v in q],
+        p.resetJointStatesMultiDof(self.body, self.arm_joints,
+                                   np.asarray(q, float).reshape(-1, 1).tolist(),
                                    physicsClientId=self.client)
 
     def set_joint_positions(self, q: Sequence[float]) -> None:
@@ -870,12 +871,14 @@ def measure_workspace(robot: Robot, samples: int = _WORKSPACE_SAMPLES,
     """
     rng = np.random.default_rng(seed)
     saved = robot.joint_positions()
+    links = [robot.shoulder_link, robot.flange_link, robot.tcp_link]
 
     def dists(q: np.ndarray) -> tuple[float, float]:
         robot._reset_arm(q)
-        sh = robot.link_pose(robot.shoulder_link)[0]
-        return (float(np.linalg.norm(robot.link_pose(robot.flange_link)[0] - sh)),
-                float(np.linalg.norm(robot.link_pose(robot.tcp_link)[0] - sh)))
+        # One forward-kinematics call for the three links (the same values as three).
+        sh, flange, tcp = (np.array(s[4]) for s in p.getLinkStates(
+            robot.body, links, computeForwardKinematics=True, physicsClientId=robot.client))
+        return float(np.linalg.norm(flange - sh)), float(np.linalg.norm(tcp - sh))
 
     result = []
     for which in (0, 1):
