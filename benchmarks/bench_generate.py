@@ -2,9 +2,9 @@
 
 Runs the command ``--runs`` times into fresh directories and reports, per run and as the
 median: episodes per CPU-second (user + system time of the command and its workers, what
-a dedicated core delivers; for Ray, whose workers are not children of the command,
-episodes per wall second per core instead), episodes per wall second per core, peak RSS of the largest
-process, bytes per episode, and the extrapolated time for the paper's 127,343 episodes.
+a dedicated core delivers; with Ray, whose workers are not children of the command,
+episodes per wall second per core instead), peak RSS of the largest process, bytes per
+episode, and the extrapolated time for the paper's 127,343 episodes.
 
     python benchmarks/bench_generate.py --scenes 4 --workers 1 --runs 3
 """
