@@ -124,3 +124,42 @@ def test_every_robot_succeeds_on_an_unobstructed_reachable_target(world, scene, 
     cfg = dataclasses.replace(scene.configurations[0], robot=robot, obstacles=())
     labels = label_configuration(world, cfg)
     assert labels.outcomes.sum() >= 1, labels.stage_counts()
+
+
+def test_resting_bodies_sleep_and_contact_wakes_them(world, scene):
+    """During trials, bodies away from the target are not simulated (after the first step,
+    which settles what the restored state left, their poses stay bit-identical; awake
+    bodies resting on a surface creep by nanometres), yet a body put to sleep this way
+    still moves when something hits it."""
+    import pybullet as p
+
+    cfg = scene.configurations[0]
+    world.load_configuration(cfg)
+    runner = TrialRunner(world, cfg.robot)
+    try:
+        c = world.client
+        free = [b for b in runner._resting
+                if p.getDynamicsInfo(b, -1, physicsClientId=c)[0] > 0]
+        assert free, "scene 12's first configuration has free bodies away from the target"
+        world.step(1)
+        before = [p.getBasePositionAndOrientation(b, physicsClientId=c) for b in free]
+        world.step(120)
+        after = [p.getBasePositionAndOrientation(b, physicsClientId=c) for b in free]
+        assert after == before
+        # Something rolling into a resting body wakes it and pushes it.
+        body = free[0]
+        lo, hi = world.aabb(body)
+        centre = (lo + hi) / 2
+        ball = p.createMultiBody(
+            1.0, p.createCollisionShape(p.GEOM_SPHERE, radius=0.05, physicsClientId=c),
+            basePosition=[centre[0] - (hi[0] - lo[0]) / 2 - 0.1, centre[1], centre[2]],
+            physicsClientId=c)
+        p.resetBaseVelocity(ball, [3.0, 0.0, 0.0], physicsClientId=c)
+        world.step(60)
+        moved = np.subtract(p.getBasePositionAndOrientation(body, physicsClientId=c)[0],
+                            before[0][0])
+        assert np.linalg.norm(moved) > 1e-3
+        p.removeBody(ball, physicsClientId=c)
+    finally:
+        runner.close()
+        world.load_configuration(cfg)
