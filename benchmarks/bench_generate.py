@@ -39,10 +39,10 @@ def one_run(args: argparse.Namespace, out: Path) -> dict:
     manifest = json.loads((out / "manifest.json").read_text())
     episodes = manifest["counts"]["total"]["episodes"]
     size = sum(f.stat().st_size for f in (out / "scenes").glob("*.h5"))
-    if args.backend == "ray":  # Ray's workers are not children: their CPU time is not seen
-        cpu = float("nan")
-    return {"episodes": episodes, "wall_s": round(wall, 1), "cpu_s": round(cpu, 1),
-            "episodes_per_cpu_s": round(episodes / cpu, 3),
+    seen = args.backend != "ray"  # Ray's workers are not children: their CPU time is unseen
+    return {"episodes": episodes, "wall_s": round(wall, 1),
+            "cpu_s": round(cpu, 1) if seen else None,
+            "episodes_per_cpu_s": round(episodes / cpu, 3) if seen else None,
             "episodes_per_wall_s_per_core": round(episodes / wall / args.workers, 3),
             "peak_rss_mib": round(after.ru_maxrss / 1024),
             "bytes_per_episode": size // max(episodes, 1),

@@ -202,6 +202,9 @@ class TrialRunner:
                                              0)) <= 0.25:
                     continue
             self._resting.append(info.body_id)
+        for body in self._resting:  # may sleep: else PyBullet wakes them at the next step
+            p.changeDynamics(body, -1, activationState=p.ACTIVATION_STATE_ENABLE_SLEEPING,
+                             physicsClientId=c)
         self._solver_before = p.getPhysicsEngineParameters(physicsClientId=c)[
             "numSolverIterations"]
         p.setPhysicsEngineParameter(numSolverIterations=self.config.solver_iterations,
@@ -212,14 +215,11 @@ class TrialRunner:
 
     def _restore(self) -> None:
         """Back to the saved state. Activation (sleeping) is not part of PyBullet's saved
-        state, so it is set again: a body woken in one trial must not stay awake.
-
-        Sleeping must be enabled first: PyBullet wakes a body that may not sleep on the
-        next step, and the resting bodies would cost solver time in every step."""
+        state, so it is set again: a body woken in one trial must not stay awake."""
         self.world.restore_state(self._state)
         for body in self._resting:
-            for state in (p.ACTIVATION_STATE_ENABLE_SLEEPING, p.ACTIVATION_STATE_SLEEP):
-                p.changeDynamics(body, -1, activationState=state, physicsClientId=self._client)
+            p.changeDynamics(body, -1, activationState=p.ACTIVATION_STATE_SLEEP,
+                             physicsClientId=self._client)
         self._dirty = False  # True once physics has run since the last restore
 
     def close(self) -> None:
