@@ -27,8 +27,7 @@ import momakitchen
 from momakitchen.data.episode import SEMANTIC_CLASSES
 from momakitchen.data.manifest import load_manifest
 from momakitchen.data.shard import SceneShard
-from momakitchen.deploy.predict import default_checkpoint
-from momakitchen.train.checkpoint import load_checkpoint
+from momakitchen.train.checkpoint import default_checkpoint, load_checkpoint
 
 
 def main() -> None:

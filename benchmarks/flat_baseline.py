@@ -12,7 +12,7 @@ import json
 import numpy as np
 
 from momakitchen.data import EpisodeDataset
-from momakitchen.eval.metrics import map_metrics
+from momakitchen.metrics import map_metrics
 
 
 def main() -> None:

@@ -8,16 +8,14 @@ configurations, pure data), ``robots``, ``sim`` (PyBullet worlds, trials, labels
 :func:`momakitchen.deploy.predict.predict`).
 """
 
-__version__ = "0.1.0"
-
-from momakitchen import bullet as _bullet  # noqa: F401  (imports PyBullet quietly, first)
 from momakitchen.errors import MomaError
+from momakitchen.version import __version__
 
 __all__ = ["MomaError", "__version__", "predict"]
 
 
 def __getattr__(name: str):
-    # Lazy: importing momakitchen must not import torch.
+    # Lazy: importing momakitchen imports neither torch nor the simulator.
     if name == "predict":
         from momakitchen.deploy.predict import predict
 

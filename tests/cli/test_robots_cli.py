@@ -5,10 +5,10 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-import pybullet as p
 import pybullet_data
 import pytest
 
+from momakitchen.bullet import p
 from momakitchen.cli.main import main
 from momakitchen.robots.spec import ROBOTS
 from momakitchen.robots.user import ENV_VAR, unregister_user_robot

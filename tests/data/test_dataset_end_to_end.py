@@ -25,7 +25,8 @@ def _digests(root: Path) -> dict[str, str]:
 
 
 def test_real_producer_two_scenes_any_worker_count(tmp_path):
-    from momakitchen.perception.episodes import GenerationConfig, scene_records
+    from momakitchen.data.config import GenerationConfig
+    from momakitchen.generation.producer import scene_records
     from momakitchen.scene.configuration import SceneConfig
 
     cfg = GenerationConfig(scene=SceneConfig(configs_per_scene=1))

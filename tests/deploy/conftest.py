@@ -10,8 +10,9 @@ import pytest
 @pytest.fixture(scope="session")
 def real_view(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A one-scene dataset from the simulator-backed producer: 1 configuration x 2 views."""
+    from momakitchen.data.config import GenerationConfig, ViewConfig
     from momakitchen.data.generator import GenerateRequest, generate_dataset
-    from momakitchen.perception.episodes import GenerationConfig, ViewConfig, scene_records
+    from momakitchen.generation.producer import scene_records
     from momakitchen.scene.configuration import SceneConfig
 
     root = tmp_path_factory.mktemp("view") / "ds"

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import json
 
-from momakitchen.deploy.predict import DEFAULT_CHECKPOINT, default_checkpoint
 from momakitchen.train import load_checkpoint
+from momakitchen.train.checkpoint import DEFAULT_CHECKPOINT, default_checkpoint
 
 
 def test_bundled_checkpoint_loads_and_is_small():

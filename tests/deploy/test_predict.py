@@ -30,8 +30,8 @@ def _inputs(ep):
 def test_predict_gives_evaluates_map_on_a_dataset_episode(real_view, episode, tiny_run):
     from momakitchen.data import EpisodeDataset
     from momakitchen.data.batch import EpisodeCollator
+    from momakitchen.models.inference import predict_batch
     from momakitchen.train import load_checkpoint
-    from momakitchen.train.evaluate import predict_batch
 
     run = load_checkpoint(tiny_run)
     data = EpisodeDataset(real_view, "all")

@@ -10,8 +10,9 @@ import pytest
 @pytest.fixture(scope="session")
 def real_dataset(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """Scene 0 (a test scene) from the simulator-backed producer: 2 configurations x 2 views."""
+    from momakitchen.data.config import GenerationConfig, ViewConfig
     from momakitchen.data.generator import GenerateRequest, generate_dataset
-    from momakitchen.perception.episodes import GenerationConfig, ViewConfig, scene_records
+    from momakitchen.generation.producer import scene_records
     from momakitchen.scene.configuration import SceneConfig
 
     root = tmp_path_factory.mktemp("msr") / "ds"

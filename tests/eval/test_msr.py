@@ -8,8 +8,9 @@ import numpy as np
 import pytest
 
 from momakitchen.errors import MomaError
-from momakitchen.eval.msr import MsrConfig, base_to_world_xy, run_msr, select_points
-from momakitchen.sim.labels import world_to_base
+from momakitchen.eval.msr import MsrConfig, run_msr
+from momakitchen.frames import base_to_world_xy, world_to_base
+from momakitchen.models.inference import select_points
 from momakitchen.sim.trials import TrialRunner
 
 
@@ -32,7 +33,7 @@ def test_base_to_world_inverts_world_to_base():
 def test_msr_runs_the_labelling_trial(real_dataset, monkeypatch):
     """MSR outcomes are exactly what TrialRunner.run returned, the function that labelling
     (label_configuration) calls for every grid position."""
-    from momakitchen.perception.episodes import GenerationConfig
+    from momakitchen.data.config import GenerationConfig
     from momakitchen.scene.configuration import sample_scene
     from momakitchen.sim.labels import label_configuration
     from momakitchen.sim.world import World

@@ -58,8 +58,8 @@ def test_report_tables_and_figures(report):
 
 def test_report_reuses_metrics_and_msr(report, monkeypatch, tmp_path):
     """A run's test.json (from evaluate, same dataset) and an msr JSON are not recomputed."""
+    import momakitchen.eval.evaluate as evaluate_module
     import momakitchen.eval.msr as msr_module
-    import momakitchen.train as train_module
 
     req, result = report
     run = req.runs[0]
@@ -68,7 +68,7 @@ def test_report_reuses_metrics_and_msr(report, monkeypatch, tmp_path):
     def fail(*_a, **_k):
         raise AssertionError("recomputed")
 
-    monkeypatch.setattr(train_module, "evaluate", fail)
+    monkeypatch.setattr(evaluate_module, "evaluate", fail)
     monkeypatch.setattr(msr_module, "run_msr", fail)
     out = tmp_path / "again"
     assert main(["benchmark", "--data", str(req.data), "--runs", str(run), "--msr",

@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 from momakitchen.errors import MomaError
-from momakitchen.perception.camera import Intrinsics, backproject, base_to_world, transform
+from momakitchen.frames import base_to_world, transform
+from momakitchen.perception.camera import Intrinsics, backproject
 from momakitchen.perception.clouds import cloud_in_base
 
 

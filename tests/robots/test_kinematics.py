@@ -10,9 +10,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import pybullet as p
 import pytest
 
+from momakitchen.bullet import p
 from momakitchen.robots import get_robot_spec
 from momakitchen.robots.robot import Robot
 

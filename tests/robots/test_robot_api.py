@@ -5,9 +5,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import pybullet as p
 import pytest
 
+from momakitchen.bullet import p
 from momakitchen.errors import MomaError
 from momakitchen.robots import (
     DESCRIPTOR_NAMES,

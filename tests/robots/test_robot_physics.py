@@ -3,9 +3,9 @@ contact. Real PyBullet dynamics (gravity, friction, motors), no kinematic shortc
 
 from __future__ import annotations
 
-import pybullet as p
 import pytest
 
+from momakitchen.bullet import p
 from momakitchen.robots import get_robot_spec
 from momakitchen.robots.robot import Robot
 from momakitchen.robots.skills import grasp_and_lift, suction_pick

@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 import numpy as np
-import pybullet as p
 import pytest
 import yaml
 
+from momakitchen.bullet import p
 from momakitchen.errors import MomaError
 from momakitchen.robots import ROBOTS, robot_descriptor
 from momakitchen.robots.robot import Robot

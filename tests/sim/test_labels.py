@@ -4,7 +4,9 @@ import numpy as np
 import pytest
 
 from momakitchen.errors import MomaError
-from momakitchen.sim.labels import DenseMapConfig, dense_map, world_to_base
+from momakitchen.frames import world_to_base
+from momakitchen.sim.config import DenseMapConfig
+from momakitchen.sim.labels import dense_map
 
 
 def test_dense_map_hand_computed():

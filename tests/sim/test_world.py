@@ -1,7 +1,7 @@
 import numpy as np
-import pybullet as p
 import pytest
 
+from momakitchen.bullet import p
 from momakitchen.scene.configuration import sample_scene
 from momakitchen.sim.validate import pull_test, settle_check
 from momakitchen.sim.world import World

@@ -9,14 +9,14 @@ from safetensors.torch import load_file
 
 from momakitchen.data.batch import collate_episodes, episode_maps
 from momakitchen.errors import MomaError
-from momakitchen.eval.metrics import map_metrics
+from momakitchen.eval.evaluate import evaluate
+from momakitchen.metrics import map_metrics
 from momakitchen.models import build_model
+from momakitchen.models.inference import predict_batch
 from momakitchen.robots.spec import DESCRIPTOR_VERSION
 from momakitchen.train import (
     TrainConfig,
-    evaluate,
     load_checkpoint,
-    predict_batch,
     preset_config,
     train,
 )

@@ -43,7 +43,7 @@ def default_envelope(name: str, rng: np.random.Generator) -> Envelope | None:
 
 
 def run(samples: int, load: int, seed: int = 0) -> list[dict]:
-    import pybullet as pb
+    from momakitchen.bullet import p as pb
 
     rows = []
     client = pb.connect(pb.DIRECT)

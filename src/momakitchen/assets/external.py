@@ -214,7 +214,7 @@ def measure(path: str, rpy: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> Mea
     key = (str(path), tuple(rpy))
     if key in _MEASURED:
         return _MEASURED[key]
-    import pybullet as pb
+    from momakitchen.bullet import p as pb
 
     file = Path(path)
     root = _parse(file)

@@ -16,7 +16,7 @@ from momakitchen.cli.common import non_negative_int, output_dir
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    from momakitchen.deploy.demo import DEFAULT_SCENE_ID
+    from momakitchen.generation.demo import DEFAULT_SCENE_ID
 
     p = sub.add_parser("demo", help="the main job: kitchen -> view -> model -> stop -> trial",
                        description=__doc__)
@@ -31,8 +31,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from momakitchen.deploy.demo import STEPS, run_demo
     from momakitchen.errors import MomaError
+    from momakitchen.generation.demo import STEPS, run_demo
 
     if args.checkpoint is not None and not Path(args.checkpoint).is_dir():
         raise MomaError(f"checkpoint directory {args.checkpoint!r} does not exist")

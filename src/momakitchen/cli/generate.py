@@ -39,11 +39,15 @@ def run(args: argparse.Namespace) -> int:
     request = GenerateRequest(out=Path(args.out), num_scenes=args.scenes,
                               first_scene_id=args.first_scene_id, workers=args.workers,
                               backend=args.backend)
-    scene_fn = config = None
     if args.synthetic:
         from momakitchen.data.synthetic_scene import SyntheticSceneConfig, synthetic_scene_records
 
         scene_fn, config = synthetic_scene_records, SyntheticSceneConfig()
+    else:
+        from momakitchen.data.config import GenerationConfig
+        from momakitchen.generation.producer import scene_records
+
+        scene_fn, config = scene_records, GenerationConfig()
     manifest = generate_dataset(request, scene_fn, config, progress=not args.quiet)
     c = manifest["counts"]
     print(f"{args.out}: {c['total']['scenes']} scenes, {c['total']['configurations']} "

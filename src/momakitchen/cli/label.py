@@ -14,7 +14,7 @@ import json
 import numpy as np
 from tqdm import tqdm
 
-from momakitchen import __version__
+from momakitchen.version import __version__
 from momakitchen.cli.common import non_negative_float, non_negative_int, output_dir
 from momakitchen.errors import MomaError
 from momakitchen.fileio import atomic_path, atomic_write_bytes, atomic_write_text, npz_bytes
@@ -40,9 +40,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from momakitchen.robots import get_robot_spec
     from momakitchen.scene.configuration import SceneConfig, sample_scene
+    from momakitchen.sim.config import STAGE_NAMES, DenseMapConfig, TrialConfig
     from momakitchen.sim.label_figure import save_label_figure
-    from momakitchen.sim.labels import DenseMapConfig, label_configuration
-    from momakitchen.sim.trials import STAGE_NAMES, TrialConfig
+    from momakitchen.sim.labels import label_configuration
     from momakitchen.sim.world import World
 
     if args.robot is not None:

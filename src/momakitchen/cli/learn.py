@@ -97,8 +97,9 @@ def run_train(args: argparse.Namespace) -> int:
 
 
 def run_evaluate(args: argparse.Namespace) -> int:
-    from momakitchen.eval.metrics import format_table
-    from momakitchen.train import evaluate, load_checkpoint
+    from momakitchen.eval.evaluate import evaluate
+    from momakitchen.metrics import format_table
+    from momakitchen.train import load_checkpoint
 
     run_dir = Path(args.checkpoint)
     if not run_dir.is_dir():

@@ -14,7 +14,7 @@ import importlib
 import os
 import sys
 
-from momakitchen import __version__
+from momakitchen.version import __version__
 from momakitchen.errors import MomaError
 
 # Command -> the module under momakitchen.cli that defines it, in the order of --help.

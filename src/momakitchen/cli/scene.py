@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from momakitchen import __version__
+from momakitchen.version import __version__
 from momakitchen.cli.common import non_negative_int, output_dir, positive_int
 from momakitchen.errors import MomaError
 from momakitchen.fileio import atomic_path, atomic_write_text
@@ -58,7 +58,8 @@ def run(args: argparse.Namespace) -> int:
     record = {"generator": f"momakitchen {__version__}", **scene.to_dict()}
     view = None
     if not args.no_render:
-        from momakitchen.perception.camera import Intrinsics, look_at, render
+        from momakitchen.generation.render import render
+        from momakitchen.perception.camera import Intrinsics, look_at
         from momakitchen.sim.world import World
 
         with World(scene.layout) as world:

@@ -3,7 +3,7 @@
 A *producer* is a function ``scene_fn(scene_id, config) -> records`` (records: a list of
 ``(ConfigurationLabels, [Episode, ...])``, one entry per configuration) that is
 deterministic in ``(scene_id, config)``; the default is
-:func:`momakitchen.perception.episodes.scene_records` with its ``GenerationConfig``.
+:func:`momakitchen.generation.producer.scene_records` with its ``GenerationConfig``.
 Each scene becomes one shard written atomically by :func:`momakitchen.data.shard.write_shard`,
 so a run killed at any point leaves only complete shards (plus hidden temporary files that
 the next run deletes) and the next run computes only the missing scenes. Because shards
@@ -36,7 +36,7 @@ from typing import Any
 
 from tqdm import tqdm
 
-from momakitchen import __version__
+from momakitchen.version import __version__
 from momakitchen.data import manifest as mf
 from momakitchen.data.shard import (
     SCENES_DIR,
@@ -50,6 +50,7 @@ from momakitchen.data.shard import (
     write_shard_bytes,
 )
 from momakitchen.errors import MomaError
+from momakitchen.registry import Registry
 
 BACKENDS = ("local", "ray")
 SceneFn = Callable[[int, Any], SceneRecords]
@@ -57,17 +58,26 @@ LOCK_NAME = ".generate.lock"
 MANIFEST_SAVE_SECONDS = 5.0
 
 
-def default_producer() -> tuple[SceneFn, Any]:
-    """The simulator-backed producer and its default config."""
-    try:
-        from momakitchen.perception.episodes import GenerationConfig, scene_records
-    except ImportError as exc:
-        raise MomaError(f"the episode producer momakitchen.perception.episodes is not "
-                        f"available ({exc})") from None
-    return scene_records, GenerationConfig()
+@dataclasses.dataclass(frozen=True)
+class Producer:
+    """A registered producer: the stable ``name`` that manifests record, the function and
+    the type of its config. Producers register where they are defined (the simulator-backed
+    ``"kitchen"`` in :mod:`momakitchen.generation.producer`)."""
+
+    name: str
+    scene_fn: SceneFn
+    config_type: type
+
+
+PRODUCERS: Registry[Producer] = Registry("producer")
 
 
 def producer_name(scene_fn: SceneFn) -> str:
+    """The registered name of ``scene_fn``; an unregistered (user's) producer is recorded by
+    its import path."""
+    for entry in PRODUCERS.values():
+        if entry.scene_fn is scene_fn:
+            return entry.name
     return f"{scene_fn.__module__}.{scene_fn.__qualname__}"
 
 
@@ -235,23 +245,19 @@ def _scene_bytes_task(scene_fn: SceneFn, config: Any, scene_id: int) -> tuple[di
 
 def generate_dataset(
     request: GenerateRequest,
-    scene_fn: SceneFn | None = None,
-    config: Any = None,
+    scene_fn: SceneFn,
+    config: Any,
     *,
     progress: bool = True,
     write_card: bool = True,
 ) -> dict[str, Any]:
     """Generate (or resume) the dataset described by ``request``; returns the manifest.
 
-    ``scene_fn``/``config`` default to the simulator-backed producer. Existing complete
+    ``scene_fn`` makes the records of a scene from its id and ``config`` (the simulator's:
+    :func:`momakitchen.generation.producer.scene_records`). Existing complete
     shards are kept and skipped, temporary files from killed runs are removed; the
     manifest is saved every few seconds and at the end, then the dataset card is rewritten.
     """
-    if scene_fn is None:
-        scene_fn, default_config = default_producer()
-        config = default_config if config is None else config
-    if config is None:
-        raise MomaError("a generation config is required with a custom producer")
     producer = producer_name(scene_fn)
     cfg = config_dict(config)
     root = Path(request.out)

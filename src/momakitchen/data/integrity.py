@@ -14,7 +14,7 @@ from momakitchen.data.episode import SEMANTIC_CLASSES
 from momakitchen.data.shard import EPISODE_ARRAYS, SceneShard, file_sha256, list_shards
 from momakitchen.errors import MomaError
 from momakitchen.robots.spec import DESCRIPTOR_DIM, DESCRIPTOR_VERSION
-from momakitchen.sim.trials import STAGE_NAMES
+from momakitchen.sim.config import STAGE_NAMES
 
 FLOOR_Z_MAX = 0.02  # floor points are those below 2 cm (DESIGN.md §3.4)
 

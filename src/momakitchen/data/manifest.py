@@ -16,13 +16,14 @@ from collections import Counter
 from pathlib import Path
 from typing import Any
 
-from momakitchen import __version__
+from momakitchen.version import __version__
 from momakitchen.errors import MomaError
 from momakitchen.fileio import atomic_write_text
 from momakitchen.robots.spec import DESCRIPTOR_NAMES, DESCRIPTOR_VERSION
 
 MANIFEST_NAME = "manifest.json"
 MANIFEST_FORMAT = "momakitchen-dataset"
+KITCHEN = "kitchen"  # the simulator-backed producer's name
 SPLITS = ("train", "test")
 # Keys of a shard entry (the writer's summary plus its split).
 SHARD_KEYS = ("scene_id", "configurations", "episodes_per_config", "robots", "targets",
@@ -159,7 +160,7 @@ def load_manifest(root: str | os.PathLike) -> dict[str, Any]:
     if data["schema_version"] != _schema_version():
         raise MomaError(f"{path}: schema version {data['schema_version']}, this version of "
                         f"momakitchen reads {_schema_version()}")
-    return data
+    return _current_names(data)
 
 
 def save_manifest(root: str | os.PathLike, manifest: dict[str, Any]) -> None:
@@ -168,11 +169,24 @@ def save_manifest(root: str | os.PathLike, manifest: dict[str, Any]) -> None:
 
 # Config classes that :func:`generation_config` may rebuild (never an arbitrary import).
 _CONFIG_CLASSES = {
-    "momakitchen.perception.episodes.GenerationConfig": (
-        "momakitchen.perception.episodes", "GenerationConfig"),
+    "momakitchen.data.config.GenerationConfig": ("momakitchen.data.config", "GenerationConfig"),
     "momakitchen.data.synthetic_scene.SyntheticSceneConfig": (
         "momakitchen.data.synthetic_scene", "SyntheticSceneConfig"),
 }
+# Names that manifests written by earlier versions use, and what they are called now.
+LEGACY_NAMES = {
+    "producer": {"momakitchen.perception.episodes.scene_records": KITCHEN},
+    "config_class": {"momakitchen.perception.episodes.GenerationConfig":
+                     "momakitchen.data.config.GenerationConfig"},
+}
+
+
+def _current_names(manifest: dict[str, Any]) -> dict[str, Any]:
+    """``manifest`` with the producer and config class under their current names."""
+    for key, renamed in LEGACY_NAMES.items():
+        if manifest.get(key) in renamed:
+            manifest[key] = renamed[manifest[key]]
+    return manifest
 
 
 def generation_config(manifest: dict[str, Any]) -> Any:

@@ -41,11 +41,11 @@ from typing import Any
 import h5py
 import numpy as np
 
-from momakitchen import __version__
+from momakitchen.version import __version__
 from momakitchen.data.episode import SEMANTIC_CLASSES, ConfigurationLabels, Episode
 from momakitchen.errors import MomaError
 from momakitchen.robots.spec import DESCRIPTOR_NAMES, DESCRIPTOR_VERSION
-from momakitchen.sim.trials import STAGE_NAMES
+from momakitchen.sim.config import STAGE_NAMES
 
 SCHEMA_VERSION = 1
 SCENES_DIR = "scenes"

@@ -1,5 +1,7 @@
-"""Deployment: inference on a real robot's RGB-D frame and the end-to-end demo."""
+"""Deployment: inference on a real robot's RGB-D frame (no simulator is loaded)."""
 
-from momakitchen.deploy.predict import Prediction, default_checkpoint, predict
+from momakitchen.deploy.predict import predict
+from momakitchen.models.inference import Prediction
+from momakitchen.train.checkpoint import default_checkpoint
 
 __all__ = ["Prediction", "default_checkpoint", "predict"]

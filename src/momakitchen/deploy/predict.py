@@ -4,7 +4,7 @@
 pose in the robot base frame, a target mask (from the user's own segmenter) and the robot
 into a navigation affordance map over the visible floor, the Top-k base poses and an
 uncertainty estimate. The clouds are built by the same function as the dataset's
-(:func:`momakitchen.perception.episodes.frame_clouds`), and the model runs through the
+(:func:`momakitchen.perception.clouds.frame_clouds`), and the model runs through the
 same collation and forward pass as ``momakitchen evaluate``.
 
 Uncertainty: Monte-Carlo dropout. The map itself is the deterministic (eval-mode)
@@ -16,71 +16,15 @@ uncertainty is high or its affordance low.
 from __future__ import annotations
 
 import json
-import math
 import os
-from collections.abc import Iterator, Mapping, Sequence
-from contextlib import contextmanager
-from dataclasses import dataclass
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from momakitchen.errors import MomaError
-
-MC_SAMPLES = 8  # MC-dropout forward passes behind each uncertainty estimate
-# The checkpoint shipped inside the package (see its CARD.md).
-DEFAULT_CHECKPOINT = Path(__file__).resolve().parent.parent / "checkpoints" / "navaff"
-
-
-def default_checkpoint() -> Path:
-    """The bundled NavAff run directory."""
-    if not (DEFAULT_CHECKPOINT / "model.safetensors").is_file():
-        raise MomaError(f"the bundled checkpoint is missing from {DEFAULT_CHECKPOINT}; "
-                        "pass a run directory from `momakitchen train`")
-    return DEFAULT_CHECKPOINT
-
-
-@dataclass(frozen=True)
-class Prediction:
-    """The result of :func:`predict`, in the robot base frame (x forward, y left, z up).
-
-    Shapes: ``floor_xyz`` (N, 3); ``affordance`` (N,) in [0, 1]; ``uncertainty`` (N,)
-    (MC-dropout standard deviation; zeros without MC samples); ``poses`` (k, 3) rows
-    ``x, y, yaw`` facing the target, best first; ``pose_scores`` and
-    ``pose_uncertainty`` (k,); ``target_xyz`` (3,) the target's centroid.
-    """
-
-    floor_xyz: np.ndarray
-    affordance: np.ndarray
-    uncertainty: np.ndarray
-    poses: np.ndarray
-    pose_scores: np.ndarray
-    pose_uncertainty: np.ndarray
-    target_xyz: np.ndarray
-    robot: str
-    model: str
-
-    def to_dict(self, floor_points: bool = True) -> dict[str, Any]:
-        out: dict[str, Any] = {
-            "frame": "robot base (x forward, y left, z up; metres, radians)",
-            "robot": self.robot,
-            "model": self.model,
-            "target_xyz": [round(float(v), 4) for v in self.target_xyz],
-            "poses": [
-                {"x": round(float(x), 4), "y": round(float(y), 4), "yaw": round(float(t), 4),
-                 "affordance": round(float(s), 4), "uncertainty": round(float(u), 4)}
-                for (x, y, t), s, u in zip(self.poses, self.pose_scores,
-                                           self.pose_uncertainty, strict=True)
-            ],
-        }
-        if floor_points:
-            out["floor_points"] = {
-                "columns": ["x", "y", "z", "affordance", "uncertainty"],
-                "rows": np.round(np.column_stack([self.floor_xyz, self.affordance,
-                                                  self.uncertainty]), 4).tolist(),
-            }
-        return out
+from momakitchen.models.inference import MC_SAMPLES, Prediction
 
 
 # ------------------------------------------------------------------------------ inputs
@@ -246,12 +190,9 @@ def predict(
             operations, and a second thread mostly waits (BENCHMARKS.md). None: leave
             torch's setting.
     """
-    from momakitchen.data.torch_dataset import episode_sample
-    from momakitchen.eval.msr import select_points
-    from momakitchen.models.navaff import target_centroid
+    from momakitchen.models.inference import frame_inputs, predict_map
     from momakitchen.perception.camera import Intrinsics
-    from momakitchen.perception.episodes import CameraConfig, CloudConfig, frame_clouds
-    from momakitchen.train.checkpoint import LoadedRun, load_checkpoint
+    from momakitchen.train.checkpoint import LoadedRun, default_checkpoint, load_checkpoint
 
     if not 1 <= top_k <= 50:
         raise MomaError(f"top_k must be in [1, 50], got {top_k}")
@@ -286,87 +227,20 @@ def predict(
         raise MomaError("the target mask is empty (no target pixel with a valid depth)")
     name, descriptor = robot_input(robot)
 
-    align = np.zeros((h, w), np.int8)
-    for key, m in masks.items():
-        if key != "target mask":
-            align[m] = -1
-    align[masks["target mask"]] = 1
-    g_xyz, g_rgb, g_align, f_xyz = frame_clouds(np.where(valid, d, 0.0), image, align, intr, tf,
-                                                CloudConfig(), CameraConfig().max_depth)
-    if len(f_xyz) == 0:
-        raise MomaError("no floor is visible (no point below 2 cm in the base frame); check "
-                        "the extrinsics")
-    if not (g_align > 0).any():
-        raise MomaError("the target is beyond the depth range used (6 m)")
-
+    clouds = frame_inputs(d, valid, image, masks["target mask"],
+                          [m for k, m in masks.items() if k != "target mask"], intr, tf)
     run = checkpoint if isinstance(checkpoint, LoadedRun) else load_checkpoint(
         checkpoint if checkpoint is not None else default_checkpoint())
-    ids = episode_id if episode_id is not None else (-1, -1, -1)
-    sample = episode_sample({"global_xyz": g_xyz, "global_rgb": g_rgb, "global_align": g_align,
-                             "floor_xyz": f_xyz, "descriptor": descriptor}, *ids, name)
-    with torch_threads(threads):
-        batch, affordance, uncertainty = run_model(run, sample, mc_samples)
-    target = target_centroid(batch["global_xyz"], batch["global_align"],
-                             batch["global_mask"])[0].numpy().astype(np.float64)
-
-    chosen = select_points(f_xyz[:, :2], affordance, top_k, min_spread)
-    poses = np.array([[f_xyz[i, 0], f_xyz[i, 1],
-                       math.atan2(target[1] - f_xyz[i, 1], target[0] - f_xyz[i, 0])]
-                      for i in chosen]).reshape(-1, 3)
-    return Prediction(
-        floor_xyz=f_xyz, affordance=affordance, uncertainty=uncertainty, poses=poses,
-        pose_scores=affordance[chosen], pose_uncertainty=uncertainty[chosen],
-        target_xyz=target, robot=name, model=run.config.model,
-    )
-
-
-@contextmanager
-def torch_threads(n: int | None) -> Iterator[None]:
-    """Run the block with ``n`` torch intra-op threads (None: unchanged), then restore."""
-    import torch
-
-    before = torch.get_num_threads()
-    if n is not None and n != before:
-        torch.set_num_threads(n)
-    try:
-        yield
-    finally:
-        if torch.get_num_threads() != before:
-            torch.set_num_threads(before)
-
-
-def run_model(run: Any, sample: dict[str, Any], mc_samples: int
-              ) -> tuple[dict[str, Any], np.ndarray, np.ndarray]:
-    """A loaded run on one sample, collated as ``evaluate`` does (every floor point): the
-    batch, the map (Nf,) and its MC-dropout standard deviation (Nf,; zeros if
-    ``mc_samples`` is 0)."""
-    from momakitchen.data.batch import EpisodeCollator
-    from momakitchen.train.evaluate import predict_batch
-
-    batch = EpisodeCollator(run.config.num_global, None, run.config.seed)([sample])
-    affordance = predict_batch(run.model, batch)[0].numpy().astype(np.float64)
-    if not mc_samples:
-        return batch, affordance, np.zeros_like(affordance)
-    return batch, affordance, mc_dropout_std(run.model, batch, mc_samples)
-
-
-def mc_dropout_std(model: Any, batch: dict[str, Any], samples: int) -> np.ndarray:
-    """Per-floor-point standard deviation over ``samples`` predictions with dropout on
-    (a fixed seed so the estimate is reproducible). Shapes: (Nf,)."""
-    import torch
-
-    with torch.random.fork_rng():
-        torch.manual_seed(0)
-        preds = model.sample_predictions(batch, samples)
-    return preds.std(0).numpy().astype(np.float64)
+    return predict_map(run, clouds, name, descriptor, top_k=top_k, min_spread=min_spread,
+                       mc_samples=mc_samples, episode_id=episode_id, threads=threads)
 
 
 def write_outputs(pred: Prediction, out_dir: str | os.PathLike, rgb: np.ndarray | None = None,
                   depth: np.ndarray | None = None, intrinsics: Any = None,
                   camera_to_base: np.ndarray | None = None) -> dict[str, Path]:
     """``prediction.json`` (poses and floor points) and ``prediction.png`` (overlay)."""
-    from momakitchen.deploy.figures import prediction_figure
     from momakitchen.fileio import atomic_write_bytes, atomic_write_text
+    from momakitchen.perception.figures import prediction_figure
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)

@@ -1,12 +1,3 @@
-"""Evaluation: map metrics (:mod:`.metrics`). Model evaluation on a dataset:
-:func:`momakitchen.train.evaluate`."""
-
-from momakitchen.eval.metrics import (
-    METRIC_NAMES,
-    breakdown,
-    episode_metrics,
-    format_table,
-    map_metrics,
-)
-
-__all__ = ["METRIC_NAMES", "breakdown", "episode_metrics", "format_table", "map_metrics"]
+"""Evaluation: map metrics of a trained run on a dataset (:mod:`.evaluate`), closed-loop
+manipulation success (:mod:`.msr`) and the benchmark report (:mod:`.report`). The metric
+functions themselves are :mod:`momakitchen.metrics`."""

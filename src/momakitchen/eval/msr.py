@@ -29,10 +29,11 @@ from momakitchen.data import manifest as mf
 from momakitchen.data.shard import SceneShard
 from momakitchen.data.torch_dataset import CLOUD_FIELDS, episode_sample
 from momakitchen.errors import MomaError
+from momakitchen.frames import base_to_world_xy
+from momakitchen.models.inference import MC_SAMPLES, run_model, select_points
 
 BASELINES = ("random", "nearest", "oracle")
 SPLITS = ("test", "train", "all")
-_PRODUCER = "momakitchen.perception.episodes.scene_records"
 
 
 @dataclass(frozen=True)
@@ -66,37 +67,6 @@ class MsrConfig:
             raise MomaError(f"MsrConfig.max_configs must be >= 0, got {self.max_configs!r}")
 
 
-def select_points(xy: np.ndarray, scores: np.ndarray, k: int, min_spread: float,
-                  accept: Callable[[int], bool] | None = None) -> list[int]:
-    """Greedy Top-k: points in order of decreasing score (ties: lower index first), each
-    kept if it is at least ``min_spread`` from those kept and ``accept(index)`` holds.
-
-    Shapes: ``xy`` (N, 2), ``scores`` (N,); returns up to ``k`` indices, best first.
-    """
-    order = np.argsort(-np.asarray(scores, np.float64), kind="stable")
-    xy = np.asarray(xy)
-    # free[i]: i is at least min_spread from every kept point (updated as points are kept)
-    free = np.ones(len(order), bool)
-    kept: list[int] = []
-    for i in order:
-        i = int(i)
-        if not free[i] or (accept is not None and not accept(i)):
-            continue
-        kept.append(i)
-        if len(kept) == k:
-            break
-        free &= np.hypot(xy[:, 0] - xy[i, 0], xy[:, 1] - xy[i, 1]) >= min_spread
-    return kept
-
-
-def base_to_world_xy(points: np.ndarray, base: Sequence[float]) -> np.ndarray:
-    """Floor points (N, 2) of a viewpoint's base frame ``(x, y, yaw)`` to world xy (N, 2)."""
-    from momakitchen.perception.camera import base_to_world, transform
-
-    pts = np.asarray(points, np.float64).reshape(-1, 2)
-    return transform(base_to_world(tuple(base)), np.column_stack([pts, np.zeros(len(pts))]))[:, :2]
-
-
 # The rates of a method's summary, as columns of every MSR table.
 RATE_KEYS = ("top1", "topk", "top1_feasible", "topk_feasible")
 
@@ -116,8 +86,6 @@ class _Checkpoint:
         self.name = self.run.config.model
 
     def __call__(self, sample: dict[str, Any]) -> tuple[np.ndarray, np.ndarray]:
-        from momakitchen.deploy.predict import MC_SAMPLES, run_model
-
         _, pred, std = run_model(self.run, sample, MC_SAMPLES)
         return pred, std
 
@@ -127,8 +95,8 @@ def _configuration(shard: SceneShard, scene: Any, ci: int, gen: Any,
                    ) -> dict[str, Any] | None:
     """Rebuild configuration ``ci`` of ``scene``, let every method choose its points on one
     episode and run their trials; the configuration's record (None: no usable episode)."""
+    from momakitchen.frames import world_to_base
     from momakitchen.robots.spec import get_robot_spec
-    from momakitchen.sim.labels import world_to_base
     from momakitchen.sim.trials import TrialRunner
     from momakitchen.sim.world import World
 
@@ -201,7 +169,7 @@ def _load_dataset(root: Path) -> dict[str, Any]:
     if not root.is_dir():
         raise MomaError(f"dataset directory {str(root)!r} does not exist")
     manifest = mf.load_manifest(root)
-    if manifest.get("producer") != _PRODUCER or "config" not in manifest:
+    if manifest.get("producer") != mf.KITCHEN or "config" not in manifest:
         raise MomaError(f"{root} was not made by the simulator-backed generator (producer "
                         f"{manifest.get('producer')!r}): MSR needs the generation config to "
                         "rebuild its worlds")
@@ -226,7 +194,7 @@ def run_msr(
     """
     from tqdm.auto import tqdm
 
-    from momakitchen.perception.episodes import GenerationConfig
+    from momakitchen.data.config import GenerationConfig
     from momakitchen.scene.configuration import sample_scene
 
     config = config or MsrConfig()
@@ -235,7 +203,7 @@ def run_msr(
         raise MomaError(f"unknown MSR method {unknown[0]!r}; methods: {', '.join(BASELINES)} "
                         "(or --checkpoint RUN)")
     if not checkpoints and not methods:  # the bundled model, as everywhere else
-        from momakitchen.deploy.predict import default_checkpoint
+        from momakitchen.train.checkpoint import default_checkpoint
 
         checkpoints = [default_checkpoint()]
     root = Path(data)

@@ -87,7 +87,7 @@ def run_metrics(run: Path, data: Path, out_dir: Path, progress: bool) -> dict[st
     """The test-split ``evaluate`` report of a run: its ``test.json`` when that was made on
     this dataset, else computed now. Either way a copy lands in ``out_dir``."""
     from momakitchen.data import EpisodeDataset
-    from momakitchen.train import evaluate
+    from momakitchen.eval.evaluate import evaluate
 
     cached = run / "test.json"
     report = None
@@ -274,7 +274,7 @@ def sweep_table(sweep: Sequence[tuple[float, dict]], configs: dict, runs: Sequen
 
 def sweep_figure(sweep: Sequence[tuple[float, dict]]) -> bytes:
     """PCC and RMSE against lambda (two panels), as PNG bytes."""
-    from momakitchen.deploy.figures import png_bytes, pyplot
+    from momakitchen.perception.figures import png_bytes, pyplot
 
     plt = pyplot()
     lam = [s[0] for s in sweep]
@@ -330,9 +330,9 @@ def qualitative_figure(data_dir: Path, runs: Sequence[Path], examples: int) -> b
     ``examples`` test configurations that have a successful trial. PNG bytes."""
     from momakitchen.data import EpisodeDataset
     from momakitchen.data.batch import EpisodeCollator
-    from momakitchen.deploy.figures import floor_map, png_bytes, pyplot
+    from momakitchen.models.inference import predict_batch
+    from momakitchen.perception.figures import floor_map, png_bytes, pyplot
     from momakitchen.train.checkpoint import load_checkpoint
-    from momakitchen.train.evaluate import predict_batch
 
     data = EpisodeDataset(data_dir, "test")
     last_view: dict[tuple[int, int], int] = {}

@@ -1,5 +1,5 @@
-"""Pinhole cameras rendered with PyBullet's CPU renderer (TinyRenderer), and the geometry
-between pixels, camera frames and robot base frames.
+"""Pinhole cameras: intrinsics, the head camera's settings, and the geometry between pixels
+and camera frames (pure geometry; rendering is in :mod:`momakitchen.generation.render`).
 
 Camera frames and intrinsics follow the OpenCV convention: x right, y down, z forward
 (optical axis); pixel ``(row, col)`` has its centre at ``u = col``, ``v = row``, as in the
@@ -11,7 +11,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import pybullet as p
 
 from momakitchen.errors import MomaError
 
@@ -61,21 +60,6 @@ class Intrinsics:
         return np.array([self.fx, self.fy, self.cx, self.cy])
 
 
-@dataclass(frozen=True)
-class Render:
-    """One rendered frame.
-
-    Shapes: ``rgb`` (H, W, 3) uint8; ``depth`` (H, W) float32 metric distance along the
-    optical axis (m; 0 where nothing was hit); ``body`` (H, W) int32 body id (-1 =
-    background); ``link`` (H, W) int32 link index (-1 = base).
-    """
-
-    rgb: np.ndarray
-    depth: np.ndarray
-    body: np.ndarray
-    link: np.ndarray
-
-
 def look_at(eye: np.ndarray, target: np.ndarray) -> np.ndarray:
     """Camera-to-world transform (4, 4) of a camera at ``eye`` looking at ``target``,
     OpenCV axes, image rows aligned with the horizon (world z up)."""
@@ -93,36 +77,6 @@ def look_at(eye: np.ndarray, target: np.ndarray) -> np.ndarray:
     tf[:3, :3] = np.stack([x, y, z], axis=1)
     tf[:3, 3] = eye
     return tf
-
-
-def render(client: int, camera_to_world: np.ndarray, intrinsics: Intrinsics,
-           near: float = 0.05, far: float = 10.0, shadows: bool = False) -> Render:
-    """Render RGB, metric depth and segmentation from a camera pose (OpenCV axes).
-
-    Shadows look nicer but double TinyRenderer's time; datasets render without them.
-    """
-    w, h = intrinsics.width, intrinsics.height
-    if intrinsics != Intrinsics.for_renderer(w, h, intrinsics.fov_y_deg):
-        raise MomaError("render() needs Intrinsics.for_renderer(...) (square pixels, the "
-                        f"renderer's principal point), got {intrinsics}")
-    eye = camera_to_world[:3, 3]
-    forward, down = camera_to_world[:3, 2], camera_to_world[:3, 1]
-    view = p.computeViewMatrix(eye.tolist(), (eye + forward).tolist(), (-down).tolist())
-    proj = p.computeProjectionMatrixFOV(intrinsics.fov_y_deg, w / h, near, far)
-    _, _, rgba, zbuf, seg = p.getCameraImage(
-        w, h, view, proj, renderer=p.ER_TINY_RENDERER, shadow=int(shadows),
-        lightDirection=[0.4, 0.8, 2.0],
-        flags=p.ER_SEGMENTATION_MASK_OBJECT_AND_LINKINDEX, physicsClientId=client,
-    )
-    rgba = np.asarray(rgba, dtype=np.uint8).reshape(h, w, 4)
-    zbuf = np.asarray(zbuf, dtype=np.float64).reshape(h, w)
-    # OpenGL depth buffer in [0, 1] to metric depth along the optical axis.
-    depth = far * near / (far - (far - near) * zbuf)
-    depth = np.where(zbuf >= 1.0 - 1e-7, 0.0, depth).astype(np.float32)
-    seg = np.asarray(seg, dtype=np.int64).reshape(h, w)
-    body = np.where(seg >= 0, seg & ((1 << 24) - 1), -1).astype(np.int32)
-    link = np.where(seg >= 0, (seg >> 24) - 1, -1).astype(np.int32)
-    return Render(rgba[..., :3].copy(), depth, body, link)
 
 
 def backproject(depth: np.ndarray, intrinsics: Intrinsics) -> tuple[np.ndarray, np.ndarray]:
@@ -174,39 +128,34 @@ def project(points_cam: np.ndarray, intrinsics: Intrinsics) -> np.ndarray:
                      intrinsics.fy * pts[:, 1] / pts[:, 2] + intrinsics.cy], axis=1)
 
 
-def transform(tf: np.ndarray, points: np.ndarray) -> np.ndarray:
-    """Apply a (4, 4) rigid transform to points. Shapes: (N, 3) -> (N, 3).
+@dataclass(frozen=True)
+class CameraConfig:
+    """The viewing robot's head camera.
 
-    Written as three multiply-adds per axis: a BLAS matrix product on an (N, 3) array
-    costs 15x more CPU here (its threads spin on a busy machine). The result is a
-    transposed (3, N) array, so each coordinate is contiguous; with such an input (as
-    :func:`backproject` returns) every operation runs on contiguous memory.
+    Attributes:
+        width, height: image size in pixels.
+        fov_y_deg: vertical field of view (45 deg ~ a RealSense D435 colour camera).
+        above_mount: camera height above the arm mount (the paper: mount height + 0.3 m).
+        near, far: clipping planes (m); depth beyond ``max_depth`` is dropped from clouds.
     """
-    pts = np.asarray(points, float).T
-    out = np.empty((3, pts.shape[1]))
-    transform_into(tf, pts, out)
-    return out.T
 
+    width: int = 640
+    height: int = 480
+    fov_y_deg: float = 45.0
+    above_mount: float = 0.3
+    near: float = 0.05
+    far: float = 10.0
+    max_depth: float = 6.0
 
-def transform_into(tf: np.ndarray, rows: np.ndarray, out: np.ndarray) -> None:
-    """Apply a (4, 4) rigid transform to points given as rows (3, n) x, y, z, writing the
-    rows of the result into ``out`` (3, n):
-    ``out[i] = x * tf[i, 0] + y * tf[i, 1] + z * tf[i, 2] + tf[i, 3]``, in that order,
-    in place."""
-    tmp = np.empty(rows.shape[1])
-    for i, o in enumerate(out):
-        np.multiply(rows[0], tf[i, 0], out=o)
-        for j in (1, 2):
-            np.multiply(rows[j], tf[i, j], out=tmp)
-            o += tmp
-        o += tf[i, 3]
+    def __post_init__(self) -> None:
+        if not (16 <= self.width <= 4096 and 16 <= self.height <= 4096):
+            raise MomaError(f"camera size must be 16..4096 px, got {self.width}x{self.height}")
+        if not 10 <= self.fov_y_deg <= 120:
+            raise MomaError(f"camera fov_y_deg must be in [10, 120], got {self.fov_y_deg}")
+        if not 0 < self.near < self.max_depth <= self.far:
+            raise MomaError(f"camera needs 0 < near < max_depth <= far, got near={self.near}, "
+                            f"max_depth={self.max_depth}, far={self.far}")
 
-
-def base_to_world(base: tuple[float, float, float]) -> np.ndarray:
-    """Transform (4, 4) of a robot base frame at ``(x, y, yaw)`` on the floor."""
-    x, y, yaw = base
-    tf = np.eye(4)
-    c, s = np.cos(yaw), np.sin(yaw)
-    tf[:2, :2] = [[c, -s], [s, c]]
-    tf[:2, 3] = [x, y]
-    return tf
+    @property
+    def intrinsics(self) -> Intrinsics:
+        return Intrinsics.for_renderer(self.width, self.height, self.fov_y_deg)

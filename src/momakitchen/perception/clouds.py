@@ -5,16 +5,14 @@ from __future__ import annotations
 import os
 from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from momakitchen.perception.camera import (
-    Intrinsics,
-    backproject_into,
-    check_depth_shape,
-    transform_into,
-)
+from momakitchen.errors import MomaError
+from momakitchen.frames import transform_into
+from momakitchen.perception.camera import Intrinsics, backproject_into, check_depth_shape
 
 _POOL: tuple[int, ThreadPoolExecutor] | None = None
 
@@ -85,3 +83,51 @@ def cloud_in_base(depth: np.ndarray, intrinsics: Intrinsics, camera_to_base: np.
     part(slice(half, len(idx)))
     first.result()
     return out.T, idx
+
+
+@dataclass(frozen=True)
+class CloudConfig:
+    """Point-cloud extraction (metres).
+
+    Attributes:
+        voxel: voxel size of the global cloud down-sampling.
+        floor_voxel: voxel size of the floor cloud.
+        floor_z: points below this height in the base frame are floor points.
+    """
+
+    voxel: float = 0.02
+    floor_voxel: float = 0.03
+    floor_z: float = 0.02
+
+    def __post_init__(self) -> None:
+        for name in ("voxel", "floor_voxel", "floor_z"):
+            if not 0 < getattr(self, name) <= 0.5:
+                raise MomaError(f"CloudConfig.{name} must be in (0, 0.5] m, got "
+                                f"{getattr(self, name)}")
+
+
+def frame_clouds(depth: np.ndarray, rgb: np.ndarray, align: np.ndarray, intrinsics: Intrinsics,
+                 camera_to_base: np.ndarray, cloud: CloudConfig, max_depth: float
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The global and floor clouds of one RGB-D frame, in the robot base frame.
+
+    Used for generated views and for live frames (:func:`momakitchen.predict`) alike, so
+    a model sees the same clouds from both. Pixels with depth 0, NaN or beyond
+    ``max_depth`` are skipped.
+
+    Shapes:
+        - input: ``depth`` (H, W) metres, ``rgb`` (H, W, 3) uint8, ``align`` (H, W) int8
+          (+1 target, -1 obstacle, 0 else), ``camera_to_base`` (4, 4)
+        - output: global xyz (Ng, 3) float64, global rgb (Ng, 3) uint8, global alignment
+          (Ng,) int8, floor xyz (Nf, 3) float64 (points below ``cloud.floor_z``)
+    """
+    pts, idx = cloud_in_base(depth, intrinsics, camera_to_base, max_depth)
+
+    def floor() -> np.ndarray:
+        f_pts = pts[pts[:, 2] < cloud.floor_z]
+        return f_pts[voxel_downsample(f_pts, cloud.floor_voxel)]
+
+    f_future = background(floor)  # the floor cloud on the helper thread meanwhile
+    keep = voxel_downsample(pts, cloud.voxel)
+    g_idx = idx[keep]
+    return pts[keep], rgb.reshape(-1, 3)[g_idx], align.reshape(-1)[g_idx], f_future.result()

@@ -19,8 +19,8 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
-import pybullet as p
 
+from momakitchen.bullet import p
 from momakitchen.robots.robot import Robot, measure_workspace
 from momakitchen.robots.spec import ROBOTS
 

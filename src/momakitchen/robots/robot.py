@@ -17,9 +17,8 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
-import pybullet as p
 
-from momakitchen.bullet import connect_direct
+from momakitchen.bullet import connect_direct, p
 from momakitchen.errors import MomaError
 from momakitchen.robots.arms import (
     ParallelGripper,

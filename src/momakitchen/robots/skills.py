@@ -10,8 +10,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-import pybullet as p
 
+from momakitchen.bullet import p
 from momakitchen.robots.robot import Robot
 
 # TCP z axis pointing down (rotation by pi about world x): the top-down approach.

@@ -236,8 +236,7 @@ def register_user_robot(path: str | os.PathLike) -> RobotSpec:
 
 
 def _measure_reach(name: str) -> float:
-    import pybullet as p
-
+    from momakitchen.bullet import p
     from momakitchen.robots.robot import Robot, measure_workspace
 
     client = p.connect(p.DIRECT)

@@ -1,5 +1,5 @@
-"""PyBullet worlds, manipulation trials and affordance labels."""
+"""PyBullet worlds, manipulation trials and affordance labels.
 
-from momakitchen.sim.world import BodyInfo, TargetInfo, World
-
-__all__ = ["BodyInfo", "TargetInfo", "World"]
+:mod:`.config` (trial and dense-map settings, trial stages) is plain data; the other
+modules load PyBullet, so this package imports none of them eagerly.
+"""

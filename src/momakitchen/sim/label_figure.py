@@ -13,8 +13,8 @@ from momakitchen.scene.configuration import Configuration
 from momakitchen.scene.geometry import box_corners, corners_of, overlap_matrix
 from momakitchen.scene.layout import Layout
 from momakitchen.scene.overview import draw_kitchen, draw_target, frame_plan
-from momakitchen.sim.labels import DenseMapConfig, Labels, dense_map
-from momakitchen.sim.trials import STAGE_NAMES, Stage
+from momakitchen.sim.config import STAGE_NAMES, DenseMapConfig, Stage
+from momakitchen.sim.labels import Labels, dense_map
 
 STAGE_COLOURS = {
     Stage.SUCCESS: "#16a34a", Stage.BASE_COLLISION: "#6b7280", Stage.OUT_OF_REACH: "#d1d5db",

@@ -15,39 +15,16 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-import pybullet as p
 from scipy.spatial import cKDTree
 
+from momakitchen.bullet import p
 from momakitchen.errors import MomaError
 from momakitchen.robots import get_robot_spec
 from momakitchen.scene.configuration import Configuration
 from momakitchen.scene.geometry import semicircle_grid
-from momakitchen.sim.trials import STAGE_NAMES, Stage, TrialConfig, TrialRunner
+from momakitchen.sim.config import STAGE_NAMES, DenseMapConfig, Stage, TrialConfig
+from momakitchen.sim.trials import TrialRunner
 from momakitchen.sim.world import World
-
-
-@dataclass(frozen=True)
-class DenseMapConfig:
-    """Dense-map interpolation (metres).
-
-    Attributes:
-        theta: association threshold: trial positions farther than this from a floor
-            point do not contribute to it (default 1.5 x the 10 cm grid spacing).
-        k: number of nearest associated trial positions averaged.
-        sigma: Gaussian weighting scale.
-    """
-
-    theta: float = 0.15
-    k: int = 8
-    sigma: float = 0.07
-
-    def __post_init__(self) -> None:
-        if not 0.0 < self.theta <= 2.0:
-            raise MomaError(f"DenseMapConfig.theta must be in (0, 2] m, got {self.theta}")
-        if not 1 <= self.k <= 64:
-            raise MomaError(f"DenseMapConfig.k must be in [1, 64], got {self.k}")
-        if not 0.0 < self.sigma <= 2.0:
-            raise MomaError(f"DenseMapConfig.sigma must be in (0, 2] m, got {self.sigma}")
 
 
 def dense_map(positions: np.ndarray, outcomes: np.ndarray, query: np.ndarray,
@@ -76,21 +53,6 @@ def dense_map(positions: np.ndarray, outcomes: np.ndarray, query: np.ndarray,
     out = np.zeros(len(query))
     np.divide((w * o).sum(axis=1), wsum, out=out, where=wsum > 0)
     return np.clip(out, 0.0, 1.0).astype(np.float32)
-
-
-def world_to_base(points: np.ndarray, base: tuple[float, float, float]) -> np.ndarray:
-    """Express world floor points in a robot base frame (x forward, y left).
-
-    Shapes: ``points`` (N, 2) or (N, 3) world; ``base`` = (x, y, yaw); returns same shape.
-    """
-    pts = np.asarray(points, float)
-    x, y, yaw = base
-    c, s = np.cos(yaw), np.sin(yaw)
-    out = pts.copy()
-    dx, dy = pts[:, 0] - x, pts[:, 1] - y
-    out[:, 0] = c * dx + s * dy
-    out[:, 1] = -s * dx + c * dy
-    return out
 
 
 @dataclass(frozen=True)

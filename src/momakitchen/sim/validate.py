@@ -8,8 +8,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import pybullet as p
 
+from momakitchen.bullet import p
 from momakitchen.sim.world import World
 
 

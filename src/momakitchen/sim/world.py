@@ -10,12 +10,11 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-import pybullet as p
 import pybullet_data
 
 from momakitchen.assets import AssetModel, GraspFrame, get_category
 from momakitchen.assets.cache import cached_urdf
-from momakitchen.bullet import connect_direct
+from momakitchen.bullet import connect_direct, p
 from momakitchen.errors import MomaError
 from momakitchen.scene.configuration import Configuration
 from momakitchen.scene.layout import Layout, Placed, scene_rng

@@ -34,6 +34,16 @@ CONFIG_FILE = "config.json"
 WEIGHTS_FILE = "model.safetensors"
 STATE_FILE = "trainer_state.safetensors"
 STATE_JSON = "trainer_state.json"
+# The checkpoint shipped inside the package (see its CARD.md).
+DEFAULT_CHECKPOINT = Path(__file__).resolve().parent.parent / "checkpoints" / "navaff"
+
+
+def default_checkpoint() -> Path:
+    """The bundled NavAff run directory."""
+    if not (DEFAULT_CHECKPOINT / "model.safetensors").is_file():
+        raise MomaError(f"the bundled checkpoint is missing from {DEFAULT_CHECKPOINT}; "
+                        "pass a run directory from `momakitchen train`")
+    return DEFAULT_CHECKPOINT
 
 
 def write_run_config(run_dir: Path, config: TrainConfig) -> None:

@@ -26,8 +26,8 @@ from tqdm.auto import tqdm
 
 from momakitchen.data.batch import EpisodeCollator, episode_maps
 from momakitchen.errors import MomaError
-from momakitchen.eval.metrics import map_metrics
 from momakitchen.fileio import atomic_write_bytes, atomic_write_text
+from momakitchen.metrics import map_metrics
 from momakitchen.models.base import AffordanceModel
 from momakitchen.models.registry import build_model
 from momakitchen.train.checkpoint import (

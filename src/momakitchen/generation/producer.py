@@ -1,4 +1,4 @@
-"""First-person episodes of a configuration: camera poses, RGB-D, point clouds, labels.
+"""The dataset producer: trials, first-person views, point clouds and labels of a scene.
 
 For each configuration: run the trials (sparse labels), then place the viewing robot at
 10 viewpoints in front of the target (alternately left and right of it, lateral offset
@@ -11,142 +11,26 @@ segmentation, and the floor points with their dense affordance labels.
 
 from __future__ import annotations
 
-import dataclasses
-from dataclasses import dataclass, field
-
 import numpy as np
-import pybullet as p
 
+from momakitchen.bullet import p
+from momakitchen.data.config import GenerationConfig, ViewConfig
 from momakitchen.data.episode import SEMANTIC_CLASSES, ConfigurationLabels, Episode
-from momakitchen.errors import MomaError
-from momakitchen.perception.camera import Intrinsics, base_to_world, look_at, render
-from momakitchen.perception.clouds import background, cloud_in_base, voxel_downsample
+from momakitchen.data.generator import PRODUCERS, Producer
+from momakitchen.data.manifest import KITCHEN
+from momakitchen.frames import base_to_world, world_to_base
+from momakitchen.generation.render import render
+from momakitchen.perception.camera import look_at
+from momakitchen.perception.clouds import frame_clouds
 from momakitchen.robots import get_robot_spec, robot_descriptor
-from momakitchen.scene.configuration import Configuration, SceneConfig, sample_scene
+from momakitchen.scene.configuration import Configuration, sample_scene
 from momakitchen.scene.geometry import box_corners, corners_of, overlap_matrix
 from momakitchen.scene.layout import Layout, scene_rng
-from momakitchen.sim.labels import (
-    DenseMapConfig,
-    Labels,
-    dense_map,
-    label_configuration,
-    world_to_base,
-)
-from momakitchen.sim.trials import TrialConfig
+from momakitchen.sim.labels import Labels, dense_map, label_configuration
 from momakitchen.sim.world import World
 
 VIEW_STREAM = 3  # seed stream of the viewpoints (layout 0, configurations 1, colours 2)
 _CLASS = {name: i for i, name in enumerate(SEMANTIC_CLASSES)}
-
-
-@dataclass(frozen=True)
-class CameraConfig:
-    """The viewing robot's head camera.
-
-    Attributes:
-        width, height: image size in pixels.
-        fov_y_deg: vertical field of view (45 deg ~ a RealSense D435 colour camera).
-        above_mount: camera height above the arm mount (the paper: mount height + 0.3 m).
-        near, far: clipping planes (m); depth beyond ``max_depth`` is dropped from clouds.
-    """
-
-    width: int = 640
-    height: int = 480
-    fov_y_deg: float = 45.0
-    above_mount: float = 0.3
-    near: float = 0.05
-    far: float = 10.0
-    max_depth: float = 6.0
-
-    def __post_init__(self) -> None:
-        if not (16 <= self.width <= 4096 and 16 <= self.height <= 4096):
-            raise MomaError(f"camera size must be 16..4096 px, got {self.width}x{self.height}")
-        if not 10 <= self.fov_y_deg <= 120:
-            raise MomaError(f"camera fov_y_deg must be in [10, 120], got {self.fov_y_deg}")
-        if not 0 < self.near < self.max_depth <= self.far:
-            raise MomaError(f"camera needs 0 < near < max_depth <= far, got near={self.near}, "
-                            f"max_depth={self.max_depth}, far={self.far}")
-
-    @property
-    def intrinsics(self) -> Intrinsics:
-        return Intrinsics.for_renderer(self.width, self.height, self.fov_y_deg)
-
-
-@dataclass(frozen=True)
-class ViewConfig:
-    """Viewpoint sampling (metres).
-
-    Attributes:
-        episodes: views per configuration.
-        lateral: range of the sideways offset from the target (alternating sides).
-        forward: range of the distance in front of the target (increasing over episodes).
-        min_target_pixels: a view is kept only if this many pixels show the target.
-        max_tries: attempts per view before the configuration gives up on it.
-    """
-
-    episodes: int = 10
-    lateral: tuple[float, float] = (0.0, 1.5)
-    forward: tuple[float, float] = (1.5, 3.8)
-    min_target_pixels: int = 20
-    max_tries: int = 40
-
-    def __post_init__(self) -> None:
-        if not 1 <= self.episodes <= 100:
-            raise MomaError(f"episodes per configuration must be in [1, 100], got {self.episodes}")
-        for name in ("lateral", "forward"):
-            lo, hi = getattr(self, name)
-            if not 0 <= lo <= hi <= 10:
-                raise MomaError(f"{name} must satisfy 0 <= min <= max <= 10 m, got {(lo, hi)}")
-        if self.min_target_pixels < 1 or self.max_tries < 1:
-            raise MomaError("min_target_pixels and max_tries must be >= 1")
-
-
-@dataclass(frozen=True)
-class CloudConfig:
-    """Point-cloud extraction (metres).
-
-    Attributes:
-        voxel: voxel size of the global cloud down-sampling.
-        floor_voxel: voxel size of the floor cloud.
-        floor_z: points below this height in the base frame are floor points.
-    """
-
-    voxel: float = 0.02
-    floor_voxel: float = 0.03
-    floor_z: float = 0.02
-
-    def __post_init__(self) -> None:
-        for name in ("voxel", "floor_voxel", "floor_z"):
-            if not 0 < getattr(self, name) <= 0.5:
-                raise MomaError(f"CloudConfig.{name} must be in (0, 0.5] m, got "
-                                f"{getattr(self, name)}")
-
-
-@dataclass(frozen=True)
-class GenerationConfig:
-    """Everything that determines the generated data of a scene (with its ``scene_id``)."""
-
-    scene: SceneConfig = field(default_factory=SceneConfig)
-    trial: TrialConfig = field(default_factory=TrialConfig)
-    dense: DenseMapConfig = field(default_factory=DenseMapConfig)
-    camera: CameraConfig = field(default_factory=CameraConfig)
-    views: ViewConfig = field(default_factory=ViewConfig)
-    cloud: CloudConfig = field(default_factory=CloudConfig)
-
-    def to_dict(self) -> dict:
-        return dataclasses.asdict(self)
-
-    @classmethod
-    def from_dict(cls, data: dict) -> GenerationConfig:
-        def build(kind, values):
-            return kind(**{k: tuple(v) if isinstance(v, list) else v for k, v in values.items()})
-
-        kinds = {"scene": SceneConfig, "trial": TrialConfig, "dense": DenseMapConfig,
-                 "camera": CameraConfig, "views": ViewConfig, "cloud": CloudConfig}
-        unknown = set(data) - set(kinds)
-        if unknown:
-            raise MomaError(f"unknown generation config section(s): {sorted(unknown)}")
-        return cls(**{k: build(kinds[k], v) for k, v in data.items()})
 
 
 def semantic_map(world: World, body: np.ndarray, link: np.ndarray) -> np.ndarray:
@@ -244,33 +128,6 @@ def sample_views(world: World, layout: Layout, cfg: Configuration, config: Gener
     return out
 
 
-def frame_clouds(depth: np.ndarray, rgb: np.ndarray, align: np.ndarray, intrinsics: Intrinsics,
-                 camera_to_base: np.ndarray, cloud: CloudConfig, max_depth: float
-                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """The global and floor clouds of one RGB-D frame, in the robot base frame.
-
-    Used for generated views and for live frames (:func:`momakitchen.predict`) alike, so
-    a model sees the same clouds from both. Pixels with depth 0, NaN or beyond
-    ``max_depth`` are skipped.
-
-    Shapes:
-        - input: ``depth`` (H, W) metres, ``rgb`` (H, W, 3) uint8, ``align`` (H, W) int8
-          (+1 target, -1 obstacle, 0 else), ``camera_to_base`` (4, 4)
-        - output: global xyz (Ng, 3) float64, global rgb (Ng, 3) uint8, global alignment
-          (Ng,) int8, floor xyz (Nf, 3) float64 (points below ``cloud.floor_z``)
-    """
-    pts, idx = cloud_in_base(depth, intrinsics, camera_to_base, max_depth)
-
-    def floor() -> np.ndarray:
-        f_pts = pts[pts[:, 2] < cloud.floor_z]
-        return f_pts[voxel_downsample(f_pts, cloud.floor_voxel)]
-
-    f_future = background(floor)  # the floor cloud on the helper thread meanwhile
-    keep = voxel_downsample(pts, cloud.voxel)
-    g_idx = idx[keep]
-    return pts[keep], rgb.reshape(-1, 3)[g_idx], align.reshape(-1)[g_idx], f_future.result()
-
-
 def make_episode(cfg: Configuration, labels: Labels, index: int, base, camera_to_world,
                  frame, sem: np.ndarray, config: GenerationConfig) -> Episode:
     """Build the episode record of one view (clouds in the viewpoint's base frame)."""
@@ -335,3 +192,6 @@ def scene_records(scene_id: int, config: GenerationConfig | None = None
         with World(scene.layout) as world:
             records.append(configuration_episodes(world, scene.layout, cfg, config))
     return records
+
+
+PRODUCERS.register(Producer(KITCHEN, scene_records, GenerationConfig))

@@ -1,21 +1,14 @@
 import numpy as np
-import pybullet as p
 import pytest
 
+from momakitchen.bullet import p
+from momakitchen.data.config import GenerationConfig
 from momakitchen.data.episode import SEMANTIC_CLASSES
-from momakitchen.perception.camera import (
-    Intrinsics,
-    backproject,
-    look_at,
-    project,
-    render,
-    transform,
-)
+from momakitchen.frames import transform
+from momakitchen.generation.producer import configuration_episodes
+from momakitchen.generation.render import render
+from momakitchen.perception.camera import Intrinsics, backproject, look_at, project
 from momakitchen.perception.clouds import voxel_downsample
-from momakitchen.perception.episodes import (
-    GenerationConfig,
-    configuration_episodes,
-)
 from momakitchen.scene.configuration import sample_scene
 from momakitchen.sim.world import World
 
@@ -114,6 +107,6 @@ def test_target_channel_covers_the_target(episodes):
 
 
 def _base(pose):
-    from momakitchen.perception.camera import base_to_world
+    from momakitchen.frames import base_to_world
 
     return base_to_world(pose)

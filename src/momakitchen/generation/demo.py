@@ -29,18 +29,19 @@ def run_demo(out_dir: str | Path, scene_id: int = DEFAULT_SCENE_ID, robot: str |
     ``step`` is called with the name of each stage as it starts (progress display).
     Returns the content of ``result.json``.
     """
+    from momakitchen.data.config import GenerationConfig
     from momakitchen.data.episode import SEMANTIC_CLASSES
-    from momakitchen.deploy.predict import default_checkpoint, predict
-    from momakitchen.eval.msr import base_to_world_xy
     from momakitchen.fileio import atomic_write_bytes, atomic_write_text
-    from momakitchen.perception.camera import base_to_world
-    from momakitchen.perception.episodes import GenerationConfig, sample_views
-    from momakitchen.robots import get_robot_spec
+    from momakitchen.frames import base_to_world, base_to_world_xy, world_to_base
+    from momakitchen.generation.producer import sample_views
+    from momakitchen.models.inference import frame_inputs, predict_map
+    from momakitchen.robots import get_robot_spec, robot_descriptor
     from momakitchen.scene.configuration import sample_scene
-    from momakitchen.sim.labels import dense_map, label_configuration, world_to_base
-    from momakitchen.sim.trials import Stage, TrialRunner
+    from momakitchen.sim.config import Stage
+    from momakitchen.sim.labels import dense_map, label_configuration
+    from momakitchen.sim.trials import TrialRunner
     from momakitchen.sim.world import World
-    from momakitchen.train.checkpoint import load_checkpoint
+    from momakitchen.train.checkpoint import default_checkpoint, load_checkpoint
 
     step = step or (lambda name: None)
     if robot is not None:
@@ -80,10 +81,13 @@ def run_demo(out_dir: str | Path, scene_id: int = DEFAULT_SCENE_ID, robot: str |
         timed("render")
 
         step(STEPS[2])
-        pred = predict(frame.depth, intr, camera_to_base,
-                       sem == SEMANTIC_CLASSES.index("target"), cfg.robot, rgb=frame.rgb,
-                       obstacle_masks=[sem == SEMANTIC_CLASSES.index("obstacle")],
-                       checkpoint=run)
+        # The frame goes through the same path as a real robot's (momakitchen.predict).
+        depth = frame.depth.astype(np.float32)
+        clouds = frame_inputs(depth, np.isfinite(depth) & (depth > 0), frame.rgb,
+                              sem == SEMANTIC_CLASSES.index("target"),
+                              [sem == SEMANTIC_CLASSES.index("obstacle")], intr, camera_to_base)
+        pred = predict_map(run, clouds, cfg.robot,
+                           np.asarray(robot_descriptor(get_robot_spec(cfg.robot)), np.float32))
         timed("predict")
 
         step(STEPS[3])
@@ -134,7 +138,7 @@ def report_figure(rgb: np.ndarray, depth: np.ndarray, intrinsics: Any,
                   result: dict[str, Any]) -> bytes:
     """The demo's report: what the robot sees, what the model predicts, where the robot
     went, what happened, and the ground truth from the grid of trials."""
-    from momakitchen.deploy.figures import floor_map, image_overlay, png_bytes, pyplot
+    from momakitchen.perception.figures import floor_map, image_overlay, png_bytes, pyplot
 
     plt = pyplot()
     fig, axes = plt.subplots(2, 3, figsize=(16, 9.6), constrained_layout=True)

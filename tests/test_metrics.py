@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from momakitchen.errors import MomaError
-from momakitchen.eval.metrics import (
+from momakitchen.metrics import (
     METRIC_NAMES,
     breakdown,
     episode_metrics,

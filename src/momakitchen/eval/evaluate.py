@@ -5,34 +5,14 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-import torch
 from torch.utils.data import DataLoader, Dataset
 from tqdm.auto import tqdm
 
 from momakitchen.data.batch import EpisodeCollator, episode_maps
 from momakitchen.errors import MomaError
-from momakitchen.eval.metrics import breakdown, map_metrics
-from momakitchen.models.base import AffordanceModel
+from momakitchen.metrics import breakdown, map_metrics
+from momakitchen.models.inference import predict_batch
 from momakitchen.train.checkpoint import load_checkpoint
-
-
-@torch.no_grad()
-def predict_batch(model: AffordanceModel, batch: dict[str, Any]) -> torch.Tensor:
-    """Affordance values of the floor points of a collated batch (eval mode, no labels used).
-
-    Shapes:
-        - input: a batch (see :mod:`momakitchen.data.batch`)
-        - output: (B, Nf) in [0, 1]; 0 on padded floor points
-    """
-    was_training = model.training
-    if was_training:  # switching modes walks every module: skip it when already in eval
-        model.eval()
-    unlabeled = {k: v for k, v in batch.items() if k != "floor_label"}
-    try:
-        return model(unlabeled)["pred"]
-    finally:
-        if was_training:
-            model.train()
 
 
 def evaluate(

@@ -30,7 +30,8 @@ def image_overlay(ax: Any, rgb: np.ndarray, xyz: np.ndarray, values: np.ndarray,
                   poses: np.ndarray | None = None) -> None:
     """The camera image with floor points coloured by ``values`` (viridis, 0..1) and the
     chosen base positions (numbered, best first). Shapes: ``xyz`` (N, 3), ``values`` (N,)."""
-    from momakitchen.perception.camera import project, transform
+    from momakitchen.frames import transform
+    from momakitchen.perception.camera import project
 
     ax.imshow(rgb)
     to_cam = np.linalg.inv(camera_to_base)

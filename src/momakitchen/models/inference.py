@@ -1,0 +1,203 @@
+"""Running a trained model on one episode: the map, its uncertainty and the Top-k poses.
+
+Shared by real-robot inference (:func:`momakitchen.predict`), the simulator demo and MSR,
+so all three see the same clouds, collation and forward pass as ``momakitchen evaluate``.
+
+Uncertainty: Monte-Carlo dropout. The map itself is the deterministic (eval-mode)
+prediction; ``mc_samples`` extra forward passes with dropout active give a per-point
+standard deviation.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import torch
+
+from momakitchen.data.batch import EpisodeCollator
+from momakitchen.data.torch_dataset import episode_sample
+from momakitchen.errors import MomaError
+from momakitchen.models.base import AffordanceModel
+from momakitchen.models.navaff import target_centroid
+from momakitchen.perception.camera import CameraConfig, Intrinsics
+from momakitchen.perception.clouds import CloudConfig, frame_clouds
+
+MC_SAMPLES = 8  # MC-dropout forward passes behind each uncertainty estimate
+
+
+@dataclass(frozen=True)
+class Prediction:
+    """The result of :func:`momakitchen.predict`, in the robot base frame (x forward, y left, z up).
+
+    Shapes: ``floor_xyz`` (N, 3); ``affordance`` (N,) in [0, 1]; ``uncertainty`` (N,)
+    (MC-dropout standard deviation; zeros without MC samples); ``poses`` (k, 3) rows
+    ``x, y, yaw`` facing the target, best first; ``pose_scores`` and
+    ``pose_uncertainty`` (k,); ``target_xyz`` (3,) the target's centroid.
+    """
+
+    floor_xyz: np.ndarray
+    affordance: np.ndarray
+    uncertainty: np.ndarray
+    poses: np.ndarray
+    pose_scores: np.ndarray
+    pose_uncertainty: np.ndarray
+    target_xyz: np.ndarray
+    robot: str
+    model: str
+
+    def to_dict(self, floor_points: bool = True) -> dict[str, Any]:
+        out: dict[str, Any] = {
+            "frame": "robot base (x forward, y left, z up; metres, radians)",
+            "robot": self.robot,
+            "model": self.model,
+            "target_xyz": [round(float(v), 4) for v in self.target_xyz],
+            "poses": [
+                {"x": round(float(x), 4), "y": round(float(y), 4), "yaw": round(float(t), 4),
+                 "affordance": round(float(s), 4), "uncertainty": round(float(u), 4)}
+                for (x, y, t), s, u in zip(self.poses, self.pose_scores,
+                                           self.pose_uncertainty, strict=True)
+            ],
+        }
+        if floor_points:
+            out["floor_points"] = {
+                "columns": ["x", "y", "z", "affordance", "uncertainty"],
+                "rows": np.round(np.column_stack([self.floor_xyz, self.affordance,
+                                                  self.uncertainty]), 4).tolist(),
+            }
+        return out
+
+
+@torch.no_grad()
+def predict_batch(model: AffordanceModel, batch: dict[str, Any]) -> torch.Tensor:
+    """Affordance values of the floor points of a collated batch (eval mode, no labels used).
+
+    Shapes:
+        - input: a batch (see :mod:`momakitchen.data.batch`)
+        - output: (B, Nf) in [0, 1]; 0 on padded floor points
+    """
+    was_training = model.training
+    if was_training:  # switching modes walks every module: skip it when already in eval
+        model.eval()
+    unlabeled = {k: v for k, v in batch.items() if k != "floor_label"}
+    try:
+        return model(unlabeled)["pred"]
+    finally:
+        if was_training:
+            model.train()
+
+
+@contextmanager
+def torch_threads(n: int | None) -> Iterator[None]:
+    """Run the block with ``n`` torch intra-op threads (None: unchanged), then restore."""
+    before = torch.get_num_threads()
+    if n is not None and n != before:
+        torch.set_num_threads(n)
+    try:
+        yield
+    finally:
+        if torch.get_num_threads() != before:
+            torch.set_num_threads(before)
+
+
+def run_model(run: Any, sample: dict[str, Any], mc_samples: int
+              ) -> tuple[dict[str, Any], np.ndarray, np.ndarray]:
+    """A loaded run on one sample, collated as ``evaluate`` does (every floor point): the
+    batch, the map (Nf,) and its MC-dropout standard deviation (Nf,; zeros if
+    ``mc_samples`` is 0)."""
+    batch = EpisodeCollator(run.config.num_global, None, run.config.seed)([sample])
+    affordance = predict_batch(run.model, batch)[0].numpy().astype(np.float64)
+    if not mc_samples:
+        return batch, affordance, np.zeros_like(affordance)
+    return batch, affordance, mc_dropout_std(run.model, batch, mc_samples)
+
+
+def mc_dropout_std(model: Any, batch: dict[str, Any], samples: int) -> np.ndarray:
+    """Per-floor-point standard deviation over ``samples`` predictions with dropout on
+    (a fixed seed so the estimate is reproducible). Shapes: (Nf,)."""
+    with torch.random.fork_rng():
+        torch.manual_seed(0)
+        preds = model.sample_predictions(batch, samples)
+    return preds.std(0).numpy().astype(np.float64)
+
+
+def select_points(xy: np.ndarray, scores: np.ndarray, k: int, min_spread: float,
+                  accept: Callable[[int], bool] | None = None) -> list[int]:
+    """Greedy Top-k: points in order of decreasing score (ties: lower index first), each
+    kept if it is at least ``min_spread`` from those kept and ``accept(index)`` holds.
+
+    Shapes: ``xy`` (N, 2), ``scores`` (N,); returns up to ``k`` indices, best first.
+    """
+    order = np.argsort(-np.asarray(scores, np.float64), kind="stable")
+    xy = np.asarray(xy)
+    # free[i]: i is at least min_spread from every kept point (updated as points are kept)
+    free = np.ones(len(order), bool)
+    kept: list[int] = []
+    for i in order:
+        i = int(i)
+        if not free[i] or (accept is not None and not accept(i)):
+            continue
+        kept.append(i)
+        if len(kept) == k:
+            break
+        free &= np.hypot(xy[:, 0] - xy[i, 0], xy[:, 1] - xy[i, 1]) >= min_spread
+    return kept
+
+
+def frame_inputs(depth: np.ndarray, valid: np.ndarray, rgb: np.ndarray,
+                 target_mask: np.ndarray, obstacle_masks: Sequence[np.ndarray],
+                 intrinsics: Intrinsics, camera_to_base: np.ndarray) -> dict[str, np.ndarray]:
+    """The model's clouds of one RGB-D frame, with the visual-alignment channel from the
+    masks (+1 target, -1 obstacle, 0 else); MomaError if no floor or no target is seen.
+
+    Shapes: ``depth`` (H, W) metres and ``valid`` (H, W) bool; ``rgb`` (H, W, 3) uint8;
+    masks (H, W) bool; ``camera_to_base`` (4, 4). Returns ``global_xyz`` (Ng, 3),
+    ``global_rgb`` (Ng, 3), ``global_align`` (Ng,), ``floor_xyz`` (Nf, 3).
+    """
+    align = np.zeros(depth.shape, np.int8)
+    for m in obstacle_masks:
+        align[m] = -1
+    align[target_mask] = 1
+    g_xyz, g_rgb, g_align, f_xyz = frame_clouds(np.where(valid, depth, 0.0), rgb, align,
+                                                intrinsics, camera_to_base, CloudConfig(),
+                                                CameraConfig().max_depth)
+    if len(f_xyz) == 0:
+        raise MomaError("no floor is visible (no point below 2 cm in the base frame); check "
+                        "the extrinsics")
+    if not (g_align > 0).any():
+        raise MomaError("the target is beyond the depth range used (6 m)")
+    return {"global_xyz": g_xyz, "global_rgb": g_rgb, "global_align": g_align,
+            "floor_xyz": f_xyz}
+
+
+def predict_map(run: Any, clouds: dict[str, np.ndarray], robot: str, descriptor: np.ndarray,
+                *, top_k: int = 5, min_spread: float = 0.2, mc_samples: int = MC_SAMPLES,
+                episode_id: tuple[int, int, int] | None = None,
+                threads: int | None = 1) -> Prediction:
+    """The map of a loaded run (:func:`momakitchen.train.load_checkpoint`) over the floor
+    points of ``clouds`` (:func:`frame_inputs`) and the Top-k base poses facing the target.
+
+    ``episode_id`` seeds the cloud down-sampling exactly as ``evaluate`` does (None for
+    live frames); ``threads``: torch threads while the model runs (None: unchanged).
+    """
+    f_xyz = clouds["floor_xyz"]
+    ids = episode_id if episode_id is not None else (-1, -1, -1)
+    sample = episode_sample({**clouds, "descriptor": descriptor}, *ids, robot)
+    with torch_threads(threads):
+        batch, affordance, uncertainty = run_model(run, sample, mc_samples)
+    target = target_centroid(batch["global_xyz"], batch["global_align"],
+                             batch["global_mask"])[0].numpy().astype(np.float64)
+
+    chosen = select_points(f_xyz[:, :2], affordance, top_k, min_spread)
+    poses = np.array([[f_xyz[i, 0], f_xyz[i, 1],
+                       math.atan2(target[1] - f_xyz[i, 1], target[0] - f_xyz[i, 0])]
+                      for i in chosen]).reshape(-1, 3)
+    return Prediction(
+        floor_xyz=f_xyz, affordance=affordance, uncertainty=uncertainty, poses=poses,
+        pose_scores=affordance[chosen], pose_uncertainty=uncertainty[chosen],
+        target_xyz=target, robot=robot, model=run.config.model,
+    )
