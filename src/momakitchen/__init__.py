@@ -1,8 +1,10 @@
 """momakitchen: affordance-grounded last-mile navigation for mobile manipulation.
 
-Pipeline stages live in sub-packages: ``assets`` (procedural URDF), ``scene`` (layouts and
-configurations, pure data), ``robots``, ``sim`` (PyBullet worlds, trials, labels),
-``perception``, ``data``, ``models``, ``train``, ``eval``, ``deploy`` and ``cli``.
+Pipeline stages live in sub-packages, in the order imports may run: ``assets`` (procedural
+URDF), ``robots``, ``scene`` (layouts and configurations, pure data), ``sim`` (PyBullet
+worlds, trials, labels),
+``perception``, ``data``, ``models``, ``train``, ``eval``, ``generation`` (the dataset
+producer and the simulator demo), ``deploy`` (real-robot inference) and ``cli``.
 
 ``momakitchen.predict(...)`` runs the bundled model on a robot's RGB-D frame (see
 :func:`momakitchen.deploy.predict.predict`).

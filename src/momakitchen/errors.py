@@ -7,8 +7,3 @@ class MomaError(ValueError):
     The message must name the bad value; the CLI prints it as one line and exits 2.
     """
 
-
-def check(condition: bool, message: str) -> None:
-    """Raise :class:`MomaError` with ``message`` unless ``condition`` holds."""
-    if not condition:
-        raise MomaError(message)

@@ -1,4 +1,4 @@
-"""Map metrics of predicted vs ground-truth affordance maps (DESIGN.md §3.7).
+"""Map metrics of predicted vs ground-truth affordance maps (docs/DESIGN.md §3.7).
 
 Every metric is computed per episode on the 1-D arrays of its floor-point values, then
 averaged over episodes, except RMSE = sqrt(mean of the per-episode MSEs):

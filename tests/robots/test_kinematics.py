@@ -1,6 +1,6 @@
 """Forward kinematics of every arm against an independent computation.
 
-The tables below are transcribed from the published figures (KINEMATICS.md) a second time,
+The tables below are transcribed from the published figures (docs/ROBOTS.md) a second time,
 on purpose, and evaluated with plain numpy; PyBullet's link state of the generated URDF
 must agree within 1 mm (and 1e-3 rad) at random joint vectors.
 """

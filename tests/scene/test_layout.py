@@ -93,4 +93,10 @@ def test_bad_values():
         SceneConfig(robots=("r2d2",))
     with pytest.raises(MomaError, match="configuration index"):
         sample_configuration(sample_layout(0), 99)
-    assert isinstance(Layout.from_dict(sample_layout(3).to_dict()), Layout)
+
+
+def test_layout_dict_round_trip():
+    layout = sample_layout(3)
+    assert Layout.from_dict(layout.to_dict()) == layout
+    # through JSON too (tuples come back as lists), as scene.json is read back
+    assert Layout.from_dict(json.loads(json.dumps(layout.to_dict()))) == layout

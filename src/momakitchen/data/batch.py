@@ -231,11 +231,6 @@ def collate_episodes(
     return batch
 
 
-def batch_to(batch: Batch, device: torch.device | str) -> Batch:
-    """Move the tensors of a batch to ``device`` (metadata lists are kept as they are)."""
-    return {k: (v.to(device) if isinstance(v, torch.Tensor) else v) for k, v in batch.items()}
-
-
 def episode_maps(batch: Batch, pred: torch.Tensor) -> tuple[list[np.ndarray], list[np.ndarray]]:
     """Per-episode 1-D prediction and label arrays over the real floor points.
 

@@ -1,6 +1,6 @@
 """The episode record: one first-person view of a configuration with everything a model,
 an evaluation or a rebuild of the world needs. Produced by
-:func:`momakitchen.perception.episodes.configuration_episodes`, stored by the dataset
+:func:`momakitchen.generation.producer.configuration_episodes`, stored by the dataset
 writer, read back by the dataset reader and the torch Dataset.
 """
 

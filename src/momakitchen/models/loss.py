@@ -1,4 +1,4 @@
-"""Weighted MSE on affordance maps (DESIGN.md §3.6)."""
+"""Weighted MSE on affordance maps (docs/DESIGN.md §3.6)."""
 
 from __future__ import annotations
 
