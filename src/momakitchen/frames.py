@@ -6,9 +6,15 @@ floor. Camera frames use OpenCV axes (x right, y down, z forward).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 
 import numpy as np
+
+
+def float3(values: Iterable[float]) -> tuple[float, float, float]:
+    """Three numbers as a tuple of Python floats (a base pose ``x, y, yaw`` or a point)."""
+    x, y, z = (float(v) for v in values)
+    return (x, y, z)
 
 
 def transform(tf: np.ndarray, points: np.ndarray) -> np.ndarray:
@@ -67,4 +73,4 @@ def world_to_base(points: np.ndarray, base: tuple[float, float, float]) -> np.nd
 def base_to_world_xy(points: np.ndarray, base: Sequence[float]) -> np.ndarray:
     """Floor points (N, 2) of a viewpoint's base frame ``(x, y, yaw)`` to world xy (N, 2)."""
     pts = np.asarray(points, np.float64).reshape(-1, 2)
-    return transform(base_to_world(tuple(base)), np.column_stack([pts, np.zeros(len(pts))]))[:, :2]
+    return transform(base_to_world(float3(base)), np.column_stack([pts, np.zeros(len(pts))]))[:, :2]

@@ -22,10 +22,13 @@ class Registry(Mapping[str, T], Generic[T]):
     Args:
         kind: what an entry is, for messages ("robot", "model", ...).
         key: the name of an entry (default: its ``name`` attribute).
+        plural: ``kind`` in the plural, for messages (default: ``kind + "s"``).
     """
 
-    def __init__(self, kind: str, key: Callable[[T], str] | None = None) -> None:
+    def __init__(self, kind: str, key: Callable[[T], str] | None = None, *,
+                 plural: str | None = None) -> None:
         self.kind = kind
+        self.plural = plural or f"{kind}s"
         self._key: Callable[[T], str] = key or (lambda entry: entry.name)  # type: ignore[attr-defined]
         self._entries: dict[str, T] = {}
 
@@ -42,7 +45,7 @@ class Registry(Mapping[str, T], Generic[T]):
         try:
             return self._entries[name]
         except (KeyError, TypeError):
-            raise MomaError(f"unknown {self.kind} {name!r}; known {self.kind}s: "
+            raise MomaError(f"unknown {self.kind} {name!r}; known {self.plural}: "
                             f"{', '.join(self._entries)}") from None
 
     def names(self) -> tuple[str, ...]:

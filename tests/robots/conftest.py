@@ -1,10 +1,34 @@
-"""Fixtures: a tiny user robot (URDF + YAML) written to a temporary folder."""
+"""Fixtures: a PyBullet client, static or free boxes in it, and a tiny user robot (URDF +
+YAML) written to a temporary folder."""
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 
 import pytest
+
+from momakitchen.bullet import p
+
+
+@pytest.fixture
+def client() -> Iterator[int]:
+    """A fresh DIRECT client, disconnected afterwards."""
+    cid = p.connect(p.DIRECT)
+    yield cid
+    p.disconnect(cid)
+
+
+@pytest.fixture
+def box(client: int) -> Callable[..., int]:
+    """``box(half_extents (3,), position (3,), mass=0.0) -> body id`` in ``client``."""
+
+    def make(half: Sequence[float], pos: Sequence[float], mass: float = 0.0) -> int:
+        col = p.createCollisionShape(p.GEOM_BOX, halfExtents=list(half), physicsClientId=client)
+        return p.createMultiBody(mass, col, basePosition=list(pos), physicsClientId=client)
+
+    return make
+
 
 # A 4-DoF arm (yaw, pitch, pitch, roll) with link lengths 0.1 (base), 0.3, 0.25, 0.08
 # and a two-finger gripper with prismatic fingers; TCP link "tool0" 0.1 m past the wrist.

@@ -1,4 +1,4 @@
-"""The Robot API: placement, joints, FK, IK, collisions, gripper, suction, clients."""
+"""The Robot facade: loading, placement, joints, FK, tools, independent clients."""
 
 from __future__ import annotations
 
@@ -9,47 +9,11 @@ import pytest
 
 from momakitchen.bullet import p
 from momakitchen.errors import MomaError
-from momakitchen.robots import (
-    DESCRIPTOR_NAMES,
-    DESCRIPTOR_VERSION,
-    ROBOTS,
-    get_robot_spec,
-    robot_descriptor,
-)
-from momakitchen.robots.arms import MODELS
+from momakitchen.robots import get_robot_spec
 from momakitchen.robots.robot import Robot, quaternion_angle
-from momakitchen.robots.urdf import BASE_LINK
+from momakitchen.robots.tools import ParallelGripperTool, SuctionTool
 
 NAMES = ["panda", "flexiv", "ur5e", "xarm6", "realman", "elephant"]
-
-
-@pytest.fixture
-def client():
-    cid = p.connect(p.DIRECT)
-    yield cid
-    p.disconnect(cid)
-
-
-def box(client, half, pos, mass=0.0):
-    col = p.createCollisionShape(p.GEOM_BOX, halfExtents=list(half), physicsClientId=client)
-    return p.createMultiBody(mass, col, basePosition=list(pos), physicsClientId=client)
-
-
-def test_registry_and_models_agree():
-    builtin = set(NAMES)
-    assert builtin <= set(ROBOTS) and builtin <= set(MODELS)
-    assert {n: ROBOTS[n].end_effector for n in NAMES} == {
-        "panda": "parallel_gripper", "flexiv": "parallel_gripper", "ur5e": "suction",
-        "xarm6": "parallel_gripper", "realman": "parallel_gripper",
-        "elephant": "parallel_gripper",
-    }
-
-
-def test_descriptor_is_reach_mount_height_dof_tool():
-    assert DESCRIPTOR_VERSION == 1
-    assert DESCRIPTOR_NAMES[:2] == ("reach_m", "mount_height_m")
-    assert robot_descriptor(get_robot_spec("ur5e")) == (0.85, 1.03, 6 / 7, 1.0)
-    assert robot_descriptor(get_robot_spec("xarm6")) == (0.70, 0.33, 6 / 7, 0.0)
 
 
 def test_unknown_robot_is_a_moma_error(client):
@@ -69,11 +33,15 @@ def test_structure_matches_spec(client, name):
     parent = robot._parent[first]
     z = robot.link_pose(parent)[0][2]
     assert z == pytest.approx(spec.mount_height, abs=1e-6)
+    # One tool, of the kind the spec names; the facade's attributes read it.
+    assert robot.tool.kind == spec.end_effector
     if spec.end_effector == "suction":
-        assert robot.cup_link is not None and not robot.finger_joints
+        assert isinstance(robot.tool, SuctionTool)
+        assert robot.cup_link == robot.tool.cup_link is not None and not robot.finger_joints
     else:
-        assert len(robot.finger_joints) == 2
-        assert robot.max_opening == pytest.approx(0.08)
+        assert isinstance(robot.tool, ParallelGripperTool)
+        assert len(robot.finger_joints) == 2 and robot.cup_link is None
+        assert robot.max_opening == robot.tool.max_opening == pytest.approx(0.08)
     # No self-collision at home.
     assert robot.arm_collisions([]) == []
 
@@ -106,136 +74,6 @@ def test_joint_positions_round_trip_and_validation(client):
     assert np.allclose(robot.joint_positions(), q)
 
 
-@pytest.mark.parametrize("name", NAMES)
-def test_ik_round_trip(client, name):
-    """FK -> IK -> FK within 5 mm and 2 degrees on reachable poses (IK seeded at home)."""
-    robot = Robot(client, name, base=(0.3, 0.2, 0.5))
-    rng = np.random.default_rng(7)
-    successes = 0
-    for _ in range(12):
-        q = rng.uniform(robot.lower, robot.upper)
-        pos, orn = robot.tcp_pose(q)
-        res = robot.solve_ik(pos, orn, seed=robot.home, rng=rng)
-        assert robot.within_limits(res.q)
-        got_pos, got_orn = robot.tcp_pose(res.q)
-        # The reported residuals are the measured ones.
-        assert float(np.linalg.norm(got_pos - pos)) == pytest.approx(res.position_error,
-                                                                     abs=1e-6)
-        if res.success:
-            successes += 1
-            assert np.linalg.norm(got_pos - pos) <= 0.005
-            assert quaternion_angle(got_orn, orn) <= math.radians(2)
-            assert np.allclose(robot.joint_positions(), res.q)  # left at the answer
-    assert successes >= 9
-
-
-def test_ik_position_only_and_unreachable(client):
-    robot = Robot(client, "ur5e")
-    sh = robot.shoulder_position()
-    res = robot.solve_ik(sh + np.array([0.5, 0.1, -0.2]))
-    assert res.success and res.orientation_error == 0.0
-    far = robot.solve_ik(sh + np.array([3.0, 0.0, 0.0]), (1, 0, 0, 0))
-    assert not far.success and far.position_error > 1.5
-    assert far.calls == 0 and far.seconds < 0.05  # rejected by the reach pre-check
-    assert not robot.could_reach(sh + np.array([3.0, 0.0, 0.0]))
-    assert robot.could_reach(sh + np.array([0.5, 0.0, 0.0]))
-    # At the edge of the TCP sphere, pointing down puts the flange out of its own sphere.
-    tcp_reach = robot.workspace()[1]
-    edge = sh + np.array([tcp_reach - 0.02, 0.0, 0.0])
-    assert robot.could_reach(edge)
-    assert not robot.could_reach(edge, (1, 0, 0, 0))
-    assert robot.could_reach(edge, (0, 0.7071068, 0, 0.7071068))  # pointing outwards
-    res = robot.solve_ik(edge, (1, 0, 0, 0))
-    assert not res.success and res.calls == 0
-    with pytest.raises(MomaError, match="unit quaternion"):
-        robot.solve_ik(sh, (0, 0, 0, 0))
-
-
-@pytest.mark.parametrize("name", NAMES)
-def test_workspace_exceeds_manufacturer_reach_modestly(client, name):
-    """Measured flange reach within 0.95-1.25 x the manufacturer's figure."""
-    robot = Robot(client, name)
-    flange, tcp = robot.workspace()
-    reach = get_robot_spec(name).reach
-    assert 0.95 * reach <= flange <= 1.25 * reach
-    tool = float(np.linalg.norm(robot.tcp_pose()[0] - robot.flange_pose()[0]))
-    assert tcp == pytest.approx(flange + tool, abs=0.03)
-
-
-@pytest.mark.parametrize("name", NAMES)
-def test_reach_precheck_never_rejects_reachable_poses(client, name):
-    """could_reach is a necessary condition: every FK pose passes it, at any base pose."""
-    robot = Robot(client, name, base=(0.4, -1.2, 2.0))
-    rng = np.random.default_rng(3)
-    for _ in range(300):
-        pos, orn = robot.tcp_pose(rng.uniform(robot.lower, robot.upper))
-        assert robot.could_reach(pos) and robot.could_reach(pos, orn)
-
-
-def test_base_collisions(client):
-    robot = Robot(client, "panda")
-    obstacle = box(client, (0.1, 0.1, 0.2), (0.3, 0.0, 0.2))  # overlaps the front edge
-    far = box(client, (0.1, 0.1, 0.2), (1.0, 0.0, 0.2))
-    assert robot.base_collisions([obstacle, far]) == [obstacle]
-    robot.place_base(-1.0, 0.0, 0.0)
-    assert robot.base_collisions([obstacle, far]) == []
-    assert robot.base_collisions([far], margin=2.5) == [far]
-
-
-def test_arm_collisions_allow_the_target_for_the_tool_only(client):
-    robot = Robot(client, "panda")
-    tcp, _ = robot.tcp_pose()
-    target = box(client, (0.06, 0.06, 0.02), tcp)  # wider than the open fingers
-    hits = robot.arm_collisions([target])
-    assert hits and all(h.body == target for h in hits)
-    assert robot.arm_collisions([target], allow=[target]) == []
-    assert robot.arm_collisions([target], allow=[(target, -1)]) == []
-    # An obstacle at the elbow is a collision even if it is the allowed target.
-    elbow = robot.link_pose(robot.arm_joints[3])[0]
-    blocker = box(client, (0.05, 0.05, 0.05), elbow)
-    hits = robot.arm_collisions([blocker], allow=[blocker])
-    assert hits and not any(robot.link_index(h.link) in robot.ee_links for h in hits)
-
-
-def test_self_collision_with_base(client):
-    robot = Robot(client, "ur5e")
-    robot.set_joint_positions([0, math.pi / 2, 0, 0, 0, 0])  # upper arm straight down
-    hits = robot.arm_collisions([])
-    assert any(h.link == BASE_LINK and h.body == robot.body for h in hits)
-    assert robot.arm_collisions([], self_collision=False) == []
-
-
-def test_gripper_opening(client):
-    robot = Robot(client, "flexiv")
-    assert robot.gripper_opening() == pytest.approx(0.08)
-    robot.set_gripper_opening(0.03)
-    assert robot.gripper_opening() == pytest.approx(0.03)
-    # The finger pads really are that far apart (inner faces along the TCP y axis).
-    left = robot.link_pose(robot.link_index("finger_left"))[0]
-    right = robot.link_pose(robot.link_index("finger_right"))[0]
-    assert np.linalg.norm(left - right) == pytest.approx(0.03, abs=1e-6)
-    with pytest.raises(MomaError, match="no suction cup"):
-        robot.suction_on()
-
-
-def test_suction_attaches_only_on_cup_face_contact(client):
-    robot = Robot(client, "ur5e")
-    robot.set_joint_positions(robot.home)  # tool pointing down
-    tcp, _ = robot.tcp_pose()
-    with pytest.raises(MomaError, match="no gripper"):
-        robot.close_gripper()
-    gap = box(client, (0.04, 0.04, 0.02), tcp - np.array([0, 0, 0.02 + 0.02]), mass=0.2)
-    assert robot.suction_on() is None and robot.attached_body is None
-    p.removeBody(gap, physicsClientId=client)
-    beside = box(client, (0.04, 0.04, 0.04), tcp + np.array([0.061, 0, 0]), mass=0.2)
-    assert robot.suction_on() is None  # touching the cup's side is not a seal
-    p.removeBody(beside, physicsClientId=client)
-    touching = box(client, (0.04, 0.04, 0.02), tcp - np.array([0, 0, 0.02 + 0.001]), mass=0.2)
-    assert robot.suction_on() == touching == robot.attached_body
-    robot.suction_off()
-    assert robot.attached_body is None
-
-
 def test_independent_clients_in_one_process():
     a, b = p.connect(p.DIRECT), p.connect(p.DIRECT)
     try:
@@ -263,13 +101,23 @@ def _pybullet_ik(robot, client):
     pos, orn = robot.tcp_pose()
     for _ in range(4):
         p.calculateInverseKinematics(
-            robot.body, robot.tcp_link, pos, orn, lowerLimits=lower, upperLimits=upper,
-            jointRanges=ranges, restPoses=[0.0] * len(movable),
-            currentPositions=[0.0] * len(movable), maxNumIterations=30, physicsClientId=client)
+            robot.body,
+            robot.tcp_link,
+            pos,
+            orn,
+            lowerLimits=lower,
+            upperLimits=upper,
+            jointRanges=ranges,
+            restPoses=[0.0] * len(movable),
+            currentPositions=[0.0] * len(movable),
+            maxNumIterations=30,
+            physicsClientId=client,
+        )
 
 
-@pytest.mark.parametrize(("first", "second"),
-                         [("flexiv", "elephant"), ("xarm6", "flexiv"), ("elephant", "flexiv")])
+@pytest.mark.parametrize(
+    ("first", "second"), [("flexiv", "elephant"), ("xarm6", "flexiv"), ("elephant", "flexiv")]
+)
 def test_reloading_a_different_robot_in_a_reused_body_slot(first, second):
     """PyBullet caches a kinematic tree per body and keeps it after removal, so its own IK
     and Jacobian can go stale for the second robot (whether it happens depends on memory

@@ -129,3 +129,12 @@ def test_env_var_registers(tiny_robot_files, monkeypatch):
         assert spec.name in ROBOTS
     finally:
         unregister_user_robot(spec.name)
+
+
+def test_finger_joints_with_suction_are_an_error(tiny_robot_files):
+    _, yaml_path = tiny_robot_files
+    text = yaml_path.read_text().replace("parallel_gripper", "suction")
+    yaml_path.write_text(text + "finger_joints: [fl_joint, fr_joint]\n")
+    with pytest.raises(MomaError, match=r"finger_joints .* but end_effector is 'suction'"):
+        register_user_robot(yaml_path)
+    assert "tiny_user" not in ROBOTS

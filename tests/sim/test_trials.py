@@ -49,12 +49,14 @@ def test_gripper_lifts_the_bottle_from_some_positions(bottle_labels, scene):
     assert blocked > 0
 
 
-def _successes(world, cfg, labels, **dyn):
+def _successes(world, cfg, labels, never_close=False, **dyn):
     from momakitchen.sim.labels import set_target_dynamics
 
     world.load_configuration(cfg)
     set_target_dynamics(world, **dyn)
     runner = TrialRunner(world, cfg.robot)
+    if never_close:
+        runner.tool.close = runner.tool.open  # the only change: the fingers stay open
     try:
         idx = np.flatnonzero(labels.outcomes)[:4]
         return [runner.run(*labels.positions[i]) for i in idx]
@@ -70,6 +72,15 @@ def test_physics_matters_heavy_and_slippery_targets_fail(world, scene, bottle_la
     assert slippery and all(r.stage == Stage.EXECUTION_FAILED for r in slippery)
     normal = _successes(world, cfg, bottle_labels)
     assert all(r.success for r in normal)
+
+
+def test_fingers_left_open_lift_nothing(world, scene, bottle_labels):
+    """Control: the positions that succeed fail in execution if the gripper never closes
+    (the bottle rises only because the fingers hold it)."""
+    cfg = scene.configurations[0]
+    results = _successes(world, cfg, bottle_labels, never_close=True)
+    assert results and all(r.stage == Stage.EXECUTION_FAILED for r in results)
+    assert all(r.moved < 0.01 for r in results)
 
 
 def test_trials_do_not_leak_state(scene, bottle_labels):
@@ -138,8 +149,7 @@ def test_resting_bodies_sleep_and_contact_wakes_them(world, scene):
     runner = TrialRunner(world, cfg.robot)
     try:
         c = world.client
-        free = [b for b in runner._resting
-                if p.getDynamicsInfo(b, -1, physicsClientId=c)[0] > 0]
+        free = [b for b in runner._resting if p.getDynamicsInfo(b, -1, physicsClientId=c)[0] > 0]
         assert free, "scene 12's first configuration has free bodies away from the target"
         world.step(1)
         before = [p.getBasePositionAndOrientation(b, physicsClientId=c) for b in free]
@@ -151,13 +161,16 @@ def test_resting_bodies_sleep_and_contact_wakes_them(world, scene):
         lo, hi = world.aabb(body)
         centre = (lo + hi) / 2
         ball = p.createMultiBody(
-            1.0, p.createCollisionShape(p.GEOM_SPHERE, radius=0.05, physicsClientId=c),
+            1.0,
+            p.createCollisionShape(p.GEOM_SPHERE, radius=0.05, physicsClientId=c),
             basePosition=[centre[0] - (hi[0] - lo[0]) / 2 - 0.1, centre[1], centre[2]],
-            physicsClientId=c)
+            physicsClientId=c,
+        )
         p.resetBaseVelocity(ball, [3.0, 0.0, 0.0], physicsClientId=c)
         world.step(60)
-        moved = np.subtract(p.getBasePositionAndOrientation(body, physicsClientId=c)[0],
-                            before[0][0])
+        moved = np.subtract(
+            p.getBasePositionAndOrientation(body, physicsClientId=c)[0], before[0][0]
+        )
         assert np.linalg.norm(moved) > 1e-3
         p.removeBody(ball, physicsClientId=c)
     finally:

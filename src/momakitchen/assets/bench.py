@@ -20,7 +20,7 @@ import time
 
 import numpy as np
 
-from momakitchen.assets import CATEGORIES, Envelope, get_category
+from momakitchen.assets import CATEGORIES, AssetModel, Envelope, get_category
 from momakitchen.assets.cache import cached_urdf
 
 
@@ -54,7 +54,7 @@ def run(samples: int, load: int, seed: int = 0) -> list[dict]:
             texts = set()
             variants = set()
             t_sample = t_build = 0.0
-            models = []
+            models: list[AssetModel] = []
             for _ in range(samples):
                 t0 = time.perf_counter()
                 params = cat.sample(rng, default_envelope(name, rng))

@@ -44,6 +44,7 @@ from momakitchen.assets.registry import (
 )
 from momakitchen.assets.urdf import fmt
 from momakitchen.errors import MomaError
+from momakitchen.frames import float3
 
 # PartNet-Mobility category names -> ours. PartNet's Faucet is a bare tap, not a sink
 # counter, so it is not mapped (scaling it to a counter envelope would make a giant tap).
@@ -109,7 +110,9 @@ class ExternalParams:
         unknown = set(data) - fields
         if unknown:
             raise MomaError(f"external asset parameters: unknown field(s) {sorted(unknown)}")
-        values = {k: tuple(v) if isinstance(v, list) else v for k, v in data.items()}
+        values: dict[str, Any] = {
+            k: tuple(v) if isinstance(v, list) else v for k, v in data.items()
+        }
         return cls(**values)
 
 
@@ -211,7 +214,7 @@ _MEASURED: dict[tuple[str, tuple[float, float, float]], Measurement] = {}
 
 def measure(path: str, rpy: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> Measurement:
     """Parse, check and measure a file (memoised: PyBullet runs once per file)."""
-    key = (str(path), tuple(rpy))
+    key = (str(path), float3(rpy))
     if key in _MEASURED:
         return _MEASURED[key]
     from momakitchen.bullet import p as pb

@@ -25,6 +25,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from momakitchen.errors import MomaError
+from momakitchen.registry import Registry
 
 Vec3 = tuple[float, float, float]
 
@@ -145,27 +146,20 @@ class AssetCategory:
         return cls.Params(**values)
 
 
-CATEGORIES: dict[str, type[AssetCategory]] = {}
+CATEGORIES: Registry[type[AssetCategory]] = Registry("asset category",
+                                                      plural="asset categories")
 
 
 def register_category(cls: type[AssetCategory]) -> type[AssetCategory]:
     """Class decorator adding a category to ``CATEGORIES`` (one source of truth)."""
     if cls.kind not in KINDS:
         raise MomaError(f"category {cls.name!r}: kind must be one of {KINDS}, got {cls.kind!r}")
-    if cls.name in CATEGORIES:
-        raise MomaError(f"asset category {cls.name!r} is already registered")
-    CATEGORIES[cls.name] = cls
-    return cls
+    return CATEGORIES.register(cls)
 
 
 def get_category(name: str) -> type[AssetCategory]:
     """Look up a category; unknown names raise MomaError listing the known ones."""
-    try:
-        return CATEGORIES[name]
-    except KeyError:
-        raise MomaError(
-            f"unknown asset category {name!r}; known: {', '.join(sorted(CATEGORIES))}"
-        ) from None
+    return CATEGORIES.get_entry(name)
 
 
 def categories_of_kind(kind: str) -> list[str]:

@@ -212,7 +212,7 @@ def bounding_box(links: tuple[Link, ...], joints: tuple[Joint, ...]) -> tuple[Ve
             he = _half_extents_matrix(s.geometry, rr)
             lo = np.minimum(lo, c - he)
             hi = np.maximum(hi, c + he)
-    return tuple(lo.tolist()), tuple(hi.tolist())  # type: ignore[return-value]
+    return tuple(lo.tolist()), tuple(hi.tolist())
 
 
 def _half_extents_matrix(g: Geometry, r: np.ndarray) -> np.ndarray:
@@ -255,7 +255,7 @@ def _link_xml(link: Link, materials: dict[str, RGBA]) -> list[str]:
     i = inertia
     out += [
         "    <inertial>",
-        f"      {_origin(tuple(com.tolist()), ZERO)}",  # type: ignore[arg-type]
+        f"      {_origin(tuple(com.tolist()), ZERO)}",
         f'      <mass value="{fmt(link.mass)}"/>',
         f'      <inertia ixx="{fmt(i[0, 0])}" ixy="{fmt(i[0, 1])}" ixz="{fmt(i[0, 2])}"'
         f' iyy="{fmt(i[1, 1])}" iyz="{fmt(i[1, 2])}" izz="{fmt(i[2, 2])}"/>',

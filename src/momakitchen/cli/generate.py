@@ -4,12 +4,24 @@ Scenes ``S .. S+N-1`` become one HDF5 shard each under ``DIR/scenes``; ``DIR/man
 and the dataset card ``DIR/README.md`` are (re)written at the end. Killed runs resume:
 run the same command again. ``--synthetic`` writes synthetic records of the same format in
 seconds (for smoke tests of training pipelines); the manifest records the producer.
+
+``--config FILE`` (YAML or JSON) sets generation options: any subset of the sections
+``scene``, ``trial``, ``dense``, ``camera``, ``views`` and ``cloud`` and of their fields;
+the rest keep their defaults. With ``--synthetic`` the file sets the fields of the
+synthetic producer's config (``configs_per_scene``, ``episodes_per_config``, ...) instead.
+Example::
+
+    views:
+      episodes: 4
+    cloud:
+      voxel: 0.03
 """
 
 from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import Any
 
 from momakitchen.cli.common import non_negative_int, positive_int
 
@@ -29,25 +41,38 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                              "instance)")
     parser.add_argument("--synthetic", action="store_true",
                         help="synthetic records instead of the simulator (format smoke tests)")
+    parser.add_argument("--config", default=None, metavar="FILE",
+                        help="YAML or JSON file of generation options (any subset of the "
+                             "sections scene, trial, dense, camera, views, cloud; the rest "
+                             "default); with --synthetic, fields of the synthetic config")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     parser.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
+    from momakitchen.codec import load_config_file
     from momakitchen.data.generator import GenerateRequest, generate_dataset
 
     request = GenerateRequest(out=Path(args.out), num_scenes=args.scenes,
                               first_scene_id=args.first_scene_id, workers=args.workers,
                               backend=args.backend)
+    scene_fn: Any
+    config: Any
     if args.synthetic:
         from momakitchen.data.synthetic_scene import SyntheticSceneConfig, synthetic_scene_records
 
-        scene_fn, config = synthetic_scene_records, SyntheticSceneConfig()
+        scene_fn = synthetic_scene_records
+        config = (load_config_file(args.config, SyntheticSceneConfig) if args.config
+                  else SyntheticSceneConfig())
     else:
         from momakitchen.data.config import GenerationConfig
+
+        # Read the file before loading the simulator: a bad file fails at once.
+        config = (load_config_file(args.config, GenerationConfig) if args.config
+                  else GenerationConfig())
         from momakitchen.generation.producer import scene_records
 
-        scene_fn, config = scene_records, GenerationConfig()
+        scene_fn = scene_records
     manifest = generate_dataset(request, scene_fn, config, progress=not args.quiet)
     c = manifest["counts"]
     print(f"{args.out}: {c['total']['scenes']} scenes, {c['total']['configurations']} "

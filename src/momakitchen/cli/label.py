@@ -14,10 +14,10 @@ import json
 import numpy as np
 from tqdm import tqdm
 
-from momakitchen.version import __version__
 from momakitchen.cli.common import non_negative_float, non_negative_int, output_dir
 from momakitchen.errors import MomaError
 from momakitchen.fileio import atomic_path, atomic_write_bytes, atomic_write_text, npz_bytes
+from momakitchen.version import __version__
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:

@@ -12,12 +12,28 @@ from __future__ import annotations
 import argparse
 import json
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from momakitchen.cli.common import non_negative_float, non_negative_int, positive_int
 from momakitchen.errors import MomaError
 from momakitchen.fileio import atomic_write_text
 
+if TYPE_CHECKING:
+    from momakitchen.train.config import TrainConfig
+
 SPLITS = ("train", "test", "all")
+
+TRAIN_CONFIG_HELP = """\
+training options come from, highest precedence first:
+  1. command-line options given explicitly (--model, --epochs, --lambda-zero, ...);
+  2. the --config FILE (YAML or JSON): any subset of the training config's fields, e.g.
+       model: navaff
+       epochs: 3
+       lr: 5.0e-4
+       model_config: {embed_dim: 64, num_tokens: 16}
+     (model_config fields not given keep the preset's values);
+  3. the preset: --preset, else the file's 'preset', else cpu.
+"""
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -25,13 +41,19 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     from momakitchen.train import PRESETS
 
     tr = sub.add_parser("train", help="train a model (navaff, baselines, ablations)",
-                        description=__doc__)
+                        description=__doc__, epilog=TRAIN_CONFIG_HELP,
+                        formatter_class=argparse.RawDescriptionHelpFormatter)
     tr.add_argument("--data", required=True, help="dataset directory (momakitchen generate)")
-    tr.add_argument("--model", required=True,
-                    help=f"model name: {', '.join(model_names())}")
+    tr.add_argument("--model", default=None,
+                    help=f"model name: {', '.join(model_names())} (required unless the "
+                         "--config file sets 'model')")
     tr.add_argument("--out", required=True, help="run directory")
-    tr.add_argument("--preset", default="cpu", choices=tuple(PRESETS),
-                    help="hyper-parameter preset (default cpu: trains on 2 cores)")
+    tr.add_argument("--config", default=None, metavar="FILE",
+                    help="YAML or JSON file of training config fields (explicit options "
+                         "override it; see below)")
+    tr.add_argument("--preset", default=None, choices=tuple(PRESETS),
+                    help="hyper-parameter preset (default: the --config file's, else cpu: "
+                         "trains on 2 cores)")
     tr.add_argument("--epochs", type=positive_int, default=None)
     tr.add_argument("--batch-size", type=positive_int, default=None)
     tr.add_argument("--max-steps", type=non_negative_int, default=None,
@@ -71,26 +93,50 @@ def _dataset(root: str, split: str):
     return data
 
 
-def run_train(args: argparse.Namespace) -> int:
+def train_config(args: argparse.Namespace) -> TrainConfig:
+    """The training config of ``momakitchen train``: the preset, updated by the --config
+    file, updated by the options given explicitly (see ``TRAIN_CONFIG_HELP``)."""
+    from momakitchen import codec
     from momakitchen.models import model_names
-    from momakitchen.train import preset_config, train
+    from momakitchen.train import PRESETS, TrainConfig, preset_config
 
-    if args.model not in model_names():
+    if args.model is not None and args.model not in model_names():
         raise MomaError(f"unknown model {args.model!r}; known models: {', '.join(model_names())}")
+    file = codec.read_config_file(args.config) if args.config else {}
+    model = args.model if args.model is not None else file.get("model")
+    if model is None:
+        raise MomaError("the model is not given: pass --model or set 'model' in --config")
+    preset = args.preset if args.preset is not None else file.get("preset", "cpu")
+    # A preset's values under the file's; a 'custom' preset starts from the defaults.
+    base = preset_config(preset if preset in PRESETS else "paper", "navaff")
+    data = codec.merge(codec.to_dict(base), {**file, "model": model, "preset": preset})
+    try:
+        config = codec.from_dict(TrainConfig, data)
+    except MomaError as exc:
+        raise MomaError(f"{args.config}: {exc}" if args.config else str(exc)) from None
     overrides = {
         name: value for name, value in (
             ("epochs", args.epochs), ("batch_size", args.batch_size),
             ("max_steps", args.max_steps), ("num_workers", args.workers),
             ("num_threads", args.threads), ("seed", args.seed),
+            ("progress", False if args.quiet else None),
         ) if value is not None
     }
-    config = preset_config(args.preset, args.model, progress=not args.quiet, **overrides)
+    if overrides:
+        config = config.replace(**overrides)
     if args.lambda_zero is not None:
         config = config.replace_model(lambda_zero=args.lambda_zero)
+    return config
+
+
+def run_train(args: argparse.Namespace) -> int:
+    from momakitchen.train import train
+
+    config = train_config(args)
     data = _dataset(args.data, "train")
     result = train(config, data, None, Path(args.out), resume=args.resume)
     last = result.history[-1] if result.history else {}
-    print(f"trained {args.model} ({args.preset} preset) on {len(data)} episodes: "
+    print(f"trained {config.model} ({config.preset} preset) on {len(data)} episodes: "
           f"{result.global_step} steps, last epoch loss {last.get('loss', float('nan')):.4f}"
           f" -> {args.out}")
     return 0

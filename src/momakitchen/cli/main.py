@@ -14,8 +14,8 @@ import importlib
 import os
 import sys
 
-from momakitchen.version import __version__
 from momakitchen.errors import MomaError
+from momakitchen.version import __version__
 
 # Command -> the module under momakitchen.cli that defines it, in the order of --help.
 COMMANDS = {

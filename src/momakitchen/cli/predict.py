@@ -69,7 +69,8 @@ def run(args: argparse.Namespace) -> int:
                    obstacle_masks=args.obstacle_mask, checkpoint=args.checkpoint,
                    top_k=args.top_k, mc_samples=args.mc_samples)
     seconds = time.perf_counter() - t0
-    intr = Intrinsics(*args.intrinsics, depth.shape[1], depth.shape[0])
+    fx, fy, cx, cy = args.intrinsics  # argparse nargs=4
+    intr = Intrinsics(fx, fy, cx, cy, depth.shape[1], depth.shape[0])
     paths = write_outputs(pred, out, rgb, depth, intr, extrinsics)
     best = pred.to_dict(floor_points=False)["poses"]
     print(json.dumps({"poses": best, "floor_points": len(pred.floor_xyz),

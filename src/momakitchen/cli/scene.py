@@ -9,10 +9,10 @@ from pathlib import Path
 
 import numpy as np
 
-from momakitchen.version import __version__
 from momakitchen.cli.common import non_negative_int, output_dir, positive_int
 from momakitchen.errors import MomaError
 from momakitchen.fileio import atomic_path, atomic_write_text
+from momakitchen.version import __version__
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:

@@ -6,9 +6,11 @@ it from there; it is plain data and loads no simulator.
 
 from __future__ import annotations
 
-import dataclasses
+import math
 from dataclasses import dataclass, field
+from typing import Any
 
+from momakitchen import codec
 from momakitchen.errors import MomaError
 from momakitchen.perception.camera import CameraConfig
 from momakitchen.perception.clouds import CloudConfig
@@ -56,17 +58,61 @@ class GenerationConfig:
     views: ViewConfig = field(default_factory=ViewConfig)
     cloud: CloudConfig = field(default_factory=CloudConfig)
 
-    def to_dict(self) -> dict:
-        return dataclasses.asdict(self)
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready sections (see :func:`momakitchen.codec.to_dict`)."""
+        return codec.to_dict(self)
 
     @classmethod
-    def from_dict(cls, data: dict) -> GenerationConfig:
-        def build(kind, values):
-            return kind(**{k: tuple(v) if isinstance(v, list) else v for k, v in values.items()})
+    def from_dict(cls, data: dict[str, Any], *, where: str = "config") -> GenerationConfig:
+        """Inverse of :meth:`to_dict`: any subset of sections and fields, the rest default
+        (see :func:`momakitchen.codec.from_dict`)."""
+        return codec.from_dict(cls, data, where=where)
 
-        kinds = {"scene": SceneConfig, "trial": TrialConfig, "dense": DenseMapConfig,
-                 "camera": CameraConfig, "views": ViewConfig, "cloud": CloudConfig}
-        unknown = set(data) - set(kinds)
-        if unknown:
-            raise MomaError(f"unknown generation config section(s): {sorted(unknown)}")
-        return cls(**{k: build(kinds[k], v) for k, v in data.items()})
+
+# The config class whose manifests record how clouds were built (see manifest_preprocessing).
+GENERATION_CONFIG_CLASS = f"{GenerationConfig.__module__}.{GenerationConfig.__qualname__}"
+
+
+@dataclass(frozen=True)
+class Preprocessing:
+    """How an episode's clouds are built from its RGB-D frame: what a trained model depends
+    on besides its weights (recorded in checkpoints, compared with datasets).
+
+    Attributes:
+        cloud: voxel sizes and the floor height threshold.
+        max_depth: pixels farther than this (m) are left out of the clouds.
+    """
+
+    cloud: CloudConfig = field(default_factory=CloudConfig)
+    max_depth: float = CameraConfig().max_depth
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.max_depth) and self.max_depth > 0):
+            raise MomaError(f"Preprocessing.max_depth must be a positive number of metres, "
+                            f"got {self.max_depth!r}")
+
+    def describe(self) -> str:
+        """One line naming every value (for messages)."""
+        c = self.cloud
+        return (f"voxel={c.voxel}, floor_voxel={c.floor_voxel}, floor_z={c.floor_z}, "
+                f"max_depth={self.max_depth}")
+
+
+def manifest_preprocessing(manifest: dict[str, Any]) -> Preprocessing | None:
+    """The preprocessing recorded in a dataset manifest's generation config (missing fields
+    default), or None if the dataset's producer records none (e.g. synthetic records).
+
+    Only the ``cloud`` and ``camera`` sections are read, so a manifest need not hold a
+    complete, current generation config.
+    """
+    if manifest.get("config_class") != GENERATION_CONFIG_CLASS:
+        return None
+    config = manifest.get("config")
+    if not isinstance(config, dict):
+        raise MomaError(f"manifest 'config' must be a mapping, got {config!r}")
+    cloud = codec.from_dict(CloudConfig, config.get("cloud", {}), where="config.cloud")
+    camera = config.get("camera", {})
+    if not isinstance(camera, dict):
+        raise MomaError(f"manifest config.camera must be a mapping, got {camera!r}")
+    max_depth = codec.from_dict(CameraConfig, camera, where="config.camera").max_depth
+    return Preprocessing(cloud, max_depth)

@@ -36,7 +36,6 @@ from typing import Any
 
 from tqdm import tqdm
 
-from momakitchen.version import __version__
 from momakitchen.data import manifest as mf
 from momakitchen.data.shard import (
     SCENES_DIR,
@@ -51,6 +50,7 @@ from momakitchen.data.shard import (
 )
 from momakitchen.errors import MomaError
 from momakitchen.registry import Registry
+from momakitchen.version import __version__
 
 BACKENDS = ("local", "ray")
 SceneFn = Callable[[int, Any], SceneRecords]

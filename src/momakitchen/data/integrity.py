@@ -10,13 +10,23 @@ from typing import Any
 import numpy as np
 
 from momakitchen.data import manifest as mf
+from momakitchen.data.config import manifest_preprocessing
 from momakitchen.data.episode import SEMANTIC_CLASSES
 from momakitchen.data.shard import EPISODE_ARRAYS, SceneShard, file_sha256, list_shards
 from momakitchen.errors import MomaError
 from momakitchen.robots.spec import DESCRIPTOR_DIM, DESCRIPTOR_VERSION
 from momakitchen.sim.config import STAGE_NAMES
 
-FLOOR_Z_MAX = 0.02  # floor points are those below 2 cm (DESIGN.md §3.4)
+# Floor points are those below 2 cm (docs/DESIGN.md §3.4) unless the manifest's generation
+# config says otherwise (cloud.floor_z).
+FLOOR_Z_MAX = 0.02
+
+
+def floor_z_max(manifest: dict[str, Any]) -> float:
+    """The floor-height threshold a dataset's clouds were built with: the manifest's
+    ``config.cloud.floor_z``, or :data:`FLOOR_Z_MAX` if the producer records none."""
+    preprocessing = manifest_preprocessing(manifest)
+    return preprocessing.cloud.floor_z if preprocessing is not None else FLOOR_Z_MAX
 
 
 def _shard_entries(root: Path, manifest: dict[str, Any]) -> list[tuple[int, dict, Path]]:
@@ -36,8 +46,10 @@ def _shard_entries(root: Path, manifest: dict[str, Any]) -> list[tuple[int, dict
     return entries
 
 
-def _check_episode(shard: SceneShard, c: int, e: int, where: str) -> int:
-    """Validate one episode's arrays; return its global + floor point count."""
+def _check_episode(shard: SceneShard, c: int, e: int, where: str,
+                   floor_z: float = FLOOR_Z_MAX) -> int:
+    """Validate one episode's arrays (floor points below ``floor_z``); return its global +
+    floor point count."""
     ep = shard.episode(c, e)
     if (ep.scene_id, ep.config_index, ep.episode_index) != (shard.scene_id, c, e):
         raise MomaError(f"{where}: identity attributes do not match its position")
@@ -54,15 +66,16 @@ def _check_episode(shard: SceneShard, c: int, e: int, where: str) -> int:
     if ep.descriptor.shape != (DESCRIPTOR_DIM,):
         raise MomaError(f"{where}: descriptor shape {ep.descriptor.shape}, expected "
                         f"({DESCRIPTOR_DIM},)")
-    if ep.floor_xyz.size and float(ep.floor_xyz[:, 2].max()) >= FLOOR_Z_MAX + 1e-6:
+    if ep.floor_xyz.size and float(ep.floor_xyz[:, 2].max()) >= floor_z + 1e-6:
         raise MomaError(f"{where}: floor point at z = {float(ep.floor_xyz[:, 2].max()):.4f} m "
-                        f">= {FLOOR_Z_MAX}")
+                        f">= {floor_z}")
     return ep.global_xyz.shape[0] + ep.floor_xyz.shape[0]
 
 
 def check_shard(root: Path, sid: int, entry: dict[str, Any], path: Path,
-                verify_hash: bool = True) -> int:
-    """Check one shard against its manifest entry; return its episode count."""
+                verify_hash: bool = True, floor_z: float = FLOOR_Z_MAX) -> int:
+    """Check one shard against its manifest entry (floor points below ``floor_z``); return
+    its episode count."""
     name = entry["file"]
     if path.stat().st_size != entry["bytes"]:
         raise MomaError(f"shard {name}: {path.stat().st_size} bytes, the manifest says "
@@ -108,7 +121,7 @@ def check_shard(root: Path, sid: int, entry: dict[str, Any], path: Path,
                     raise MomaError(f"shard {name} episode {c}/{e}: point counts differ "
                                     "from the manifest")
                 try:
-                    _check_episode(shard, c, e, f"shard {name} episode {c}/{e}")
+                    _check_episode(shard, c, e, f"shard {name} episode {c}/{e}", floor_z)
                 except (OSError, KeyError, ValueError) as exc:
                     if isinstance(exc, MomaError):
                         raise
@@ -125,9 +138,10 @@ def check_dataset(root: str | os.PathLike, *, verify_hash: bool = True,
     root = Path(root)
     manifest = mf.load_manifest(root)
     entries = _shard_entries(root, manifest)
+    floor_z = floor_z_max(manifest)
     episodes = 0
     for i, (sid, entry, path) in enumerate(entries):
-        episodes += check_shard(root, sid, entry, path, verify_hash)
+        episodes += check_shard(root, sid, entry, path, verify_hash, floor_z)
         if progress:
             progress(i + 1, len(entries))
     expected = manifest.get("counts", {}).get("total", {}).get("episodes")

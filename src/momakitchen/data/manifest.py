@@ -194,12 +194,11 @@ def generation_config(manifest: dict[str, Any]) -> Any:
     ``sample_scene(scene_id, generation_config(m).scene)``); MomaError if unknown."""
     import importlib
 
+    from momakitchen import codec
+
     name = manifest.get("config_class", "")
     if name not in _CONFIG_CLASSES:
         raise MomaError(f"cannot rebuild generation config of class {name!r}")
     module, cls_name = _CONFIG_CLASSES[name]
     cls = getattr(importlib.import_module(module), cls_name)
-    data = manifest["config"]
-    if hasattr(cls, "from_dict"):
-        return cls.from_dict(data)
-    return cls(**{k: tuple(v) if isinstance(v, list) else v for k, v in data.items()})
+    return codec.from_dict(cls, manifest["config"], where="config")

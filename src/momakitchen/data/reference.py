@@ -39,6 +39,7 @@ from momakitchen.data.episode import ConfigurationLabels, Episode
 from momakitchen.data.ply import read_ply, write_ply
 from momakitchen.data.shard import SCENES_DIR, SceneShard, list_shards, write_shard
 from momakitchen.errors import MomaError
+from momakitchen.frames import float3
 from momakitchen.robots.spec import get_robot_spec, robot_descriptor
 
 CLOUD_DIR = "point_cloud_transformed"
@@ -234,7 +235,7 @@ def _episode_from_folder(folder: Path, sid: int, c: int, e: int, robot: str,
         rgb=rgb, depth=depth.astype(np.float32), semantic=sem.astype(np.uint8),
         intrinsics=np.asarray(cam.get("intrinsics", np.zeros(4)), np.float64),
         camera_pose=np.asarray(cam.get("camera_pose", np.eye(4)), np.float64),
-        base_pose=tuple(float(v) for v in cam.get("base_pose", (0.0, 0.0, 0.0))),
+        base_pose=float3(cam.get("base_pose", (0.0, 0.0, 0.0))),
         camera_to_base=np.asarray(cam.get("camera_to_base", np.eye(4)), np.float64),
         global_xyz=gxyz, global_rgb=grgb, global_align=align, floor_xyz=fxyz,
         floor_label=label,
@@ -265,8 +266,9 @@ def import_reference(src: str | os.PathLike, out: str | os.PathLike) -> dict[str
         groups.setdefault(head, []).append((item, split))
     ids: dict[str, tuple[int, int]] = {}
     parsed = {h: _DETAIL.search(h) for h in groups}
-    if all(parsed.values()):
-        ids = {h: (int(m.group(1)), int(m.group(2))) for h, m in parsed.items()}
+    matched = {h: m for h, m in parsed.items() if m is not None}
+    if len(matched) == len(parsed):
+        ids = {h: (int(m.group(1)), int(m.group(2))) for h, m in matched.items()}
     else:
         ids = {h: (i, 0) for i, h in enumerate(sorted(groups))}
     scenes: dict[int, dict[int, str]] = {}
@@ -294,7 +296,7 @@ def import_reference(src: str | os.PathLike, out: str | os.PathLike) -> dict[str
             labels = ConfigurationLabels(
                 scene_id=sid, config_index=new_c, robot=robot,
                 target=str(info.get("target", "unknown")),
-                anchor=tuple(float(v) for v in info.get("anchor", (0.0, 0.0, 0.0))),
+                anchor=float3(info.get("anchor", (0.0, 0.0, 0.0))),
                 trial_positions=np.asarray(info.get("trial_positions", []),
                                            np.float64).reshape(-1, 2),
                 trial_yaws=np.asarray(info.get("trial_yaws", []), np.float64),

@@ -41,11 +41,12 @@ from typing import Any
 import h5py
 import numpy as np
 
-from momakitchen.version import __version__
 from momakitchen.data.episode import SEMANTIC_CLASSES, ConfigurationLabels, Episode
 from momakitchen.errors import MomaError
+from momakitchen.frames import float3
 from momakitchen.robots.spec import DESCRIPTOR_NAMES, DESCRIPTOR_VERSION
 from momakitchen.sim.config import STAGE_NAMES
+from momakitchen.version import __version__
 
 SCHEMA_VERSION = 1
 SCENES_DIR = "scenes"
@@ -331,7 +332,7 @@ class SceneShard:
         return ConfigurationLabels(
             scene_id=int(a["scene_id"]), config_index=int(a["config_index"]),
             robot=_text(a["robot"]), target=_text(a["target"]),
-            anchor=tuple(float(v) for v in a["anchor"]), **arrays,
+            anchor=float3(a["anchor"]), **arrays,
         )
 
     def episode_attrs(self, config_index: int, episode_index: int) -> dict[str, Any]:
@@ -362,7 +363,7 @@ class SceneShard:
         return Episode(
             scene_id=int(a["scene_id"]), config_index=int(a["config_index"]),
             episode_index=int(a["episode_index"]), robot=_text(a["robot"]),
-            base_pose=tuple(float(v) for v in a["base_pose"]), **arrays,
+            base_pose=float3(a["base_pose"]), **arrays,
         )
 
     def records(self) -> SceneRecords:

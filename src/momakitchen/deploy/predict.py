@@ -227,10 +227,12 @@ def predict(
         raise MomaError("the target mask is empty (no target pixel with a valid depth)")
     name, descriptor = robot_input(robot)
 
-    clouds = frame_inputs(d, valid, image, masks["target mask"],
-                          [m for k, m in masks.items() if k != "target mask"], intr, tf)
     run = checkpoint if isinstance(checkpoint, LoadedRun) else load_checkpoint(
         checkpoint if checkpoint is not None else default_checkpoint())
+    # The clouds are built as for the model's training data.
+    clouds = frame_inputs(d, valid, image, masks["target mask"],
+                          [m for k, m in masks.items() if k != "target mask"], intr, tf,
+                          run.preprocessing.cloud, run.preprocessing.max_depth)
     return predict_map(run, clouds, name, descriptor, top_k=top_k, min_spread=min_spread,
                        mc_samples=mc_samples, episode_id=episode_id, threads=threads)
 

@@ -12,7 +12,11 @@ from momakitchen.data.batch import EpisodeCollator, episode_maps
 from momakitchen.errors import MomaError
 from momakitchen.metrics import breakdown, map_metrics
 from momakitchen.models.inference import predict_batch
-from momakitchen.train.checkpoint import load_checkpoint
+from momakitchen.train.checkpoint import (
+    check_preprocessing,
+    dataset_preprocessing,
+    load_checkpoint,
+)
 
 
 def evaluate(
@@ -29,13 +33,17 @@ def evaluate(
 
     Returns ``{"model", "preset", "episodes", "metrics", "per_robot", "per_scene"}``
     where ``metrics`` maps ``METRIC_NAMES`` to floats and the breakdowns map a robot name
-    or scene id to metrics plus an ``episodes`` count.
+    or scene id to metrics plus an ``episodes`` count. A dataset whose manifest records
+    other cloud preprocessing than the run was trained with is refused (MomaError).
     """
     if len(dataset) == 0:
         raise MomaError("the evaluation dataset is empty")
     if batch_size < 1:
         raise MomaError(f"batch_size must be >= 1, got {batch_size}")
     run = load_checkpoint(run_dir)
+    root = getattr(dataset, "root", None)
+    check_preprocessing(run, dataset_preprocessing(dataset),
+                        f"dataset {str(root)!r}" if root is not None else "dataset")
     collate = EpisodeCollator(run.config.num_global, None, run.config.seed)
     loader = DataLoader(
         dataset, batch_size=batch_size, shuffle=False, collate_fn=collate, num_workers=num_workers

@@ -1,4 +1,4 @@
-"""Closed-loop manipulation success rate (MSR, DESIGN.md §3.7).
+"""Closed-loop manipulation success rate (MSR, docs/DESIGN.md §3.7).
 
 For each configuration of a split, the world is rebuilt from ``(scene_id, configuration
 index)`` and the dataset's generation config, one episode (view) of it is chosen, and each
@@ -194,8 +194,9 @@ def run_msr(
     """
     from tqdm.auto import tqdm
 
-    from momakitchen.data.config import GenerationConfig
+    from momakitchen.data.config import GenerationConfig, Preprocessing
     from momakitchen.scene.configuration import sample_scene
+    from momakitchen.train.checkpoint import check_preprocessing
 
     config = config or MsrConfig()
     unknown = [m for m in methods if m not in BASELINES]
@@ -212,10 +213,13 @@ def run_msr(
         gen = GenerationConfig.from_dict(manifest["config"])
     except (TypeError, KeyError, ValueError) as exc:
         raise MomaError(f"{root}: unreadable generation config in manifest.json ({exc})") from exc
+    # Models score the episodes' stored clouds: they must be built as for their training.
+    preprocessing = Preprocessing(gen.cloud, gen.camera.max_depth)
 
     models: dict[str, _Checkpoint] = {}
     for run_dir in checkpoints:
         model = _Checkpoint(run_dir)
+        check_preprocessing(model.run, preprocessing, f"dataset {str(root)!r}")
         name = model.name if model.name not in models else f"{model.name}:{Path(run_dir).name}"
         models[name] = model
     names = [*models, *methods]

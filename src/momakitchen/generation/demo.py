@@ -85,7 +85,8 @@ def run_demo(out_dir: str | Path, scene_id: int = DEFAULT_SCENE_ID, robot: str |
         depth = frame.depth.astype(np.float32)
         clouds = frame_inputs(depth, np.isfinite(depth) & (depth > 0), frame.rgb,
                               sem == SEMANTIC_CLASSES.index("target"),
-                              [sem == SEMANTIC_CLASSES.index("obstacle")], intr, camera_to_base)
+                              [sem == SEMANTIC_CLASSES.index("obstacle")], intr, camera_to_base,
+                              run.preprocessing.cloud, run.preprocessing.max_depth)
         pred = predict_map(run, clouds, cfg.robot,
                            np.asarray(robot_descriptor(get_robot_spec(cfg.robot)), np.float32))
         timed("predict")

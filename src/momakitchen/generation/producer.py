@@ -18,8 +18,8 @@ from momakitchen.data.config import GenerationConfig, ViewConfig
 from momakitchen.data.episode import SEMANTIC_CLASSES, ConfigurationLabels, Episode
 from momakitchen.data.generator import PRODUCERS, Producer
 from momakitchen.data.manifest import KITCHEN
-from momakitchen.frames import base_to_world, world_to_base
-from momakitchen.generation.render import render
+from momakitchen.frames import base_to_world, float3, world_to_base
+from momakitchen.generation.render import Render, render
 from momakitchen.perception.camera import look_at
 from momakitchen.perception.clouds import frame_clouds
 from momakitchen.robots import get_robot_spec, robot_descriptor
@@ -87,8 +87,9 @@ def _view_candidates(rng: np.random.Generator, anchor: np.ndarray, k: int, n: in
     return lateral, forward
 
 
-def sample_views(world: World, layout: Layout, cfg: Configuration, config: GenerationConfig
-                 ) -> list[tuple[tuple[float, float, float], np.ndarray, object]]:
+def sample_views(
+    world: World, layout: Layout, cfg: Configuration, config: GenerationConfig
+) -> list[tuple[tuple[float, float, float], np.ndarray, tuple[Render, np.ndarray]]]:
     """Viewpoints of ``cfg`` where the target is visible: (base pose, camera-to-world,
     render) for each kept view, in order of increasing distance.
 
@@ -146,7 +147,7 @@ def make_episode(cfg: Configuration, labels: Labels, index: int, base, camera_to
         scene_id=cfg.scene_id, config_index=cfg.index, episode_index=index, robot=cfg.robot,
         descriptor=np.asarray(robot_descriptor(spec), np.float32),
         rgb=frame.rgb, depth=frame.depth, semantic=sem, intrinsics=intr.as_array(),
-        camera_pose=camera_to_world, base_pose=tuple(float(v) for v in base),
+        camera_pose=camera_to_world, base_pose=float3(base),
         camera_to_base=camera_to_base,
         global_xyz=g_xyz.astype(np.float32),
         global_rgb=g_rgb,
@@ -158,7 +159,7 @@ def make_episode(cfg: Configuration, labels: Labels, index: int, base, camera_to
 def configuration_labels(labels: Labels) -> ConfigurationLabels:
     return ConfigurationLabels(
         scene_id=labels.scene_id, config_index=labels.config_index, robot=labels.robot,
-        target=labels.target, anchor=tuple(labels.anchor),
+        target=labels.target, anchor=float3(labels.anchor),
         trial_positions=labels.positions, trial_yaws=labels.yaws,
         trial_stages=labels.stages, trial_moved=labels.moved,
     )

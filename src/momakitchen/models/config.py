@@ -2,15 +2,16 @@
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, fields
+from dataclasses import dataclass
 from typing import Any
 
+from momakitchen import codec
 from momakitchen.errors import MomaError
 
 
 @dataclass(frozen=True)
 class ModelConfig:
-    """Sizes of a model (reference values: DESIGN.md §3.6).
+    """Sizes of a model (reference values: docs/DESIGN.md §3.6).
 
     Attributes:
         embed_dim: token width of the cross-attention (paper: 512).
@@ -87,20 +88,14 @@ class ModelConfig:
         return max(4, round(nsample * self.nsample_scale))
 
     def to_dict(self) -> dict[str, Any]:
-        d = asdict(self)
-        d["global_npoints"] = list(self.global_npoints)
-        return d
+        """JSON-ready fields (see :func:`momakitchen.codec.to_dict`)."""
+        return codec.to_dict(self)
 
     @classmethod
-    def from_dict(cls, data: dict[str, Any]) -> ModelConfig:
-        known = {f.name for f in fields(cls)}
-        unknown = set(data) - known
-        if unknown:
-            raise MomaError(f"unknown model config fields {sorted(unknown)}")
-        d = dict(data)
-        if "global_npoints" in d:
-            d["global_npoints"] = tuple(d["global_npoints"])
-        return cls(**d)
+    def from_dict(cls, data: dict[str, Any], *, where: str = "model_config") -> ModelConfig:
+        """Inverse of :meth:`to_dict`; missing keys take the defaults (see
+        :func:`momakitchen.codec.from_dict`)."""
+        return codec.from_dict(cls, data, where=where)
 
 
 # A model small enough to run every architecture in well under a second and to train in

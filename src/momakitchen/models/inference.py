@@ -150,28 +150,41 @@ def select_points(xy: np.ndarray, scores: np.ndarray, k: int, min_spread: float,
 
 def frame_inputs(depth: np.ndarray, valid: np.ndarray, rgb: np.ndarray,
                  target_mask: np.ndarray, obstacle_masks: Sequence[np.ndarray],
-                 intrinsics: Intrinsics, camera_to_base: np.ndarray) -> dict[str, np.ndarray]:
+                 intrinsics: Intrinsics, camera_to_base: np.ndarray,
+                 cloud: CloudConfig | None = None, max_depth: float | None = None
+                 ) -> dict[str, np.ndarray]:
     """The model's clouds of one RGB-D frame, with the visual-alignment channel from the
     masks (+1 target, -1 obstacle, 0 else); MomaError if no floor or no target is seen.
+
+    ``cloud`` and ``max_depth`` must be those the model was trained with (a loaded run's
+    ``preprocessing``); None: the defaults (:class:`CloudConfig`, :class:`CameraConfig`).
 
     Shapes: ``depth`` (H, W) metres and ``valid`` (H, W) bool; ``rgb`` (H, W, 3) uint8;
     masks (H, W) bool; ``camera_to_base`` (4, 4). Returns ``global_xyz`` (Ng, 3),
     ``global_rgb`` (Ng, 3), ``global_align`` (Ng,), ``floor_xyz`` (Nf, 3).
     """
+    cloud = cloud if cloud is not None else CloudConfig()
+    max_depth = max_depth if max_depth is not None else CameraConfig().max_depth
     align = np.zeros(depth.shape, np.int8)
     for m in obstacle_masks:
         align[m] = -1
     align[target_mask] = 1
     g_xyz, g_rgb, g_align, f_xyz = frame_clouds(np.where(valid, depth, 0.0), rgb, align,
-                                                intrinsics, camera_to_base, CloudConfig(),
-                                                CameraConfig().max_depth)
+                                                intrinsics, camera_to_base, cloud, max_depth)
     if len(f_xyz) == 0:
-        raise MomaError("no floor is visible (no point below 2 cm in the base frame); check "
-                        "the extrinsics")
+        raise MomaError(f"no floor is visible (no point below {_length(cloud.floor_z)} in the "
+                        "base frame); check the extrinsics")
     if not (g_align > 0).any():
-        raise MomaError("the target is beyond the depth range used (6 m)")
+        raise MomaError(f"the target is beyond the depth range used ({_length(max_depth)})")
     return {"global_xyz": g_xyz, "global_rgb": g_rgb, "global_align": g_align,
             "floor_xyz": f_xyz}
+
+
+def _length(metres: float) -> str:
+    """A threshold for messages: centimetres below 1 m (``2 cm``), else metres (``6 m``)."""
+    if metres < 1:
+        return f"{metres * 100:g} cm"
+    return f"{metres:g} m"
 
 
 def predict_map(run: Any, clouds: dict[str, np.ndarray], robot: str, descriptor: np.ndarray,

@@ -337,9 +337,10 @@ class SetAbstractionMSG(nn.Module):
         self.nsamples = tuple(nsamples)
         # Grouped MLPs run on (B, M, K, C): no per-entry norm there (it dominated the cost);
         # a LayerNorm after pooling keeps the scales in check.
-        self.mlps = nn.ModuleList(GroupedMLP(in_channels, w) for w in mlps)
-        self.norms = nn.ModuleList(nn.LayerNorm(m.out_channels) for m in self.mlps)
-        self.out_channels = sum(m.out_channels for m in self.mlps)
+        grouped = [GroupedMLP(in_channels, w) for w in mlps]
+        self.mlps = nn.ModuleList(grouped)
+        self.norms = nn.ModuleList(nn.LayerNorm(m.out_channels) for m in grouped)
+        self.out_channels = sum(m.out_channels for m in grouped)
 
     def forward(
         self, xyz: torch.Tensor, feats: torch.Tensor | None, mask: torch.Tensor

@@ -5,11 +5,11 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from momakitchen.errors import MomaError
 from momakitchen.models.base import AffordanceModel, Backbone
 from momakitchen.models.baselines import H3DNetBackbone, PointNet2Backbone, VoteNetBackbone
 from momakitchen.models.config import ModelConfig
 from momakitchen.models.navaff import NavAffBackbone
+from momakitchen.registry import Registry
 
 
 @dataclass(frozen=True)
@@ -30,26 +30,22 @@ class ModelEntry:
     description: str
 
 
-MODELS: dict[str, ModelEntry] = {}
+MODELS: Registry[ModelEntry] = Registry("model")
 
 
 def register_model(entry: ModelEntry, *, replace: bool = False) -> ModelEntry:
     """Add a model to the registry; refuses to silently replace an existing name."""
-    if entry.name in MODELS and not replace:
-        raise MomaError(f"model {entry.name!r} is already registered")
-    MODELS[entry.name] = entry
-    return entry
+    return MODELS.register(entry, replace=replace)
 
 
 def model_names() -> tuple[str, ...]:
-    return tuple(MODELS)
+    """Registered model names, in registration order."""
+    return MODELS.names()
 
 
 def get_model_entry(name: str) -> ModelEntry:
-    try:
-        return MODELS[name]
-    except KeyError:
-        raise MomaError(f"unknown model {name!r}; known models: {', '.join(MODELS)}") from None
+    """The entry of model ``name``; MomaError naming it and listing the known models."""
+    return MODELS.get_entry(name)
 
 
 def build_model(name: str, config: ModelConfig | None = None) -> AffordanceModel:

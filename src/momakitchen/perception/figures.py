@@ -95,6 +95,7 @@ def prediction_figure(pred: Any, rgb: np.ndarray | None, depth: np.ndarray | Non
     fig, axes = plt.subplots(1, n, figsize=(5.2 * n, 4.6), constrained_layout=True)
     i = 0
     if with_image:
+        assert rgb is not None and camera_to_base is not None  # implied by with_image
         image_overlay(axes[0], rgb, pred.floor_xyz, pred.affordance, intrinsics,
                       camera_to_base, "affordance over the image (1 = best pose)", pred.poses)
         i = 1

@@ -1,10 +1,13 @@
-"""Mobile manipulators: specifications (one registry), models, and the Robot API.
+"""Mobile manipulators: specifications with their models (one registry), and the Robot API.
 
-``ROBOTS`` (``spec.py``) is the single source of truth for names, reach, mount height,
-DoF and end-effector; ``arms.py`` holds how each robot is built (published joint tables
-or shipped URDFs); ``urdf.py`` writes one URDF per robot (mobile base + arm + tool);
-``robot.py`` drives it in PyBullet (placement, FK, IK, collisions, gripper, suction);
-``user.py`` registers user robots from URDF + YAML.
+``ROBOTS`` (``spec.py``) is the single source of truth: each ``RobotSpec`` holds the
+numbers (name, reach, mount height, DoF, end-effector) and the model (``spec.model``,
+built from ``arms.py``: published joint tables or shipped URDFs); ``register_robot`` is
+the one way in, for built-in and user robots alike. ``urdf.py`` writes one URDF per robot
+(mobile base + arm + tool); ``robot.py`` drives it in PyBullet (placement, joints, FK),
+with IK in ``ik.py``, reach in ``reach.py``, collisions in ``collisions.py`` and the
+gripper or suction cup in ``tools.py`` (``robot.tool``); ``user.py`` registers user robots
+from URDF + YAML.
 """
 
 from momakitchen.robots.spec import (

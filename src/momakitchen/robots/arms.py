@@ -1,6 +1,6 @@
 """Arm and end-effector definitions: the published kinematic figures as typed data.
 
-Every number in the joint tables below is the manufacturer's (``shared/robots/KINEMATICS.md``):
+Every number in the joint tables below is the manufacturer's (``docs/ROBOTS.md``):
 joint origins (parent frame -> child frame, URDF convention: ``rpy`` is fixed-axis roll,
 pitch, yaw), joint axes and position limits. The arms of ``panda`` and ``xarm6`` come from
 the URDFs shipped in ``pybullet_data`` (meshes included); the other four are built from
@@ -226,23 +226,31 @@ EndEffector = ParallelGripper | SuctionCup | UserTool
 class RobotModel:
     """How to build one robot's URDF: the arm and the end-effector on the mobile base.
 
+    A model is registered only as part of its robot's ``RobotSpec`` (``RobotSpec.model``),
+    so the numbers and the build cannot drift apart.
+
     Attributes:
-        name: registry key (same as the RobotSpec's).
         arm: a built arm (joint table) or a shipped one (URDF file).
         end_effector: the tool on the flange.
         home: a comfortable joint configuration (IK rest pose), len == DoF.
         source: where the figures come from (shown in docs).
     """
 
-    name: str
     arm: BuiltArm | ShippedArm
     end_effector: EndEffector
     home: tuple[float, ...] = ()
     source: str = ""
 
+    @property
+    def tool_kind(self) -> str:
+        """``"parallel_gripper"`` or ``"suction"``: what the end-effector is."""
+        if isinstance(self.end_effector, UserTool):
+            return self.end_effector.kind
+        return "suction" if isinstance(self.end_effector, SuctionCup) else "parallel_gripper"
+
 
 # --------------------------------------------------------------------------------------
-# Joint tables (KINEMATICS.md). Radii cover the real links (modelling choice).
+# Joint tables (docs/ROBOTS.md). Radii cover the real links (modelling choice).
 
 _Z = (0.0, 0.0, 1.0)
 _Y = (0.0, 1.0, 0.0)
@@ -252,17 +260,22 @@ _TWO_PI = 2 * PI
 
 UR5E_ARM = BuiltArm(
     joints=(
-        JointDef("shoulder_pan_joint", (0, 0, 0.1625), (0, 0, 0), _Z, -_TWO_PI, _TWO_PI,
-                 150, PI, 0.065),
-        JointDef("shoulder_lift_joint", (0, 0, 0), (PI / 2, 0, 0), _Z, -_TWO_PI, _TWO_PI,
-                 150, PI, 0.06),
+        JointDef(
+            "shoulder_pan_joint", (0, 0, 0.1625), (0, 0, 0), _Z, -_TWO_PI, _TWO_PI, 150, PI, 0.065
+        ),
+        JointDef(
+            "shoulder_lift_joint", (0, 0, 0), (PI / 2, 0, 0), _Z, -_TWO_PI, _TWO_PI, 150, PI, 0.06
+        ),
         JointDef("elbow_joint", (-0.425, 0, 0), (0, 0, 0), _Z, -PI, PI, 150, PI, 0.05),
-        JointDef("wrist_1_joint", (-0.3922, 0, 0.1333), (0, 0, 0), _Z, -_TWO_PI, _TWO_PI,
-                 28, PI, 0.045),
-        JointDef("wrist_2_joint", (0, -0.0997, 0), (PI / 2, 0, 0), _Z, -_TWO_PI, _TWO_PI,
-                 28, PI, 0.045),
-        JointDef("wrist_3_joint", (0, 0.0996, 0), (PI / 2, PI, PI), _Z, -_TWO_PI, _TWO_PI,
-                 28, PI, 0.04),
+        JointDef(
+            "wrist_1_joint", (-0.3922, 0, 0.1333), (0, 0, 0), _Z, -_TWO_PI, _TWO_PI, 28, PI, 0.045
+        ),
+        JointDef(
+            "wrist_2_joint", (0, -0.0997, 0), (PI / 2, 0, 0), _Z, -_TWO_PI, _TWO_PI, 28, PI, 0.045
+        ),
+        JointDef(
+            "wrist_3_joint", (0, 0.0996, 0), (PI / 2, PI, PI), _Z, -_TWO_PI, _TWO_PI, 28, PI, 0.04
+        ),
     ),
     base_radius=0.075,
     base_height=0.09,
@@ -271,19 +284,22 @@ UR5E_ARM = BuiltArm(
     mount_yaw=PI,
 )
 
-# Flexiv Rizon 4: BestMan's soft limits (the controller's), hard limits in KINEMATICS.md.
+# Flexiv Rizon 4: BestMan's soft limits (the controller's), hard limits in docs/ROBOTS.md.
 FLEXIV_ARM = BuiltArm(
     joints=(
         JointDef("joint1", (0, 0, 0.155), (0, 0, -PI), _Z, -2.7925, 2.7925, 123, 2.0944, 0.06),
         JointDef("joint2", (0, 0.03, 0.21), (0, 0, 0), _Y, -2.2689, 2.2689, 123, 2.0944, 0.06),
         JointDef("joint3", (0, 0.035, 0.205), (0, 0, 0), _Z, -2.9671, 2.9671, 64, 2.4435, 0.05),
-        JointDef("joint4", (-0.02, -0.03, 0.19), (0, 0, -PI), _Y, -1.8675, 2.6878, 64, 2.4435,
-                 0.05),
-        JointDef("joint5", (-0.02, 0.025, 0.195), (0, 0, -PI), _Z, -2.9671, 2.9671, 39, 4.8869,
-                 0.045),
+        JointDef(
+            "joint4", (-0.02, -0.03, 0.19), (0, 0, -PI), _Y, -1.8675, 2.6878, 64, 2.4435, 0.05
+        ),
+        JointDef(
+            "joint5", (-0.02, 0.025, 0.195), (0, 0, -PI), _Z, -2.9671, 2.9671, 39, 4.8869, 0.045
+        ),
         JointDef("joint6", (0, 0.03, 0.19), (0, 0, 0), _Y, -1.3963, 4.5379, 39, 4.8869, 0.045),
-        JointDef("joint7", (-0.015, 0.073, 0.11), (0, -PI / 2, 0), _Z, -2.9671, 2.9671, 39,
-                 4.8869, 0.04),
+        JointDef(
+            "joint7", (-0.015, 0.073, 0.11), (0, -PI / 2, 0), _Z, -2.9671, 2.9671, 39, 4.8869, 0.04
+        ),
     ),
     flange_xyz=(0, 0, 0.081),
     flange_rpy=(0, 0, -PI),
@@ -295,15 +311,25 @@ FLEXIV_ARM = BuiltArm(
 REALMAN_ARM = BuiltArm(
     joints=(
         JointDef("joint1", (0, 0, 0.172), (0, 0, 0), _Z, -3.107, 3.107, 60, 3.14, 0.06),
-        JointDef("joint2", (-0.086, 0, 0), (-1.5708, -1.5708, 0), _Z, -3.107, 3.107, 60, 3.14,
-                 0.06),
-        JointDef("joint3", (0.38, 0, -0.00010023), (0, 0, 1.5708), _Z, -3.107, 2.531, 30, 3.14,
-                 0.05),
-        JointDef("joint4", (0.069, -0.405, 0.000099684), (1.5708, 0, 0), _Z, -3.107, 3.107, 10,
-                 3.14, 0.045),
+        JointDef(
+            "joint2", (-0.086, 0, 0), (-1.5708, -1.5708, 0), _Z, -3.107, 3.107, 60, 3.14, 0.06
+        ),
+        JointDef(
+            "joint3", (0.38, 0, -0.00010023), (0, 0, 1.5708), _Z, -3.107, 2.531, 30, 3.14, 0.05
+        ),
+        JointDef(
+            "joint4",
+            (0.069, -0.405, 0.000099684),
+            (1.5708, 0, 0),
+            _Z,
+            -3.107,
+            3.107,
+            10,
+            3.14,
+            0.045,
+        ),
         JointDef("joint5", (0, 0, 0), (1.5708, 0, 3.1416), _Z, -3.107, 3.107, 10, 3.14, 0.045),
-        JointDef("joint6", (0, 0.1435, 0), (1.5708, 0, -3.1416), _Z, -6.283, 6.283, 10, 3.14,
-                 0.04),
+        JointDef("joint6", (0, 0.1435, 0), (1.5708, 0, -3.1416), _Z, -6.283, 6.283, 10, 3.14, 0.04),
     ),
     base_radius=0.07,
     base_height=0.1,
@@ -315,10 +341,10 @@ ELEPHANT_ARM = BuiltArm(
         JointDef("joint1", (0, 0, 0.22934), (0, 0, 0), _Z, -3.14, 3.14159, 60, 3.14, 0.055),
         JointDef("joint2", (0, 0, 0), (1.5707, -1.5708, 0), _NZ, -4.71, 1.5707, 60, 3.14, 0.055),
         JointDef("joint3", (0.27, 0, 0), (0, 0, 0), _NZ, -2.61, 2.618, 30, 3.14, 0.045),
-        JointDef("joint4", (0.267, 0, -0.0745), (0, 0, 1.5708), _NZ, -4.53, 1.3962, 10, 3.14,
-                 0.04),
-        JointDef("joint5", (0, -0.095, 0.002), (1.5707, -1.5707, 0), _Z, -2.93, 2.9321, 10,
-                 3.14, 0.04),
+        JointDef("joint4", (0.267, 0, -0.0745), (0, 0, 1.5708), _NZ, -4.53, 1.3962, 10, 3.14, 0.04),
+        JointDef(
+            "joint5", (0, -0.095, 0.002), (1.5707, -1.5707, 0), _Z, -2.93, 2.9321, 10, 3.14, 0.04
+        ),
         JointDef("joint6", (-0.054, 0, 0), (-1.5707, 0, 0), _NX, -3.03, 3.0368, 10, 3.14, 0.035),
     ),
     base_radius=0.065,
@@ -355,78 +381,3 @@ XARM6_ARM = ShippedArm(
     # cannot simulate as such: keep its palm mesh, replace the linkage by prismatic fingers.
     keep_links=("link_base", "link1", "link2", "link3", "link4", "link5", "link6"),
 )
-
-MODELS: dict[str, RobotModel] = {}
-
-
-def register_model(model: RobotModel, *, replace: bool = False) -> RobotModel:
-    """Add a model; its name must match a RobotSpec registered in ``momakitchen.robots``."""
-    if model.name in MODELS and not replace:
-        raise MomaError(f"robot model {model.name!r} is already registered")
-    MODELS[model.name] = model
-    return model
-
-
-def get_model(name: str) -> RobotModel:
-    """Look up a robot model by name (MomaError listing the known names if unknown)."""
-    try:
-        return MODELS[name]
-    except KeyError:
-        raise MomaError(f"unknown robot {name!r}; known robots: {', '.join(MODELS)}") from None
-
-
-for _model in (
-    RobotModel(
-        "panda",
-        PANDA_ARM,
-        # Franka Hand: fingers 0-0.04 m each, grasp centre 0.1034 m beyond the flange.
-        ParallelGripper(
-            tcp_offset=0.1034, max_opening=0.08, yaw=-PI / 4, finger_force=70.0,
-            existing_fingers=("panda_finger_joint1", "panda_finger_joint2"),
-        ),
-        home=(0.0, 0.2, 0.0, -2.5, 0.0, 2.7, PI / 4),
-        source="pybullet_data/franka_panda/panda.urdf (Franka Emika), published limits",
-    ),
-    RobotModel(
-        "flexiv",
-        FLEXIV_ARM,
-        # Robotiq 2F-85-like gripper (what BestMan mounted), 8 cm opening.
-        ParallelGripper(tcp_offset=0.15, palm_size=(0.07, 0.14, 0.10)),
-        home=(0.0, -0.7, 0.0, 1.6, 0.0, 0.8, 0.0),
-        source="Flexiv SDK kinematics URDF (Rizon 4)",
-    ),
-    RobotModel(
-        "ur5e",
-        UR5E_ARM,
-        SuctionCup(tcp_offset=0.134),
-        home=(0.0, -1.9, 1.9, -1.57, -1.57, 0.0),
-        source="Universal Robots nominal kinematics (DH table), ROS description chain",
-    ),
-    RobotModel(
-        "xarm6",
-        XARM6_ARM,
-        # xArm gripper palm (shipped mesh) with prismatic fingers, TCP 0.172 m.
-        ParallelGripper(
-            tcp_offset=0.172, palm_size=(0.06, 0.12, 0.11), finger_size=(0.022, 0.012, 0.05),
-            palm_mesh=PYBULLET_DATA / "xarm" / "xarm_gripper" / "meshes" / "base_link.STL",
-        ),
-        home=(0.0, 0.26, -0.85, 0.0, 0.59, 0.0),
-        source="pybullet_data/xarm/xarm6_with_gripper.urdf (UFACTORY)",
-    ),
-    RobotModel(
-        "realman",
-        REALMAN_ARM,
-        # DH Robotics AG-95-like gripper (what BestMan mounted), 8 cm opening.
-        ParallelGripper(tcp_offset=0.16, palm_size=(0.07, 0.13, 0.11)),
-        home=(0.0, 0.6, 1.5, 0.0, 1.0, 0.0),
-        source="Realman ROS 2 description (RML63-6F)",
-    ),
-    RobotModel(
-        "elephant",
-        ELEPHANT_ARM,
-        ParallelGripper(tcp_offset=0.13),
-        home=(0.0, -1.24, -0.77, -1.14, 1.72, -1.57),
-        source="Elephant Robotics ROS description (myCobot Pro 630)",
-    ),
-):
-    register_model(_model)

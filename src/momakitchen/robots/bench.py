@@ -21,7 +21,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from momakitchen.bullet import p
-from momakitchen.robots.robot import Robot, measure_workspace
+from momakitchen.robots.reach import measure_workspace
+from momakitchen.robots.robot import Robot
 from momakitchen.robots.spec import ROBOTS
 
 BUILTIN = ("panda", "flexiv", "ur5e", "xarm6", "realman", "elephant")

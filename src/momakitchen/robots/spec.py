@@ -1,15 +1,34 @@
-"""Robot specifications: the numbers that describe each mobile manipulator.
+"""Robot specifications: the numbers that describe each mobile manipulator, and its model.
 
 This registry is the single source of truth for robot names, reach and mount height; the
 scene sampler (obstacle semicircles), labelling (sampling radius) and the learning code
-(robot descriptor) all read it. Figures are the manufacturers' (``shared/robots/KINEMATICS.md``).
+(robot descriptor) all read it. Each entry also holds the robot's model (how its URDF is
+built, ``arms.py``): a robot is registered once, numbers and build together. Figures are
+the manufacturers' (``docs/ROBOTS.md``).
+
+Importing this module does not import PyBullet (only ``pybullet_data``, a path).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from momakitchen.errors import MomaError
+from momakitchen.registry import Registry
+from momakitchen.robots.arms import (
+    ELEPHANT_ARM,
+    FLEXIV_ARM,
+    PANDA_ARM,
+    PI,
+    PYBULLET_DATA,
+    REALMAN_ARM,
+    UR5E_ARM,
+    XARM6_ARM,
+    BuiltArm,
+    ParallelGripper,
+    RobotModel,
+    SuctionCup,
+)
 
 END_EFFECTORS = ("parallel_gripper", "suction")
 
@@ -27,6 +46,7 @@ class RobotSpec:
         footprint: base footprint (length along x, width along y) in metres.
         mount_offset_x: position of the arm mount along the base's x axis (forward) from
             the base centre, metres.
+        model: how the robot is built (arm, end-effector, home pose); keyword only.
     """
 
     name: str
@@ -36,6 +56,7 @@ class RobotSpec:
     end_effector: str
     footprint: tuple[float, float] = (0.55, 0.45)
     mount_offset_x: float = 0.0
+    model: RobotModel = field(kw_only=True, repr=False)
 
     def __post_init__(self) -> None:
         if not self.name or self.name != self.name.lower():
@@ -62,48 +83,162 @@ class RobotSpec:
                 f"robot {self.name!r}: mount_offset_x must lie on the base (|x| <= "
                 f"{self.footprint[0] / 2}), got {self.mount_offset_x}"
             )
+        self._check_model()
+
+    def _check_model(self) -> None:
+        """The model must build the robot the numbers describe."""
+        model = self.model
+        if not isinstance(model, RobotModel):
+            raise MomaError(
+                f"robot {self.name!r}: model must be a RobotModel, got {type(model).__name__}"
+            )
+        if model.tool_kind != self.end_effector:
+            raise MomaError(
+                f"robot {self.name!r}: end_effector {self.end_effector!r} but its "
+                f"model's tool is a {model.tool_kind!r}"
+            )
+        if isinstance(model.arm, BuiltArm) and len(model.arm.joints) != self.dof:
+            raise MomaError(
+                f"robot {self.name!r}: dof={self.dof} but its arm has "
+                f"{len(model.arm.joints)} joints"
+            )
+        if model.home and len(model.home) != self.dof:
+            raise MomaError(
+                f"robot {self.name!r}: home needs {self.dof} values, got {len(model.home)}"
+            )
 
 
-ROBOTS: dict[str, RobotSpec] = {}
+class RobotRegistry(Registry[RobotSpec]):
+    """The robots by name; user robots can also be taken out again."""
+
+    def unregister(self, name: str) -> None:
+        """Remove ``name`` if registered (user robots; the caller checks which)."""
+        self._entries.pop(name, None)
+
+
+ROBOTS: RobotRegistry = RobotRegistry("robot")
 
 
 def register_robot(spec: RobotSpec, *, replace: bool = False) -> RobotSpec:
-    """Add ``spec`` to the registry; refuses to silently replace an existing name."""
-    if spec.name in ROBOTS and not replace:
-        raise MomaError(f"robot {spec.name!r} is already registered")
-    ROBOTS[spec.name] = spec
-    return spec
+    """Add ``spec`` (with its model) to the registry; refuses to silently replace a name.
+
+    The one way a robot, built-in or user, becomes known.
+    """
+    return ROBOTS.register(spec, replace=replace)
 
 
 def get_robot_spec(name: str) -> RobotSpec:
     """Look up a robot by name; unknown names raise MomaError listing the known ones."""
-    try:
-        return ROBOTS[name]
-    except KeyError:
-        raise MomaError(f"unknown robot {name!r}; known robots: {', '.join(ROBOTS)}") from None
+    return ROBOTS.get_entry(name)
 
 
 # Arms stand on the front half of the base, as on most mobile manipulators: a base meets a
 # counter with its front edge, and a centred arm would lose 0.15 m of its reach to it.
 FRONT_MOUNT = 0.15
 
-# Manufacturer figures (KINEMATICS.md, "Mounting and descriptors"). Reach as in the
+# Manufacturer figures (docs/ROBOTS.md, "Mounting and descriptors"). Reach as in the
 # MoMa-Kitchen reference code where it gives one.
 for _spec in (
-    RobotSpec("panda", reach=0.85, mount_height=1.03, dof=7, end_effector="parallel_gripper",
-              mount_offset_x=FRONT_MOUNT),
-    RobotSpec("flexiv", reach=0.78, mount_height=1.03, dof=7, end_effector="parallel_gripper",
-              mount_offset_x=FRONT_MOUNT),
-    RobotSpec("ur5e", reach=0.85, mount_height=1.03, dof=6, end_effector="suction",
-              mount_offset_x=FRONT_MOUNT),
     RobotSpec(
-        "xarm6", reach=0.70, mount_height=0.33, dof=6, end_effector="parallel_gripper",
-        footprint=(0.60, 0.48), mount_offset_x=FRONT_MOUNT,
+        "panda",
+        reach=0.85,
+        mount_height=1.03,
+        dof=7,
+        end_effector="parallel_gripper",
+        mount_offset_x=FRONT_MOUNT,
+        model=RobotModel(
+            PANDA_ARM,
+            # Franka Hand: fingers 0-0.04 m each, grasp centre 0.1034 m beyond the flange.
+            ParallelGripper(
+                tcp_offset=0.1034,
+                max_opening=0.08,
+                yaw=-PI / 4,
+                finger_force=70.0,
+                existing_fingers=("panda_finger_joint1", "panda_finger_joint2"),
+            ),
+            home=(0.0, 0.2, 0.0, -2.5, 0.0, 2.7, PI / 4),
+            source="pybullet_data/franka_panda/panda.urdf (Franka Emika), published limits",
+        ),
     ),
-    RobotSpec("realman", reach=0.90, mount_height=1.03, dof=6, end_effector="parallel_gripper",
-              mount_offset_x=FRONT_MOUNT),
-    RobotSpec("elephant", reach=0.63, mount_height=1.03, dof=6, end_effector="parallel_gripper",
-              mount_offset_x=FRONT_MOUNT),
+    RobotSpec(
+        "flexiv",
+        reach=0.78,
+        mount_height=1.03,
+        dof=7,
+        end_effector="parallel_gripper",
+        mount_offset_x=FRONT_MOUNT,
+        model=RobotModel(
+            FLEXIV_ARM,
+            # Robotiq 2F-85-like gripper (what BestMan mounted), 8 cm opening.
+            ParallelGripper(tcp_offset=0.15, palm_size=(0.07, 0.14, 0.10)),
+            home=(0.0, -0.7, 0.0, 1.6, 0.0, 0.8, 0.0),
+            source="Flexiv SDK kinematics URDF (Rizon 4)",
+        ),
+    ),
+    RobotSpec(
+        "ur5e",
+        reach=0.85,
+        mount_height=1.03,
+        dof=6,
+        end_effector="suction",
+        mount_offset_x=FRONT_MOUNT,
+        model=RobotModel(
+            UR5E_ARM,
+            SuctionCup(tcp_offset=0.134),
+            home=(0.0, -1.9, 1.9, -1.57, -1.57, 0.0),
+            source="Universal Robots nominal kinematics (DH table), ROS description chain",
+        ),
+    ),
+    RobotSpec(
+        "xarm6",
+        reach=0.70,
+        mount_height=0.33,
+        dof=6,
+        end_effector="parallel_gripper",
+        footprint=(0.60, 0.48),
+        mount_offset_x=FRONT_MOUNT,
+        model=RobotModel(
+            XARM6_ARM,
+            # xArm gripper palm (shipped mesh) with prismatic fingers, TCP 0.172 m.
+            ParallelGripper(
+                tcp_offset=0.172,
+                palm_size=(0.06, 0.12, 0.11),
+                finger_size=(0.022, 0.012, 0.05),
+                palm_mesh=PYBULLET_DATA / "xarm" / "xarm_gripper" / "meshes" / "base_link.STL",
+            ),
+            home=(0.0, 0.26, -0.85, 0.0, 0.59, 0.0),
+            source="pybullet_data/xarm/xarm6_with_gripper.urdf (UFACTORY)",
+        ),
+    ),
+    RobotSpec(
+        "realman",
+        reach=0.90,
+        mount_height=1.03,
+        dof=6,
+        end_effector="parallel_gripper",
+        mount_offset_x=FRONT_MOUNT,
+        model=RobotModel(
+            REALMAN_ARM,
+            # DH Robotics AG-95-like gripper (what BestMan mounted), 8 cm opening.
+            ParallelGripper(tcp_offset=0.16, palm_size=(0.07, 0.13, 0.11)),
+            home=(0.0, 0.6, 1.5, 0.0, 1.0, 0.0),
+            source="Realman ROS 2 description (RML63-6F)",
+        ),
+    ),
+    RobotSpec(
+        "elephant",
+        reach=0.63,
+        mount_height=1.03,
+        dof=6,
+        end_effector="parallel_gripper",
+        mount_offset_x=FRONT_MOUNT,
+        model=RobotModel(
+            ELEPHANT_ARM,
+            ParallelGripper(tcp_offset=0.13),
+            home=(0.0, -1.24, -0.77, -1.14, 1.72, -1.57),
+            source="Elephant Robotics ROS description (myCobot Pro 630)",
+        ),
+    ),
 ):
     register_robot(_spec)
 
@@ -120,11 +255,13 @@ def robot_descriptor(spec: RobotSpec) -> tuple[float, ...]:
 
     The first two entries are the paper's descriptor ``[reach, mount height]``.
     """
-    return descriptor_values(spec.reach, spec.mount_height, spec.dof,
-                             spec.end_effector == "suction")
+    return descriptor_values(
+        spec.reach, spec.mount_height, spec.dof, spec.end_effector == "suction"
+    )
 
 
-def descriptor_values(reach: float, mount_height: float, dof: int, suction: bool
-                      ) -> tuple[float, ...]:
+def descriptor_values(
+    reach: float, mount_height: float, dof: int, suction: bool
+) -> tuple[float, ...]:
     """The descriptor of a robot given by its numbers (one not in the registry)."""
     return (float(reach), float(mount_height), dof / 7.0, 1.0 if suction else 0.0)

@@ -23,11 +23,9 @@ from momakitchen.errors import MomaError
 from momakitchen.robots.arms import (
     BuiltArm,
     ParallelGripper,
-    RobotModel,
     ShippedArm,
     SuctionCup,
     UserTool,
-    get_model,
 )
 from momakitchen.robots.spec import RobotSpec, get_robot_spec
 
@@ -359,8 +357,10 @@ def _suction(robot: ET.Element, s: SuctionCup, flange: str) -> None:
 # --------------------------------------------------------------------------------------
 
 
-def build_urdf(spec: RobotSpec, model: RobotModel) -> str:
-    """URDF text of the whole robot (base + arm + end-effector); deterministic."""
+def build_urdf(spec: RobotSpec) -> str:
+    """URDF text of the whole robot (base + arm + end-effector, ``spec.model``);
+    deterministic."""
+    model = spec.model
     robot = ET.Element("robot", name=f"momakitchen_{spec.name}")
     for name, rgba in _MATERIALS.items():
         mat = ET.SubElement(robot, "material", name=name)
@@ -386,7 +386,7 @@ def build_urdf(spec: RobotSpec, model: RobotModel) -> str:
 
 def robot_urdf(name: str) -> str:
     """URDF text of a registered robot."""
-    return build_urdf(get_robot_spec(name), get_model(name))
+    return build_urdf(get_robot_spec(name))
 
 
 def robot_urdf_path(name: str) -> Path:

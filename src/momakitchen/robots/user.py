@@ -29,7 +29,7 @@ from pathlib import Path
 import yaml
 
 from momakitchen.errors import MomaError
-from momakitchen.robots.arms import MODELS, RobotModel, ShippedArm, UserTool, register_model
+from momakitchen.robots.arms import RobotModel, ShippedArm, UserTool
 from momakitchen.robots.spec import ROBOTS, RobotSpec, register_robot
 from momakitchen.robots.urdf import BASE_LINK, TCP_LINK, parse_urdf
 
@@ -85,8 +85,10 @@ class UserRobotConfig:
     def __post_init__(self) -> None:
         where = self.source or "user robot"
         if self.end_effector not in ("parallel_gripper", "suction"):
-            raise MomaError(f"{where}: end_effector must be 'parallel_gripper' or 'suction', "
-                            f"got {self.end_effector!r}")
+            raise MomaError(
+                f"{where}: end_effector must be 'parallel_gripper' or 'suction', "
+                f"got {self.end_effector!r}"
+            )
         if not self.name or self.name != self.name.lower() or not self.name.isidentifier():
             raise MomaError(f"{where}: name must be a lower-case identifier, got {self.name!r}")
         if len(self.footprint) != 2:
@@ -96,8 +98,11 @@ class UserRobotConfig:
 def _typed(value, kind, key: str, where: str):
     """Check one YAML value against the expected type; ints are fine where floats are."""
     if kind is float:
-        if isinstance(value, bool) or not isinstance(value, int | float) or \
-                not math.isfinite(value):
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, int | float)
+            or not math.isfinite(value)
+        ):
             raise MomaError(f"{where}: field {key!r} must be a number, got {value!r}")
         return float(value)
     if not isinstance(value, kind):
@@ -122,8 +127,9 @@ def load_config(path: str | os.PathLike) -> UserRobotConfig:
         raise MomaError(f"{where}: expected a mapping of fields, got {type(data).__name__}")
     unknown = sorted(set(data) - set(_REQUIRED) - set(_OPTIONAL))
     if unknown:
-        raise MomaError(f"{where}: unknown field(s) {unknown}; known: "
-                        f"{sorted(_REQUIRED) + sorted(_OPTIONAL)}")
+        raise MomaError(
+            f"{where}: unknown field(s) {unknown}; known: {sorted(_REQUIRED) + sorted(_OPTIONAL)}"
+        )
     values = {}
     for key, kind in _REQUIRED.items():
         if key not in data or data[key] is None:
@@ -155,8 +161,10 @@ def _model(cfg: UserRobotConfig) -> tuple[RobotModel, int]:
         if reserved in links:
             raise MomaError(f"URDF file {where!r}: link name {reserved!r} is reserved")
     if cfg.end_effector_link not in links:
-        raise MomaError(f"URDF file {where!r}: no link {cfg.end_effector_link!r} "
-                        f"(end_effector_link in {cfg.source})")
+        raise MomaError(
+            f"URDF file {where!r}: no link {cfg.end_effector_link!r} "
+            f"(end_effector_link in {cfg.source})"
+        )
     joints = root.findall("joint")
     children = {j.find("child").get("link"): j for j in joints}
     roots = [name for name in links if name not in children]
@@ -171,23 +179,31 @@ def _model(cfg: UserRobotConfig) -> tuple[RobotModel, int]:
         if j.get("type") in ("revolute", "prismatic") and j.find("limit") is None:
             raise MomaError(f"URDF file {where!r}: joint {j.get('name')!r} has no <limit>")
     fingers = cfg.finger_joints
+    if cfg.end_effector == "suction" and fingers:
+        raise MomaError(
+            f"{cfg.source}: finger_joints {list(fingers)} given, but "
+            f"end_effector is 'suction' (finger joints belong to a gripper)"
+        )
     if cfg.end_effector == "parallel_gripper" and not fingers:
         on_path = {j.get("name") for j in path}
-        fingers = tuple(j.get("name") for j in joints
-                        if j.get("type") == "prismatic" and j.get("name") not in on_path)
+        fingers = tuple(
+            j.get("name")
+            for j in joints
+            if j.get("type") == "prismatic" and j.get("name") not in on_path
+        )
         if not fingers:
-            raise MomaError(f"{cfg.source}: a parallel_gripper needs finger_joints (no "
-                            f"prismatic joints outside the arm chain in {where!r})")
+            raise MomaError(
+                f"{cfg.source}: a parallel_gripper needs finger_joints (no "
+                f"prismatic joints outside the arm chain in {where!r})"
+            )
     names = {j.get("name") for j in joints}
     missing = [f for f in fingers if f not in names]
     if missing:
         raise MomaError(f"{cfg.source}: finger_joints {missing} not in {where!r}")
     dof = sum(1 for j in path if j.get("type") in movable and j.get("name") not in fingers)
     if cfg.home and len(cfg.home) != dof:
-        raise MomaError(f"{cfg.source}: home needs {dof} values (arm joints), got "
-                        f"{len(cfg.home)}")
+        raise MomaError(f"{cfg.source}: home needs {dof} values (arm joints), got {len(cfg.home)}")
     model = RobotModel(
-        cfg.name,
         ShippedArm(urdf=cfg.urdf, root_link=roots[0], flange_link=cfg.end_effector_link),
         UserTool(cfg.end_effector, cfg.end_effector_link, tuple(fingers)),
         home=cfg.home,
@@ -213,23 +229,27 @@ def register_user_robot(path: str | os.PathLike) -> RobotSpec:
 
     def make_spec(reach: float) -> RobotSpec:
         try:
-            return RobotSpec(cfg.name, reach=reach, mount_height=cfg.mount_height, dof=dof,
-                             end_effector=cfg.end_effector,
-                             footprint=(cfg.footprint[0], cfg.footprint[1]),
-                             mount_offset_x=cfg.mount_offset_x)
+            return RobotSpec(
+                cfg.name,
+                reach=reach,
+                mount_height=cfg.mount_height,
+                dof=dof,
+                end_effector=cfg.end_effector,
+                footprint=(cfg.footprint[0], cfg.footprint[1]),
+                mount_offset_x=cfg.mount_offset_x,
+                model=model,
+            )
         except MomaError as exc:
             raise MomaError(f"{cfg.source}: {exc}") from None
 
-    spec = make_spec(cfg.reach if cfg.reach is not None else 1.0)
-    register_model(model)
-    register_robot(spec)
+    # Registered with a provisional reach when it is to be measured: measuring loads the
+    # robot by name.
+    spec = register_robot(make_spec(cfg.reach if cfg.reach is not None else 1.0))
     try:
         if cfg.reach is None:
-            spec = make_spec(round(_measure_reach(cfg.name), 3))
-            register_robot(spec, replace=True)
+            spec = register_robot(make_spec(round(_measure_reach(cfg.name), 3)), replace=True)
     except BaseException:
-        ROBOTS.pop(cfg.name, None)
-        MODELS.pop(cfg.name, None)
+        ROBOTS.unregister(cfg.name)
         raise
     _LOADED[key] = cfg.name
     return spec
@@ -237,7 +257,8 @@ def register_user_robot(path: str | os.PathLike) -> RobotSpec:
 
 def _measure_reach(name: str) -> float:
     from momakitchen.bullet import p
-    from momakitchen.robots.robot import Robot, measure_workspace
+    from momakitchen.robots.reach import measure_workspace
+    from momakitchen.robots.robot import Robot
 
     client = p.connect(p.DIRECT)
     try:
@@ -255,14 +276,11 @@ def load_env_robots() -> list[RobotSpec]:
 
 def unregister_user_robot(name: str) -> None:
     """Remove a user robot from the registries (built-in robots cannot be removed)."""
-    from momakitchen.robots import robot as robot_module
+    from momakitchen.robots.robot import forget_caches
 
     if name not in _LOADED.values():
         raise MomaError(f"{name!r} is not a registered user robot")
     for key in [k for k, v in _LOADED.items() if v == name]:
         del _LOADED[key]
-    ROBOTS.pop(name, None)
-    MODELS.pop(name, None)
-    robot_module._WORKSPACE_CACHE.pop(name, None)
-    robot_module._SELF_PAIRS_CACHE.pop(name, None)
-    robot_module._SEED_LIBRARY.pop(name, None)
+    ROBOTS.unregister(name)
+    forget_caches(name)

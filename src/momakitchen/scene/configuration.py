@@ -16,6 +16,7 @@ import numpy as np
 
 from momakitchen.assets import categories_of_kind, get_category
 from momakitchen.errors import MomaError
+from momakitchen.frames import float3
 from momakitchen.robots import ROBOTS, get_robot_spec
 from momakitchen.scene.geometry import (
     box_corners,
@@ -142,7 +143,7 @@ def handle_anchor(unit: Placed, articulation: int) -> tuple[float, float, float]
     art = model.articulations[articulation]
     link_pose = link_rest_poses(model.urdf)[art.handle.link]
     local = link_pose[:3, :3] @ np.asarray(art.handle.position) + link_pose[:3, 3]
-    return tuple(_r(v) for v in unit.to_world(local))
+    return float3(_r(v) for v in unit.to_world(local))
 
 
 def articulated_targets(layout: Layout) -> list[tuple[str, int]]:
@@ -283,7 +284,7 @@ def sample_configuration(
         if objects and (not parts or rng.random() < cfg.rigid_target_prob):
             obj = objects[int(rng.integers(len(objects)))]
             grasp = obj.model.grasps[0]
-            anchor = tuple(_r(v) for v in obj.to_world(np.asarray(grasp.position)))
+            anchor = float3(_r(v) for v in obj.to_world(np.asarray(grasp.position)))
             target = Target(obj.uid, obj.category, None, anchor)
         else:
             uid, art = parts[int(rng.integers(len(parts)))]
@@ -296,6 +297,7 @@ def sample_configuration(
             best = (room_for_base, target)
         if room_for_base >= cfg.min_target_bases:
             break
+    assert best is not None  # the loop runs at least once
     target = best[1]
     obstacles = _place_obstacles(layout, rng, cfg, np.asarray(target.anchor), robot.reach,
                                  robot.footprint)
@@ -321,7 +323,10 @@ class Scene:
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> Scene:
         raw = data["scene_config"]
-        config = SceneConfig(**{k: tuple(v) if isinstance(v, list) else v for k, v in raw.items()})
+        values: dict[str, Any] = {
+            k: tuple(v) if isinstance(v, list) else v for k, v in raw.items()
+        }
+        config = SceneConfig(**values)
         return cls(
             Layout.from_dict(data["layout"]),
             tuple(Configuration.from_dict(c) for c in data["configurations"]),

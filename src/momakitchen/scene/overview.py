@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+from matplotlib.artist import Artist
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch, Polygon, Wedge
@@ -34,9 +35,10 @@ def draw_kitchen(ax, layout: Layout, cfg: Configuration, *, handles: bool = True
                  alpha: float = 0.95) -> None:
     """Room, furniture (with handles), objects on the counter and obstacles, top down."""
     room = layout.room
-    ax.add_patch(Polygon([[0, 0], [room.width, 0], [room.width, room.depth], [0, room.depth]],
-                         closed=True, facecolor="#f4efe6", edgecolor="k", linewidth=2,
-                         zorder=0))
+    outline: list[list[float]] = [[0, 0], [room.width, 0], [room.width, room.depth],
+                                  [0, room.depth]]
+    ax.add_patch(Polygon(outline, closed=True, facecolor="#f4efe6", edgecolor="k",
+                         linewidth=2, zorder=0))
     for unit in layout.furniture:
         fp = unit.footprint()
         _poly(ax, fp, PLAN_COLOURS.get(unit.category, "#cccccc"), alpha=alpha)
@@ -88,8 +90,10 @@ def draw_plan(ax, scene: Scene, cfg: Configuration) -> None:
 def plan_legend(ax, scene: Scene, cfg: Configuration) -> None:
     present = {u.category for u in scene.layout.furniture}
     present |= {o.category for o in (*cfg.objects, *cfg.obstacles)}
-    handles = [Patch(facecolor=PLAN_COLOURS.get(c, "#ccc"), edgecolor="k", label=c)
-               for c in sorted(present, key=lambda c: (get_category(c).kind, c))]
+    handles: list[Artist] = [
+        Patch(facecolor=PLAN_COLOURS.get(c, "#ccc"), edgecolor="k", label=c)
+        for c in sorted(present, key=lambda c: (get_category(c).kind, c))
+    ]
     handles += [
         Line2D([], [], marker="*", ls="", ms=12, color="red", markeredgecolor="k",
                    label=f"target: {cfg.target.category}"),

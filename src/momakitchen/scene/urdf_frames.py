@@ -26,6 +26,20 @@ def rpy_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
     ])
 
 
+def _required_child(elem: ET.Element, tag: str, what: str) -> ET.Element:
+    child = elem.find(tag)
+    if child is None:
+        raise MomaError(f"malformed URDF: {what} has no <{tag}> element")
+    return child
+
+
+def _required_attr(elem: ET.Element, attr: str, what: str) -> str:
+    value = elem.get(attr)
+    if value is None:
+        raise MomaError(f"malformed URDF: {what} has no {attr!r} attribute")
+    return value
+
+
 def _origin(elem: ET.Element | None) -> np.ndarray:
     tf = np.eye(4)
     if elem is None:
@@ -49,11 +63,13 @@ def link_rest_poses(urdf: str) -> dict[str, np.ndarray]:
         root = ET.fromstring(urdf)
     except ET.ParseError as exc:
         raise MomaError(f"URDF does not parse: {exc}") from None
-    links = [link.get("name") for link in root.findall("link")]
+    links = [_required_attr(link, "name", "<link>") for link in root.findall("link")]
     parent_of: dict[str, tuple[str, np.ndarray]] = {}
     for joint in root.findall("joint"):
-        child = joint.find("child").get("link")
-        parent = joint.find("parent").get("link")
+        what = f"<joint name={joint.get('name')!r}>"
+        child = _required_attr(_required_child(joint, "child", what), "link", f"{what} <child>")
+        parent = _required_attr(_required_child(joint, "parent", what), "link",
+                                f"{what} <parent>")
         parent_of[child] = (parent, _origin(joint.find("origin")))
     poses: dict[str, np.ndarray] = {}
 

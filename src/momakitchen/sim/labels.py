@@ -19,6 +19,7 @@ from scipy.spatial import cKDTree
 
 from momakitchen.bullet import p
 from momakitchen.errors import MomaError
+from momakitchen.frames import float3
 from momakitchen.robots import get_robot_spec
 from momakitchen.scene.configuration import Configuration
 from momakitchen.scene.geometry import semicircle_grid
@@ -160,7 +161,7 @@ def label_configuration(
     }
     return Labels(
         scene_id=cfg.scene_id, config_index=cfg.index, robot=cfg.robot,
-        target=target_name(world), anchor=tuple(cfg.target.anchor), grid_spacing=grid_spacing,
+        target=target_name(world), anchor=float3(cfg.target.anchor), grid_spacing=grid_spacing,
         positions=grid.astype(np.float64),
         yaws=np.arctan2(ay - grid[:, 1], ax - grid[:, 0]),
         stages=np.array([int(r.stage) for r in results], dtype=np.uint8),

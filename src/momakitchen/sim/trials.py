@@ -28,6 +28,7 @@ from momakitchen.assets import GraspFrame
 from momakitchen.bullet import p
 from momakitchen.errors import MomaError
 from momakitchen.robots.robot import Robot
+from momakitchen.robots.tools import ParallelGripperTool, SuctionTool
 from momakitchen.sim.config import Stage, TrialConfig
 from momakitchen.sim.world import TargetInfo, World
 
@@ -68,8 +69,14 @@ def tcp_quaternion(normal: np.ndarray, closing: np.ndarray) -> np.ndarray:
     # Rotation matrix to quaternion (x, y, z, w).
     w = math.sqrt(max(0.0, 1.0 + rot[0, 0] + rot[1, 1] + rot[2, 2])) / 2
     if w > 1e-3:
-        return np.array([(rot[2, 1] - rot[1, 2]) / (4 * w), (rot[0, 2] - rot[2, 0]) / (4 * w),
-                         (rot[1, 0] - rot[0, 1]) / (4 * w), w])
+        return np.array(
+            [
+                (rot[2, 1] - rot[1, 2]) / (4 * w),
+                (rot[0, 2] - rot[2, 0]) / (4 * w),
+                (rot[1, 0] - rot[0, 1]) / (4 * w),
+                w,
+            ]
+        )
     i = int(np.argmax(np.diag(rot)))
     j, k = (i + 1) % 3, (i + 2) % 3
     s = math.sqrt(max(0.0, 1.0 + rot[i, i] - rot[j, j] - rot[k, k])) * 2
@@ -114,9 +121,11 @@ class TrialRunner:
         self._allow: list[int | tuple[int, int]] = [self.target.body_id]
         if self.target.is_articulated:
             # The tool may touch the moving part and its handle, not the carcass.
-            self._allow = [(self.target.body_id, self.target.link_index),
-                           (self.target.body_id, self.target.joint_index)]
-        self._suction = self.robot.cup_link is not None
+            self._allow = [
+                (self.target.body_id, self.target.link_index),
+                (self.target.body_id, self.target.joint_index),
+            ]
+        self.tool = self.robot.tool
         # Free bodies away from the target, and the other furniture (their doors and
         # drawers), rest until something touches them (Bullet's deactivation): they cost
         # no solver time, and contact wakes them as usual.
@@ -127,17 +136,20 @@ class TrialRunner:
                 continue
             if info.kind in ("rigid", "obstacle"):
                 lo, hi = world.aabb(info.body_id)
-                if np.linalg.norm(np.maximum(np.maximum(lo - grasp_point, grasp_point - hi),
-                                             0)) <= 0.25:
+                if (
+                    np.linalg.norm(np.maximum(np.maximum(lo - grasp_point, grasp_point - hi), 0))
+                    <= 0.25
+                ):
                     continue
             self._resting.append(info.body_id)
         for body in self._resting:  # may sleep: else PyBullet wakes them at the next step
-            p.changeDynamics(body, -1, activationState=p.ACTIVATION_STATE_ENABLE_SLEEPING,
-                             physicsClientId=c)
-        self._solver_before = p.getPhysicsEngineParameters(physicsClientId=c)[
-            "numSolverIterations"]
-        p.setPhysicsEngineParameter(numSolverIterations=self.config.solver_iterations,
-                                    physicsClientId=c)
+            p.changeDynamics(
+                body, -1, activationState=p.ACTIVATION_STATE_ENABLE_SLEEPING, physicsClientId=c
+            )
+        self._solver_before = p.getPhysicsEngineParameters(physicsClientId=c)["numSolverIterations"]
+        p.setPhysicsEngineParameter(
+            numSolverIterations=self.config.solver_iterations, physicsClientId=c
+        )
         self._client = c
         self._state = world.save_state()
         self._restore()
@@ -147,15 +159,17 @@ class TrialRunner:
         state, so it is set again: a body woken in one trial must not stay awake."""
         self.world.restore_state(self._state)
         for body in self._resting:
-            p.changeDynamics(body, -1, activationState=p.ACTIVATION_STATE_SLEEP,
-                             physicsClientId=self._client)
+            p.changeDynamics(
+                body, -1, activationState=p.ACTIVATION_STATE_SLEEP, physicsClientId=self._client
+            )
         self._dirty = False  # True once physics has run since the last restore
 
     def close(self) -> None:
         """Remove the robot and the saved state from the world."""
         p.removeState(self._state, physicsClientId=self._client)
-        p.setPhysicsEngineParameter(numSolverIterations=self._solver_before,
-                                    physicsClientId=self._client)
+        p.setPhysicsEngineParameter(
+            numSolverIterations=self._solver_before, physicsClientId=self._client
+        )
         self.robot.remove()
 
     # ---------------------------------------------------------------- planning
@@ -178,8 +192,7 @@ class TrialRunner:
         grasps = [g for g in grasps if score(g) > -0.2]
         return grasps[: self.config.max_grasp_candidates]
 
-    def _plan(self, base_xy: np.ndarray, bodies: list[int]
-              ) -> tuple[Stage, _Plan | None, float]:
+    def _plan(self, base_xy: np.ndarray, bodies: list[int]) -> tuple[Stage, _Plan | None, float]:
         """IK for pre-grasp and grasp poses over the grasp candidates; (stage, plan, t_ik)."""
         robot, cfg = self.robot, self.config
         t_ik = 0.0
@@ -189,7 +202,7 @@ class TrialRunner:
         for g in self._grasp_candidates(base_xy):
             normal = rot_l @ np.asarray(g.normal)
             pos = rot_l @ np.asarray(g.position) + pos_l
-            if not self._suction:  # fingers close around the part, not on its surface
+            if isinstance(self.tool, ParallelGripperTool):  # fingers close around the part
                 pos = pos - min(g.width / 2, cfg.max_grasp_depth) * normal
             closing = rot_l @ np.asarray(g.closing_axis)
             if not robot.could_reach(pos):
@@ -198,8 +211,12 @@ class TrialRunner:
             for sign in (1.0, -1.0):  # a two-finger grasp is symmetric about the closing axis
                 quat = tcp_quaternion(normal, sign * closing)
                 t0 = time.perf_counter()
-                pre = robot.solve_ik(pos + cfg.pregrasp_offset * normal, quat, seed=robot.home,
-                                     restarts=cfg.ik_restarts)
+                pre = robot.solve_ik(
+                    pos + cfg.pregrasp_offset * normal,
+                    quat,
+                    seed=robot.home,
+                    restarts=cfg.ik_restarts,
+                )
                 grasp = robot.solve_ik(pos, quat, seed=pre.q, restarts=0) if pre.success else None
                 t_ik += time.perf_counter() - t0
                 if grasp is None or not grasp.success:
@@ -232,48 +249,46 @@ class TrialRunner:
         return float(pos[0][2])
 
     def _execute(self, plan: _Plan) -> tuple[bool, float]:
-        """Run the manipulation in physics; return (success, amount moved)."""
-        robot, world = self.robot, self.world
-        if not self._suction:
-            robot.set_gripper_opening(robot.max_opening)
+        """Run the manipulation in physics: take hold of the target with the tool, then
+        lift it or pull it open; return (success, amount moved)."""
+        robot, world, tool, body = self.robot, self.world, self.tool, self.target.body_id
+        if isinstance(tool, ParallelGripperTool):
+            tool.set_opening(tool.max_opening)
         robot.set_joint_positions(plan.q_pre)
         world.step(5)
-        if self._suction:
+        if isinstance(tool, SuctionTool):
             # Press 5 mm into the surface so that the cup face is in contact.
-            res = robot.solve_ik(plan.position - 0.005 * plan.normal, plan.quat,
-                                 seed=plan.q_grasp, restarts=0)
+            res = robot.solve_ik(
+                plan.position - 0.005 * plan.normal, plan.quat, seed=plan.q_grasp, restarts=0
+            )
             self._drive(plan.q_pre, res.q, 3, 15)
             world.step(5)
-            if robot.suction_on([self.target.body_id]) != self.target.body_id:
+            if tool.on([body]) != body:
                 return False, 0.0
             q_held = res.q
         else:
             self._drive(plan.q_pre, plan.q_grasp, 3, 15)
-            robot.close_gripper()
-            self._settle_fingers()
-            if not robot.is_grasping(self.target.body_id):
+            tool.close()
+            tool.settle()  # an object between the fingers stops them early
+            if not tool.holds(body):
                 return False, 0.0  # the fingers closed on nothing (or on something else)
             q_held = robot.joint_positions()
         if self.target.is_articulated:
             return self._pull(plan, q_held)
         return self._lift(plan, q_held)
 
-    def _settle_fingers(self, max_steps: int = 60) -> None:
-        """Step until the closing fingers have stopped (an object stops them early)."""
-        c, robot = self._client, self.robot
-        for _ in range(max_steps // 5):
-            self.world.step(5)
-            speeds = [abs(s[1]) for s in p.getJointStates(robot.body, robot.finger_joints,
-                                                           physicsClientId=c)]
-            if max(speeds) < 1e-3:
-                break
-
     def _lift(self, plan: _Plan, q_held: np.ndarray) -> tuple[bool, float]:
         robot, cfg, world = self.robot, self.config, self.world
         z0 = self._object_height()
         tcp_pos, tcp_quat = robot.tcp_pose()
-        up = robot.solve_ik(tcp_pos + np.array([0, 0, cfg.lift_height]), tcp_quat, seed=q_held,
-                            restarts=0, pos_tol=0.01, ori_tol=math.radians(5))
+        up = robot.solve_ik(
+            tcp_pos + np.array([0, 0, cfg.lift_height]),
+            tcp_quat,
+            seed=q_held,
+            restarts=0,
+            pos_tol=0.01,
+            ori_tol=math.radians(5),
+        )
         if not up.success:
             return False, 0.0
         robot.set_joint_positions(q_held)  # solve_ik leaves the arm at its solution
@@ -282,28 +297,29 @@ class TrialRunner:
             return False, self._object_height() - z0  # it did not come up: no need to hold
         world.step(round(cfg.hold_seconds * 240))
         rise = self._object_height() - z0
-        held = (robot.attached_body == self.target.body_id if self._suction
-                else robot.is_grasping(self.target.body_id))
-        return bool(rise >= cfg.min_lift and held), rise
+        return bool(rise >= cfg.min_lift and self.tool.holds(self.target.body_id)), rise
 
     def _handle_tcp_path(self, plan: _Plan, n: int) -> list[tuple[np.ndarray, np.ndarray]]:
         """TCP poses that follow the handle as the part opens (kinematic preview)."""
         t, c, cfg = self.target, self._client, self.config
-        amount = (math.radians(cfg.pull_angle_deg) if t.joint_type == "revolute"
-                  else cfg.pull_distance)
+        amount = (
+            math.radians(cfg.pull_angle_deg) if t.joint_type == "revolute" else cfg.pull_distance
+        )
         amount = min(amount, t.limit) if t.limit > 0 else amount
         q0, v0 = p.getJointState(t.body_id, t.joint_index, physicsClientId=c)[:2]
-        link_pos, link_quat = p.getLinkState(t.body_id, t.link_index,
-                                             computeForwardKinematics=True,
-                                             physicsClientId=c)[4:6]
+        link_pos, link_quat = p.getLinkState(
+            t.body_id, t.link_index, computeForwardKinematics=True, physicsClientId=c
+        )[4:6]
         inv = p.invertTransform(link_pos, link_quat)
         tcp_in_link = p.multiplyTransforms(*inv, plan.position.tolist(), plan.quat.tolist())
         path = []
         for k in range(1, n + 1):
-            p.resetJointState(t.body_id, t.joint_index, q0 + t.open_direction * amount * k / n,
-                              physicsClientId=c)
-            lp, lq = p.getLinkState(t.body_id, t.link_index, computeForwardKinematics=True,
-                                    physicsClientId=c)[4:6]
+            p.resetJointState(
+                t.body_id, t.joint_index, q0 + t.open_direction * amount * k / n, physicsClientId=c
+            )
+            lp, lq = p.getLinkState(
+                t.body_id, t.link_index, computeForwardKinematics=True, physicsClientId=c
+            )[4:6]
             pos, quat = p.multiplyTransforms(lp, lq, *tcp_in_link)
             path.append((np.array(pos), np.array(quat)))
         p.resetJointState(t.body_id, t.joint_index, q0, v0, physicsClientId=c)
@@ -320,8 +336,9 @@ class TrialRunner:
             res = None
             for frac in (1.0, 0.0, 0.5):
                 goal = p.getQuaternionSlerp(held_quat.tolist(), quat.tolist(), frac)
-                res = robot.solve_ik(pos, goal, seed=seed, restarts=0, pos_tol=0.01,
-                                     ori_tol=math.radians(6))
+                res = robot.solve_ik(
+                    pos, goal, seed=seed, restarts=0, pos_tol=0.01, ori_tol=math.radians(6)
+                )
                 if res.success:
                     break
             if not res.success:
@@ -337,9 +354,13 @@ class TrialRunner:
             prev = q
         world.step(20)
         opened = (world.joint_position(t) - q_start) * t.open_direction
-        need = (math.radians(cfg.open_angle_deg) if t.joint_type == "revolute"
-                else cfg.open_distance)
+        need = math.radians(cfg.open_angle_deg) if t.joint_type == "revolute" else cfg.open_distance
         return bool(opened >= need), float(opened)
+
+    def _release(self) -> None:
+        # Suction holds by a constraint: let go of the target before and after a trial.
+        if isinstance(self.tool, SuctionTool):
+            self.tool.off()
 
     # ---------------------------------------------------------------- trial
     def _place(self, x: float, y: float, yaw: float | None) -> bool:
@@ -365,8 +386,7 @@ class TrialRunner:
         """One trial with the base at ``(x, y)`` facing the target (or ``yaw``)."""
         t0 = time.perf_counter()
         robot = self.robot
-        if robot.cup_link is not None:
-            robot.suction_off()
+        self._release()
         if self._dirty:  # checks only teleport the robot; physics may have moved anything
             self._restore()
         if self._place(x, y, yaw):
@@ -379,7 +399,12 @@ class TrialRunner:
         self._dirty = True
         ok, moved = self._execute(plan)
         t2 = time.perf_counter()
-        if robot.cup_link is not None:
-            robot.suction_off()
-        return TrialResult(Stage.SUCCESS if ok else Stage.EXECUTION_FAILED, moved,
-                           plan.grasp.name, t1 - t0 - t_ik, t_ik, t2 - t1)
+        self._release()
+        return TrialResult(
+            Stage.SUCCESS if ok else Stage.EXECUTION_FAILED,
+            moved,
+            plan.grasp.name,
+            t1 - t0 - t_ik,
+            t_ik,
+            t2 - t1,
+        )

@@ -10,6 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from momakitchen.bullet import p
+from momakitchen.errors import MomaError
 from momakitchen.sim.world import World
 
 
@@ -69,7 +70,10 @@ def pull_test(world: World, uid: str, articulation: int, force: float = 40.0,
     that positive = opening). The world state is restored afterwards."""
     c = world.client
     info = world.bodies[uid]
-    art = info.model.articulations[articulation]
+    model = info.model
+    if model is None:
+        raise MomaError(f"{uid!r} is room structure, not an articulated asset")
+    art = model.articulations[articulation]
     joint, link = info.joints[art.joint], info.links[art.handle.link]
     state = world.save_state()
     q0 = p.getJointState(info.body_id, joint, physicsClientId=c)[0]

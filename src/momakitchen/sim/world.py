@@ -81,7 +81,7 @@ class World:
 
     def __init__(self, layout: Layout) -> None:
         self.layout = layout
-        self.client = connect_direct()
+        self._client: int | None = connect_direct()
         self.bodies: dict[str, BodyInfo] = {}
         self.configuration: Configuration | None = None
         self._config_uids: list[str] = []
@@ -191,6 +191,7 @@ class World:
         t = self.configuration.target
         info = self.bodies[t.uid]
         model = info.model
+        assert model is not None  # configuration targets are placed assets, not structure
         if t.articulation is None:
             grasp = model.grasps[0]
             return TargetInfo(info.body_id, info.links[grasp.link] if grasp.link in info.links
@@ -274,10 +275,17 @@ class World:
                     found.append((a.uid, b.uid, float(depth)))
         return found
 
+    @property
+    def client(self) -> int:
+        """The PyBullet client id (a closed world has none)."""
+        if self._client is None:
+            raise MomaError("the world is closed")
+        return self._client
+
     def close(self) -> None:
-        if self.client is not None and p.isConnected(self.client):
-            p.disconnect(self.client)
-        self.client = None
+        if self._client is not None and p.isConnected(self._client):
+            p.disconnect(self._client)
+        self._client = None
 
     def __enter__(self) -> World:
         return self

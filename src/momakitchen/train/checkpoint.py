@@ -3,7 +3,8 @@
 A run directory holds:
 
 - ``config.json``: format, model name, preset, the full :class:`TrainConfig`, the robot
-  descriptor version and names;
+  descriptor version and names, and the preprocessing (cloud voxels, floor threshold,
+  depth range) of the data it was trained on; a run without it used the defaults;
 - ``model.safetensors``: the model's ``state_dict`` after the last finished epoch;
 - ``trainer_state.safetensors`` + ``trainer_state.json``: optimiser moments, RNG state,
   epoch, step and history, for resuming;
@@ -13,14 +14,17 @@ A run directory holds:
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import torch
 from safetensors.torch import load as st_load
 from safetensors.torch import save as st_save
+from torch.utils.data import ConcatDataset, Subset
 
+from momakitchen import codec
+from momakitchen.data.config import Preprocessing, manifest_preprocessing
 from momakitchen.errors import MomaError
 from momakitchen.fileio import atomic_write_bytes, atomic_write_text
 from momakitchen.models.base import AffordanceModel
@@ -46,7 +50,10 @@ def default_checkpoint() -> Path:
     return DEFAULT_CHECKPOINT
 
 
-def write_run_config(run_dir: Path, config: TrainConfig) -> None:
+def write_run_config(run_dir: Path, config: TrainConfig,
+                     preprocessing: Preprocessing | None = None) -> None:
+    """Write ``config.json`` (``preprocessing``: that of the training data; None: the
+    defaults)."""
     info = {
         "format": FORMAT,
         "format_version": FORMAT_VERSION,
@@ -55,6 +62,7 @@ def write_run_config(run_dir: Path, config: TrainConfig) -> None:
         "descriptor_version": DESCRIPTOR_VERSION,
         "descriptor_names": list(DESCRIPTOR_NAMES),
         "train_config": config.to_dict(),
+        "preprocessing": codec.to_dict(preprocessing or Preprocessing()),
     }
     atomic_write_text(Path(run_dir) / CONFIG_FILE, json.dumps(info, indent=2) + "\n")
 
@@ -70,7 +78,7 @@ def read_run_config(run_dir: Path) -> tuple[TrainConfig, dict[str, Any]]:
         info = json.loads(path.read_text())
     except (OSError, json.JSONDecodeError) as exc:
         raise MomaError(f"cannot read {path}: {exc}") from None
-    if info.get("format") != FORMAT:
+    if not isinstance(info, dict) or info.get("format") != FORMAT:
         raise MomaError(f"{path} is not a momakitchen checkpoint config")
     if info.get("descriptor_version") != DESCRIPTOR_VERSION:
         raise MomaError(
@@ -78,7 +86,58 @@ def read_run_config(run_dir: Path) -> tuple[TrainConfig, dict[str, Any]]:
             f"{info.get('descriptor_version')}, this version of momakitchen uses "
             f"{DESCRIPTOR_VERSION}"
         )
-    return TrainConfig.from_dict(info["train_config"]), info
+    try:
+        return TrainConfig.from_dict(info["train_config"]), info
+    except (KeyError, MomaError) as exc:
+        raise MomaError(f"{path}: bad training config ({exc})") from None
+
+
+def run_preprocessing(info: dict[str, Any], run_dir: Path | str = "") -> Preprocessing:
+    """The preprocessing recorded in a run's ``config.json`` (as returned by
+    :func:`read_run_config`); the defaults if the run records none (older runs, such as
+    the bundled one, were all trained on default clouds)."""
+    data = info.get("preprocessing")
+    if data is None:
+        return Preprocessing()
+    try:
+        return codec.from_dict(Preprocessing, data, where="preprocessing")
+    except MomaError as exc:
+        raise MomaError(f"checkpoint {str(run_dir)!r}: {exc}") from None
+
+
+def dataset_preprocessing(dataset: Any) -> Preprocessing | None:
+    """The preprocessing recorded in the manifest of the dataset behind ``dataset`` (an
+    :class:`~momakitchen.data.EpisodeDataset`, or a ``Subset`` / ``ConcatDataset`` of such
+    with one preprocessing); None if no manifest records one (synthetic or in-memory data).
+    """
+    if isinstance(dataset, Subset):
+        return dataset_preprocessing(dataset.dataset)
+    if isinstance(dataset, ConcatDataset):
+        found = {dataset_preprocessing(d) for d in dataset.datasets} - {None}
+        if len(found) > 1:
+            raise MomaError("the datasets combined were built with different preprocessing: "
+                            + "; ".join(sorted(p.describe() for p in found if p)))
+        return found.pop() if found else None
+    manifest = getattr(dataset, "manifest", None)
+    if not isinstance(manifest, dict):
+        return None
+    root = getattr(dataset, "root", "dataset")
+    try:
+        return manifest_preprocessing(manifest)
+    except MomaError as exc:
+        raise MomaError(f"{root}: {exc}") from None
+
+
+def check_preprocessing(run: LoadedRun, data: Preprocessing | None,
+                        what: str = "dataset") -> None:
+    """MomaError unless data built with preprocessing ``data`` suits ``run`` (trained on
+    the same preprocessing); data that records none (None) passes."""
+    if data is not None and data != run.preprocessing:
+        raise MomaError(
+            f"the {what} was built with cloud preprocessing {data.describe()}, but checkpoint "
+            f"{str(run.run_dir)!r} was trained with {run.preprocessing.describe()}; "
+            "use data generated with the same cloud and camera settings"
+        )
 
 
 def save_weights(path: Path, model: torch.nn.Module) -> None:
@@ -145,11 +204,13 @@ def has_checkpoint(run_dir: Path) -> bool:
 
 @dataclass
 class LoadedRun:
-    """A model loaded from a run directory (in eval mode) with its training config."""
+    """A model loaded from a run directory (in eval mode) with its training config and the
+    preprocessing its inputs must have (clouds built as for its training data)."""
 
     model: AffordanceModel
     config: TrainConfig
     run_dir: Path
+    preprocessing: Preprocessing = field(default_factory=Preprocessing)
 
 
 def load_checkpoint(run_dir: str | Path, model: str | None = None) -> LoadedRun:
@@ -161,7 +222,8 @@ def load_checkpoint(run_dir: str | Path, model: str | None = None) -> LoadedRun:
             raises MomaError naming both.
     """
     run_dir = Path(run_dir)
-    config, _ = read_run_config(run_dir)
+    config, info = read_run_config(run_dir)
+    preprocessing = run_preprocessing(info, run_dir)
     if model is not None and model != config.model:
         raise MomaError(
             f"checkpoint {str(run_dir)!r} holds model {config.model!r}, not {model!r}"
@@ -169,4 +231,4 @@ def load_checkpoint(run_dir: str | Path, model: str | None = None) -> LoadedRun:
     net = build_model(config.model, config.model_config)
     load_weights(run_dir / WEIGHTS_FILE, net)
     net.eval()
-    return LoadedRun(net, config, run_dir)
+    return LoadedRun(net, config, run_dir, preprocessing)

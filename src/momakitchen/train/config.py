@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 from typing import Any
 
+from momakitchen import codec
 from momakitchen.errors import MomaError
 from momakitchen.models.config import ModelConfig
 from momakitchen.models.registry import get_model_entry
@@ -116,29 +117,20 @@ class TrainConfig:
         )
 
     def to_dict(self) -> dict[str, Any]:
-        d = {f.name: getattr(self, f.name) for f in fields(self)}
-        d["model_config"] = self.model_config.to_dict()
-        d["betas"] = list(self.betas)
-        return d
+        """JSON-ready fields, ``model_config`` nested (see :func:`momakitchen.codec.to_dict`)."""
+        return codec.to_dict(self)
 
     @classmethod
-    def from_dict(cls, data: dict[str, Any]) -> TrainConfig:
-        known = {f.name for f in fields(cls)}
-        unknown = set(data) - known
-        if unknown:
-            raise MomaError(f"unknown training config fields {sorted(unknown)}")
-        d = dict(data)
-        if "model_config" in d:
-            d["model_config"] = ModelConfig.from_dict(d["model_config"])
-        if "betas" in d:
-            d["betas"] = tuple(d["betas"])
-        return cls(**d)
+    def from_dict(cls, data: dict[str, Any], *, where: str = "train_config") -> TrainConfig:
+        """Inverse of :meth:`to_dict`; missing keys take the defaults (see
+        :func:`momakitchen.codec.from_dict`)."""
+        return codec.from_dict(cls, data, where=where)
 
 
 def preset_config(preset: str, model: str = "navaff", **overrides: Any) -> TrainConfig:
     """The training config of a preset for a model, with optional field overrides.
 
-    ``paper``: the reference hyper-parameters (DESIGN.md §3.6: batch 64, 6 epochs, embedding
+    ``paper``: the reference hyper-parameters (docs/DESIGN.md §3.6: batch 64, 6 epochs, embedding
     512, 64 tokens, 4 heads, dropout 0.1) with 8192 global and 2048 floor points.
     ``cpu``: the same recipe with point counts and widths that train on 2 CPU cores:
     2048 global / 1024 floor points, embedding 128, 32 tokens, quarter-width PointNet++

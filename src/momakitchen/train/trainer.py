@@ -25,6 +25,7 @@ from torch.utils.data import DataLoader, Dataset, DistributedSampler
 from tqdm.auto import tqdm
 
 from momakitchen.data.batch import EpisodeCollator, episode_maps
+from momakitchen.data.config import Preprocessing
 from momakitchen.errors import MomaError
 from momakitchen.fileio import atomic_write_bytes, atomic_write_text
 from momakitchen.metrics import map_metrics
@@ -32,10 +33,12 @@ from momakitchen.models.base import AffordanceModel
 from momakitchen.models.registry import build_model
 from momakitchen.train.checkpoint import (
     WEIGHTS_FILE,
+    dataset_preprocessing,
     has_checkpoint,
     load_trainer_state,
     load_weights,
     read_run_config,
+    run_preprocessing,
     save_trainer_state,
     save_weights,
     write_run_config,
@@ -95,7 +98,8 @@ def _barrier(world: int) -> None:
         dist.barrier()
 
 
-def _check_resume(config: TrainConfig, run_dir: Path, resume: bool) -> bool:
+def _check_resume(config: TrainConfig, run_dir: Path, resume: bool,
+                  preprocessing: Preprocessing) -> bool:
     """Whether to resume; raises MomaError on a mismatching or unexpected checkpoint."""
     if not has_checkpoint(run_dir):
         return False
@@ -104,7 +108,7 @@ def _check_resume(config: TrainConfig, run_dir: Path, resume: bool) -> bool:
             f"run directory {str(run_dir)!r} already holds a checkpoint; pass resume=True "
             "to continue it or choose another directory"
         )
-    saved, _ = read_run_config(run_dir)
+    saved, info = read_run_config(run_dir)
     if saved.model != config.model:
         raise MomaError(
             f"cannot resume: {str(run_dir)!r} holds model {saved.model!r}, "
@@ -114,6 +118,12 @@ def _check_resume(config: TrainConfig, run_dir: Path, resume: bool) -> bool:
         raise MomaError(
             f"cannot resume: model sizes in {str(run_dir)!r} differ from the config "
             f"({saved.model_config} vs {config.model_config})"
+        )
+    saved_pre = run_preprocessing(info, run_dir)
+    if saved_pre != preprocessing:
+        raise MomaError(
+            f"cannot resume: {str(run_dir)!r} was trained on clouds with "
+            f"{saved_pre.describe()}, the training data has {preprocessing.describe()}"
         )
     return True
 
@@ -233,11 +243,13 @@ def _train(
         torch.set_num_threads(config.num_threads)
     elif world > 1:
         torch.set_num_threads(max(1, (os.cpu_count() or 1) // world))
-    resuming = _check_resume(config, run_dir, resume)
+    # The model learns the clouds of its training data: record how they were built.
+    preprocessing = dataset_preprocessing(train_set) or Preprocessing()
+    resuming = _check_resume(config, run_dir, resume, preprocessing)
     if rank == 0:
         run_dir.mkdir(parents=True, exist_ok=True)
         if not resuming:
-            write_run_config(run_dir, config)
+            write_run_config(run_dir, config, preprocessing)
     _barrier(world)
 
     torch.manual_seed(config.seed)

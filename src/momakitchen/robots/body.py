@@ -1,0 +1,262 @@
+"""A robot's body in a PyBullet client: loading, joint indexing, base placement, FK.
+
+:class:`RobotBody` is what the concern modules (``ik.py``, ``reach.py``,
+``collisions.py``, ``tools.py``) work on; :class:`~momakitchen.robots.robot.Robot` adds
+them to it as one API. Conventions: positions in metres (world frame), quaternions
+``(x, y, z, w)``, joint vectors of shape ``(dof,)`` in the order of ``joint_names``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from momakitchen.bullet import p
+from momakitchen.errors import MomaError
+from momakitchen.robots.arms import EndEffector, ParallelGripper, RobotModel, ShippedArm, UserTool
+from momakitchen.robots.spec import RobotSpec, get_robot_spec
+from momakitchen.robots.urdf import BASE_LINK, FINGER_JOINTS, TCP_LINK, robot_urdf_path
+
+
+def _yaw_quaternion(yaw: float) -> tuple[float, float, float, float]:
+    return (0.0, 0.0, math.sin(yaw / 2), math.cos(yaw / 2))
+
+
+def _finger_joint_names(ee: EndEffector) -> tuple[str, ...]:
+    """The finger joints an end-effector drives (empty for a suction cup)."""
+    if isinstance(ee, ParallelGripper):
+        return ee.existing_fingers or FINGER_JOINTS
+    if isinstance(ee, UserTool):
+        return ee.finger_joints
+    return ()
+
+
+@dataclass(frozen=True)
+class ReachGeometry:
+    """Where a robot's workspace spheres sit, fixed on its base.
+
+    Attributes:
+        flange_in_tcp: the flange origin in the TCP frame, shape ``(3,)`` (a rigid offset:
+            both sit after the last arm joint).
+        centre: sphere centre in the base frame, shape ``(3,)``.
+        shoulder_offset: the shoulder's distance from joint 1's axis, metres.
+    """
+
+    flange_in_tcp: np.ndarray
+    centre: np.ndarray
+    shoulder_offset: float
+
+
+class RobotBody:
+    """One registered robot's URDF loaded into a PyBullet client, its joints indexed.
+
+    Args:
+        client_id: PyBullet physics client.
+        name: registered robot name (``momakitchen.robots.ROBOTS``).
+    """
+
+    def __init__(self, client_id: int, name: str) -> None:
+        self.spec: RobotSpec = get_robot_spec(name)
+        self.model: RobotModel = self.spec.model
+        self.client = int(client_id)
+        self.name = name
+        path = robot_urdf_path(name)
+        self.body = self._load(path)
+        self._index_joints()
+        # PyBullet caches the kinematic tree behind calculateJacobian, its IK and inverse
+        # dynamics by body and does not drop it when a body is removed, so a robot loaded
+        # where another body was may inherit a stale tree. Nothing here uses those
+        # functions (IK and Jacobians are computed from link states), and callers should
+        # not either.
+        self.reach_geometry = self._measure_reach_geometry()
+
+    # ---------------------------------------------------------------- structure
+    def _load(self, path) -> int:
+        try:
+            return p.loadURDF(str(path), useFixedBase=True, physicsClientId=self.client)
+        except p.error as exc:
+            raise MomaError(
+                f"robot {self.name!r}: PyBullet cannot load {str(path)!r}: {exc}"
+            ) from None
+
+    def _index_joints(self) -> None:
+        c = self.client
+        n = p.getNumJoints(self.body, physicsClientId=c)
+        infos = [p.getJointInfo(self.body, j, physicsClientId=c) for j in range(n)]
+        self.link_names: list[str] = [info[12].decode() for info in infos]
+        self.joint_name_list: list[str] = [info[1].decode() for info in infos]
+        self._parent = [int(info[16]) for info in infos]  # parent link index of link j
+        link_index = {name: j for j, name in enumerate(self.link_names)}
+        link_index[BASE_LINK] = -1
+        self._link_index = link_index
+        ee = self.model.end_effector
+        fingers = _finger_joint_names(ee)
+        jidx = {name: j for j, name in enumerate(self.joint_name_list)}
+        missing = [f for f in fingers if f not in jidx]
+        if missing:
+            raise MomaError(f"robot {self.name!r}: finger joints {missing} not in its URDF")
+        self.finger_joints: list[int] = [jidx[f] for f in fingers]
+        self._joint_infos = infos
+        self.tcp_link = link_index[TCP_LINK]
+        # Arm joints: the movable joints on the chain from the root to the TCP.
+        chain, j = [], self.tcp_link
+        while j >= 0:
+            if infos[j][2] != p.JOINT_FIXED:
+                chain.append(j)
+            j = self._parent[j]
+        self.arm_joints: list[int] = chain[::-1]
+        if len(self.arm_joints) != self.spec.dof:
+            raise MomaError(
+                f"robot {self.name!r}: URDF has {len(self.arm_joints)} arm joints, "
+                f"spec says dof={self.spec.dof}"
+            )
+        self.joint_names: list[str] = [self.joint_name_list[j] for j in self.arm_joints]
+        self.lower = np.array([infos[j][8] for j in self.arm_joints])
+        self.upper = np.array([infos[j][9] for j in self.arm_joints])
+        # PyBullet reports continuous joints as upper < lower: one turn covers them.
+        free = self.upper < self.lower
+        self.lower[free], self.upper[free] = -math.pi, math.pi
+        self.max_force = np.array([max(infos[j][10], 1.0) for j in self.arm_joints])
+        # Joint axes in the child link frame (PyBullet's convention) for the Jacobian.
+        self._axes_local = np.array([infos[j][13] for j in self.arm_joints], float)
+        self._prismatic = np.array([infos[j][2] == p.JOINT_PRISMATIC for j in self.arm_joints])
+        # PyBullet's Jacobian covers all movable joints, in joint-index order.
+        self._movable = [j for j in range(n) if infos[j][2] != p.JOINT_FIXED]
+        self._ik_cols = [self._movable.index(j) for j in self.arm_joints]
+        mid = (self.lower + self.upper) / 2
+        home = np.array(self.model.home, float) if self.model.home else mid
+        if home.shape != (self.spec.dof,):
+            raise MomaError(f"robot {self.name!r}: home needs {self.spec.dof} values")
+        self.home = np.clip(home, self.lower, self.upper)
+        # Flange: the model's flange link (shipped arm), "flange" (built arm), else the TCP.
+        if isinstance(self.model.arm, ShippedArm) and not isinstance(ee, UserTool):
+            self.flange_link = link_index[self.model.arm.flange_link]
+        else:
+            self.flange_link = link_index.get("flange", self.tcp_link)
+        # Shoulder: the frame of the second arm joint (where reach is measured from).
+        self.shoulder_link = self.arm_joints[1]
+        # End-effector links: everything below the last arm joint's link (tool contacts
+        # with an allowed target are intended, arm contacts are not).
+        last = self.arm_joints[-1]
+        self.ee_links = {j for j in range(n) if self._descends(j, last) and j != last}
+
+    def _descends(self, j: int, ancestor: int) -> bool:
+        while j >= 0:
+            if j == ancestor:
+                return True
+            j = self._parent[j]
+        return False
+
+    def link_index(self, name: str) -> int:
+        """PyBullet link index of a link name (``mobile_base`` is -1)."""
+        try:
+            return self._link_index[name]
+        except KeyError:
+            raise MomaError(f"robot {self.name!r} has no link {name!r}") from None
+
+    @property
+    def dof(self) -> int:
+        return self.spec.dof
+
+    # ---------------------------------------------------------------- base
+    def place_base(self, x: float, y: float, yaw: float) -> None:
+        """Teleport the base to floor position ``(x, y)`` facing ``yaw`` (radians)."""
+        p.resetBasePositionAndOrientation(
+            self.body,
+            (float(x), float(y), 0.0),
+            _yaw_quaternion(float(yaw)),
+            physicsClientId=self.client,
+        )
+
+    def base_pose(self) -> tuple[float, float, float]:
+        """Current ``(x, y, yaw)`` of the base."""
+        pos, orn = p.getBasePositionAndOrientation(self.body, physicsClientId=self.client)
+        yaw = p.getEulerFromQuaternion(orn)[2]
+        return (pos[0], pos[1], yaw)
+
+    # ---------------------------------------------------------------- joints and FK
+    def joint_positions(self) -> np.ndarray:
+        """Arm joint positions, shape ``(dof,)``."""
+        states = p.getJointStates(self.body, self.arm_joints, physicsClientId=self.client)
+        return np.array([s[0] for s in states])
+
+    def _reset_arm(self, q: Sequence[float]) -> None:
+        # One call for all joints: five times faster than resetJointState per joint.
+        p.resetJointStatesMultiDof(
+            self.body,
+            self.arm_joints,
+            np.asarray(q, float).reshape(-1, 1).tolist(),
+            physicsClientId=self.client,
+        )
+
+    def set_joint_positions(self, q: Sequence[float]) -> None:
+        """Teleport the arm to ``q`` (shape ``(dof,)``) and hold it there with the motors."""
+        q = np.asarray(q, float)
+        if q.shape != (self.dof,):
+            raise MomaError(f"robot {self.name!r}: expected {self.dof} joint values, got {q.shape}")
+        self._reset_arm(q)
+        p.setJointMotorControlArray(
+            self.body,
+            self.arm_joints,
+            p.POSITION_CONTROL,
+            targetPositions=q.tolist(),
+            forces=self.max_force.tolist(),
+            physicsClientId=self.client,
+        )
+
+    def within_limits(self, q: Sequence[float], tol: float = 1e-6) -> bool:
+        q = np.asarray(q, float)
+        return bool(np.all(q >= self.lower - tol) and np.all(q <= self.upper + tol))
+
+    def link_pose(self, link: int) -> tuple[np.ndarray, np.ndarray]:
+        """World pose ``(position (3,), quaternion (4,))`` of a link's URDF frame."""
+        if link == -1:
+            pos, orn = p.getBasePositionAndOrientation(self.body, physicsClientId=self.client)
+            return np.array(pos), np.array(orn)
+        st = p.getLinkState(
+            self.body, link, computeForwardKinematics=True, physicsClientId=self.client
+        )
+        return np.array(st[4]), np.array(st[5])
+
+    def tcp_pose(self, q: Sequence[float] | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Forward kinematics of the TCP: world ``(position (3,), quaternion (4,))``.
+
+        With ``q``, the pose at that configuration (the current one is restored).
+        """
+        return self._pose_at(self.tcp_link, q)
+
+    def flange_pose(self, q: Sequence[float] | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Forward kinematics of the tool flange (same conventions as :meth:`tcp_pose`)."""
+        return self._pose_at(self.flange_link, q)
+
+    def _pose_at(self, link: int, q) -> tuple[np.ndarray, np.ndarray]:
+        if q is None:
+            return self.link_pose(link)
+        saved = self.joint_positions()
+        self._reset_arm(q)
+        pose = self.link_pose(link)
+        self._reset_arm(saved)
+        return pose
+
+    def shoulder_position(self) -> np.ndarray:
+        """World position of the shoulder (second arm joint), shape ``(3,)``."""
+        return self.link_pose(self.shoulder_link)[0]
+
+    def _measure_reach_geometry(self) -> ReachGeometry:
+        """Where the reach spheres sit, from the current link frames."""
+        tcp_pos, tcp_orn = self.link_pose(self.tcp_link)
+        fl_pos, _ = self.link_pose(self.flange_link)
+        tcp_rot = np.array(p.getMatrixFromQuaternion(tcp_orn)).reshape(3, 3)
+        flange_in_tcp = tcp_rot.T @ (fl_pos - tcp_pos)
+        first = self.arm_joints[0]
+        axis_pos, axis_orn = self.link_pose(first)
+        axis = np.array(p.getMatrixFromQuaternion(axis_orn)).reshape(3, 3) @ self._axes_local[0]
+        shoulder = self.link_pose(self.shoulder_link)[0]
+        centre = axis_pos + float((shoulder - axis_pos) @ axis) * axis
+        shoulder_offset = float(np.linalg.norm(shoulder - centre))
+        bpos, born = p.getBasePositionAndOrientation(self.body, physicsClientId=self.client)
+        brot = np.array(p.getMatrixFromQuaternion(born)).reshape(3, 3)
+        return ReachGeometry(flange_in_tcp, brot.T @ (centre - np.asarray(bpos)), shoulder_offset)
