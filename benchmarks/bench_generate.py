@@ -27,9 +27,23 @@ PAPER_EPISODES = 127_343
 
 
 def one_run(args: argparse.Namespace, out: Path) -> dict:
-    cmd = [sys.executable, "-m", "momakitchen.cli.main", "generate", "--out", str(out),
-           "--scenes", str(args.scenes), "--first-scene-id", str(args.first_scene_id),
-           "--workers", str(args.workers), "--backend", args.backend, "--quiet"]
+    cmd = [
+        sys.executable,
+        "-m",
+        "momakitchen.cli.main",
+        "generate",
+        "--out",
+        str(out),
+        "--scenes",
+        str(args.scenes),
+        "--first-scene-id",
+        str(args.first_scene_id),
+        "--workers",
+        str(args.workers),
+        "--backend",
+        args.backend,
+        "--quiet",
+    ]
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
     subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
@@ -40,18 +54,22 @@ def one_run(args: argparse.Namespace, out: Path) -> dict:
     episodes = manifest["counts"]["total"]["episodes"]
     size = sum(f.stat().st_size for f in (out / "scenes").glob("*.h5"))
     seen = args.backend != "ray"  # Ray's workers are not children: their CPU time is unseen
-    return {"episodes": episodes, "wall_s": round(wall, 1),
-            "cpu_s": round(cpu, 1) if seen else None,
-            "episodes_per_cpu_s": round(episodes / cpu, 3) if seen else None,
-            "episodes_per_wall_s_per_core": round(episodes / wall / args.workers, 3),
-            "peak_rss_mib": round(after.ru_maxrss / 1024),
-            "bytes_per_episode": size // max(episodes, 1),
-            "load_before": round(os.getloadavg()[0], 2)}
+    return {
+        "episodes": episodes,
+        "wall_s": round(wall, 1),
+        "cpu_s": round(cpu, 1) if seen else None,
+        "episodes_per_cpu_s": round(episodes / cpu, 3) if seen else None,
+        "episodes_per_wall_s_per_core": round(episodes / wall / args.workers, 3),
+        "peak_rss_mib": round(after.ru_maxrss / 1024),
+        "bytes_per_episode": size // max(episodes, 1),
+        "load_before": round(os.getloadavg()[0], 2),
+    }
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     ap.add_argument("--scenes", type=int, default=4)
     ap.add_argument("--first-scene-id", type=int, default=0)
     ap.add_argument("--workers", type=int, default=1)
@@ -72,7 +90,7 @@ def main() -> None:
     rate = statistics.median(r[key] for r in runs)
     summary = {
         "command": f"generate --scenes {args.scenes} --first-scene-id {args.first_scene_id} "
-                   f"--workers {args.workers} --backend {args.backend}",
+        f"--workers {args.workers} --backend {args.backend}",
         "runs": runs,
         f"median_{key}": rate,
         "paper_hours_1_core": round(PAPER_EPISODES / rate / 3600, 1),

@@ -41,8 +41,19 @@ def main() -> None:
                     prof.disable()
                 cpu = time.process_time() - t0
                 s = labels.summary()
-                rows.append((sid, cfg.index, cfg.robot, labels.target, s["positions"],
-                             s["physics_trials"], s["successes"], cpu, labels.seconds))
+                rows.append(
+                    (
+                        sid,
+                        cfg.index,
+                        cfg.robot,
+                        labels.target,
+                        s["positions"],
+                        s["physics_trials"],
+                        s["successes"],
+                        cpu,
+                        labels.seconds,
+                    )
+                )
     wall = time.perf_counter() - wall0
     print("| scene | config | robot | target | trials | in physics | successes | CPU s |")
     print("| ---: | ---: | --- | --- | ---: | ---: | ---: | ---: |")
@@ -53,12 +64,20 @@ def main() -> None:
     physics = sum(r[5] for r in rows)
     split = {k: sum(r[8][k] for r in rows) for k in ("check", "ik", "physics", "total")}
     print(f"\nconfigurations: {len(rows)}, trials: {trials} ({physics} executed in physics)")
-    print(f"CPU seconds per configuration: median {statistics.median(cpus):.2f}, "
-          f"mean {statistics.mean(cpus):.2f}, max {max(cpus):.2f}")
-    print(f"trials per CPU second: {trials / sum(cpus):.1f}; physics trials per CPU second: "
-          f"{physics / sum(cpus):.1f}")
-    print("wall-time split: " + ", ".join(
-        f"{k} {100 * v / split['total']:.0f} %" for k, v in split.items() if k != "total"))
+    print(
+        f"CPU seconds per configuration: median {statistics.median(cpus):.2f}, "
+        f"mean {statistics.mean(cpus):.2f}, max {max(cpus):.2f}"
+    )
+    print(
+        f"trials per CPU second: {trials / sum(cpus):.1f}; physics trials per CPU second: "
+        f"{physics / sum(cpus):.1f}"
+    )
+    print(
+        "wall-time split: "
+        + ", ".join(
+            f"{k} {100 * v / split['total']:.0f} %" for k, v in split.items() if k != "total"
+        )
+    )
     print(f"wall time of the run: {wall:.1f} s")
     if prof:
         prof.dump_stats(args.profile)

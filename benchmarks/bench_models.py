@@ -56,8 +56,11 @@ def bench_one(preset: str, name: str, threads: int, repeats: int, train_steps: i
     batch_size = TRAIN_BATCH[preset]
     data = SyntheticEpisodes(
         SyntheticConfig(
-            num_episodes=batch_size, num_global=cfg.num_global, num_floor=cfg.num_floor,
-            min_fill=1.0, seed=11,
+            num_episodes=batch_size,
+            num_global=cfg.num_global,
+            num_floor=cfg.num_floor,
+            min_fill=1.0,
+            seed=11,
         )
     )
     samples = [data[i] for i in range(batch_size)]

@@ -50,13 +50,23 @@ def main() -> None:
     target, obstacle = SEMANTIC_CLASSES.index("target"), SEMANTIC_CLASSES.index("obstacle")
 
     def call(ep, mc):
-        return momakitchen.predict(ep.depth, ep.intrinsics, ep.camera_to_base,
-                                   ep.semantic == target, ep.robot, rgb=ep.rgb,
-                                   obstacle_masks=[ep.semantic == obstacle], checkpoint=run,
-                                   mc_samples=mc, threads=args.threads)
+        return momakitchen.predict(
+            ep.depth,
+            ep.intrinsics,
+            ep.camera_to_base,
+            ep.semantic == target,
+            ep.robot,
+            rgb=ep.rgb,
+            obstacle_masks=[ep.semantic == obstacle],
+            checkpoint=run,
+            mc_samples=mc,
+            threads=args.threads,
+        )
 
-    print(f"{len(episodes)} test episodes, model {run.config.model} ({run.config.preset}), "
-          f"{args.threads} torch threads, {os.cpu_count()} CPUs, load {os.getloadavg()[0]:.2f}")
+    print(
+        f"{len(episodes)} test episodes, model {run.config.model} ({run.config.preset}), "
+        f"{args.threads} torch threads, {os.cpu_count()} CPUs, load {os.getloadavg()[0]:.2f}"
+    )
     for mc in (0, 8):
         call(episodes[0], mc)
         call(episodes[0], mc)
@@ -65,8 +75,10 @@ def main() -> None:
             t = time.perf_counter()
             call(ep, mc)
             ms.append(1000 * (time.perf_counter() - t))
-        print(f"mc_samples={mc}: median {statistics.median(ms):.0f} ms, p90 "
-              f"{np.percentile(ms, 90):.0f} ms (load {os.getloadavg()[0]:.2f})")
+        print(
+            f"mc_samples={mc}: median {statistics.median(ms):.0f} ms, p90 "
+            f"{np.percentile(ms, 90):.0f} ms (load {os.getloadavg()[0]:.2f})"
+        )
 
 
 if __name__ == "__main__":

@@ -30,8 +30,12 @@ def main() -> None:
     test = EpisodeDataset(args.data, "test")
     gts = [np.asarray(test[i]["floor_label"], float) for i in range(len(test))]
     metrics = map_metrics([np.full_like(g, mean) for g in gts], gts)
-    report = {"method": "flat (train mean)", "value": mean, "episodes": len(gts),
-              "metrics": metrics}
+    report = {
+        "method": "flat (train mean)",
+        "value": mean,
+        "episodes": len(gts),
+        "metrics": metrics,
+    }
     print(json.dumps(report, indent=1))
     if args.json:
         with open(args.json, "w") as fh:

@@ -38,9 +38,16 @@ def validate(scene_id: int, cfg: SceneConfig) -> dict:
     world = World(scene.layout)
     world.load_configuration(scene.configurations[0])
     t_build = time.perf_counter() - t0
-    res: dict = {"scene_id": scene_id, "t_sample": t_sample, "t_build": t_build,
-                 "penetrations": [], "unstable": [], "stuck_joints": [], "openings": [],
-                 "instances": collections.defaultdict(list)}
+    res: dict = {
+        "scene_id": scene_id,
+        "t_sample": t_sample,
+        "t_build": t_build,
+        "penetrations": [],
+        "unstable": [],
+        "stuck_joints": [],
+        "openings": [],
+        "instances": collections.defaultdict(list),
+    }
     for unit in scene.layout.furniture:
         res["instances"][unit.category].append(repr(unit.params))
     try:
@@ -71,28 +78,36 @@ def main() -> int:
     ap.add_argument("--json", type=Path, default=None)
     args = ap.parse_args()
     cfg = SceneConfig()
-    results = [validate(s, cfg) for s in tqdm(range(args.first, args.first + args.scenes),
-                                               desc="scenes", unit="scene")]
+    results = [
+        validate(s, cfg)
+        for s in tqdm(range(args.first, args.first + args.scenes), desc="scenes", unit="scene")
+    ]
     instances: dict[str, set] = collections.defaultdict(set)
     for r in results:
         for cat, reprs in r["instances"].items():
             instances[cat].update(reprs)
-    failures = {key: [(r["scene_id"], *x) for r in results for x in r[key]]
-                for key in ("penetrations", "unstable", "stuck_joints")}
+    failures = {
+        key: [(r["scene_id"], *x) for r in results for x in r[key]]
+        for key in ("penetrations", "unstable", "stuck_joints")
+    }
     openings = collections.defaultdict(list)
     for r in results:
         for cat, part, jtype, opened in r["openings"]:
             openings[(cat, part, jtype)].append(opened)
-    print(f"\n## Scene validation: {args.scenes} scene ids from {args.first}, "
-          f"{cfg.configs_per_scene} configurations each\n")
+    print(
+        f"\n## Scene validation: {args.scenes} scene ids from {args.first}, "
+        f"{cfg.configs_per_scene} configurations each\n"
+    )
     for key, what in (("t_sample", "sample (pure data)"), ("t_build", "build in PyBullet")):
         med = statistics.median(r[key] for r in results)
         print(f"- {what} per scene: median {med * 1e3:.0f} ms")
     for key, rows in failures.items():
         print(f"- {key}: {len(rows)}" + (f" (first: {rows[:3]})" if rows else ""))
     missing = sorted(set(CATEGORIES) - set(instances))
-    print(f"- categories covered: {len(instances)}/{len(CATEGORIES)}"
-          + (f", missing {missing}" if missing else ""))
+    print(
+        f"- categories covered: {len(instances)}/{len(CATEGORIES)}"
+        + (f", missing {missing}" if missing else "")
+    )
     print("\n| category | distinct instances |\n| --- | ---: |")
     for cat in sorted(instances):
         print(f"| {cat} | {len(instances[cat])} |")
@@ -104,10 +119,14 @@ def main() -> int:
         print(f"| {cat}/{part} | {jtype} | {len(vals)} | {shown} |")
     if args.json:
         args.json.parent.mkdir(parents=True, exist_ok=True)
-        summary = {"scenes": args.scenes, "first": args.first,
-                   "scene_config": dataclasses.asdict(cfg), "failures": failures,
-                   "instances": {k: len(v) for k, v in instances.items()},
-                   "t_build": [r["t_build"] for r in results]}
+        summary = {
+            "scenes": args.scenes,
+            "first": args.first,
+            "scene_config": dataclasses.asdict(cfg),
+            "failures": failures,
+            "instances": {k: len(v) for k, v in instances.items()},
+            "t_build": [r["t_build"] for r in results],
+        }
         args.json.write_text(json.dumps(summary, indent=1, default=str))
     return 1 if any(failures.values()) or missing else 0
 

@@ -26,8 +26,16 @@ def tiny_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
     from momakitchen.train.config import TrainConfig
 
     data = SyntheticEpisodes(SyntheticConfig(num_episodes=4, num_global=256, num_floor=128))
-    cfg = TrainConfig(model="navaff", preset="custom", model_config=TINY_MODEL, num_global=256,
-                      num_floor=128, epochs=1, batch_size=2, progress=False)
+    cfg = TrainConfig(
+        model="navaff",
+        preset="custom",
+        model_config=TINY_MODEL,
+        num_global=256,
+        num_floor=128,
+        epochs=1,
+        batch_size=2,
+        progress=False,
+    )
     out = tmp_path_factory.mktemp("run") / "tiny"
     train(cfg, data, None, out)
     return out

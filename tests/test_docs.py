@@ -15,10 +15,31 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 DESIGN = ROOT / "docs" / "DESIGN.md"
-TEXT_SUFFIXES = {".py", ".md", ".toml", ".yaml", ".yml", ".txt", ".cfg", ".ini", ".json",
-                 ".rst", ".sh"}
-SKIP_DIRS = {".git", "__pycache__", ".pytest_cache", ".ruff_cache", ".mypy_cache", ".venv",
-             "venv", "build", "dist", "node_modules"}
+TEXT_SUFFIXES = {
+    ".py",
+    ".md",
+    ".toml",
+    ".yaml",
+    ".yml",
+    ".txt",
+    ".cfg",
+    ".ini",
+    ".json",
+    ".rst",
+    ".sh",
+}
+SKIP_DIRS = {
+    ".git",
+    "__pycache__",
+    ".pytest_cache",
+    ".ruff_cache",
+    ".mypy_cache",
+    ".venv",
+    "venv",
+    "build",
+    "dist",
+    "node_modules",
+}
 SELF = Path(__file__).resolve()
 
 # Built from pieces so that this file does not cite what it looks for.
@@ -32,15 +53,26 @@ HEADING = re.compile(r"^#+\s+(\d+(?:\.\d+)*)\.?\s", re.MULTILINE)
 def repo_files() -> list[Path]:
     """Text files of the repository: tracked and untracked-but-not-ignored (git), else all."""
     try:
-        out = subprocess.run(["git", "ls-files", "--cached", "--others", "--exclude-standard",
-                              "-z"], cwd=ROOT, capture_output=True, check=True, text=True)
+        out = subprocess.run(
+            ["git", "ls-files", "--cached", "--others", "--exclude-standard", "-z"],
+            cwd=ROOT,
+            capture_output=True,
+            check=True,
+            text=True,
+        )
         paths = [ROOT / p for p in out.stdout.split("\0") if p]
     except (OSError, subprocess.CalledProcessError):
-        paths = [p for p in ROOT.rglob("*")
-                 if not SKIP_DIRS.intersection(p.relative_to(ROOT).parts)]
-    return sorted(p for p in paths
-                  if p.is_file() and p.suffix in TEXT_SUFFIXES and p.resolve() != SELF
-                  and not any(part.endswith(".egg-info") for part in p.parts))
+        paths = [
+            p for p in ROOT.rglob("*") if not SKIP_DIRS.intersection(p.relative_to(ROOT).parts)
+        ]
+    return sorted(
+        p
+        for p in paths
+        if p.is_file()
+        and p.suffix in TEXT_SUFFIXES
+        and p.resolve() != SELF
+        and not any(part.endswith(".egg-info") for part in p.parts)
+    )
 
 
 FILES = repo_files()
@@ -67,28 +99,41 @@ def test_design_document_exists_with_its_sections():
 
 
 def test_nothing_cites_a_path_outside_the_repository():
-    bad = [f"{where(p, t, m.start())}: {m.group(0)!r}"
-           for p in FILES for t in [read(p)] for m in OUTSIDE.finditer(t)]
+    bad = [
+        f"{where(p, t, m.start())}: {m.group(0)!r}"
+        for p in FILES
+        for t in [read(p)]
+        for m in OUTSIDE.finditer(t)
+    ]
     assert not bad, bad
 
 
 def test_cited_design_sections_exist():
     sections = design_sections()
-    bad = [f"{where(p, t, m.start())}: §{m.group(1)}"
-           for p in FILES for t in [read(p)] for m in SECTION_CITE.finditer(t)
-           if m.group(1) not in sections]
+    bad = [
+        f"{where(p, t, m.start())}: §{m.group(1)}"
+        for p in FILES
+        for t in [read(p)]
+        for m in SECTION_CITE.finditer(t)
+        if m.group(1) not in sections
+    ]
     assert not bad, f"sections of docs/DESIGN.md: {sorted(sections)}; cited: {bad}"
 
 
 def test_cited_docs_files_exist():
-    bad = [f"{where(p, t, m.start())}: {m.group(0)}"
-           for p in FILES for t in [read(p)] for m in DOCS_CITE.finditer(t)
-           if not (ROOT / m.group(0)).is_file()]
+    bad = [
+        f"{where(p, t, m.start())}: {m.group(0)}"
+        for p in FILES
+        for t in [read(p)]
+        for m in DOCS_CITE.finditer(t)
+        if not (ROOT / m.group(0)).is_file()
+    ]
     assert not bad, bad
 
 
-@pytest.mark.parametrize("path", [p for p in FILES if p.suffix == ".md"],
-                         ids=lambda p: str(p.relative_to(ROOT)))
+@pytest.mark.parametrize(
+    "path", [p for p in FILES if p.suffix == ".md"], ids=lambda p: str(p.relative_to(ROOT))
+)
 def test_markdown_links_resolve_inside_the_repository(path: Path):
     text = read(path)
     bad = []

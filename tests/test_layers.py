@@ -11,8 +11,20 @@ import pytest
 
 SRC = Path(__file__).resolve().parents[1] / "src" / "momakitchen"
 # Pipeline order: a package may import only from packages before it (and from itself).
-LAYERS = ("assets", "robots", "scene", "sim", "perception", "data", "models", "train", "eval",
-          "generation", "deploy", "cli")
+LAYERS = (
+    "assets",
+    "robots",
+    "scene",
+    "sim",
+    "perception",
+    "data",
+    "models",
+    "train",
+    "eval",
+    "generation",
+    "deploy",
+    "cli",
+)
 # Modules directly under momakitchen/ that import nothing of the package but each other.
 LEAVES = ("errors", "fileio", "bullet", "frames", "metrics", "registry", "codec", "version")
 
@@ -33,7 +45,7 @@ def imports(path: Path) -> set[str]:
         elif isinstance(node, ast.ImportFrom):
             base = node.module or ""
             if node.level:
-                base = ".".join([*pkg.split(".")[:len(pkg.split(".")) - node.level + 1], base])
+                base = ".".join([*pkg.split(".")[: len(pkg.split(".")) - node.level + 1], base])
             for alias in node.names:  # `from momakitchen.x import y`: y may be a module
                 candidate = f"{base}.{alias.name}"
                 found.add(candidate if candidate in MODULES else base)
@@ -79,8 +91,9 @@ def test_no_import_cycle():
             if nxt not in GRAPH:
                 continue
             if state.get(nxt) == 1:
-                cycle.extend([*stack[stack.index(nxt):], node, nxt] if nxt in stack
-                             else [node, nxt])
+                cycle.extend(
+                    [*stack[stack.index(nxt) :], node, nxt] if nxt in stack else [node, nxt]
+                )
                 return True
             if nxt not in state and visit(nxt, [*stack, node]):
                 return True
@@ -90,23 +103,33 @@ def test_no_import_cycle():
     assert not any(visit(m, []) for m in sorted(GRAPH) if m not in state), cycle
 
 
-@pytest.mark.parametrize("module", ["momakitchen", "momakitchen.data.torch_dataset",
-                                    "momakitchen.models", "momakitchen.train",
-                                    "momakitchen.deploy", "momakitchen.predict"])
+@pytest.mark.parametrize(
+    "module",
+    [
+        "momakitchen",
+        "momakitchen.data.torch_dataset",
+        "momakitchen.models",
+        "momakitchen.train",
+        "momakitchen.deploy",
+        "momakitchen.predict",
+    ],
+)
 def test_no_simulator_where_none_is_needed(module):
     if module == "momakitchen.predict":
         code = "import momakitchen, sys; momakitchen.predict; "
     else:
         code = f"import {module}, sys; "
     code += "print('pybullet' in sys.modules)"
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                         check=True).stdout
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True
+    ).stdout
     assert out.strip() == "False"
 
 
 def test_the_simulator_package_loads_pybullet():
     # The check above can fail: the simulator's modules do import it.
     code = "import momakitchen.sim.world, sys; print('pybullet' in sys.modules)"
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                         check=True).stdout
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True
+    ).stdout
     assert out.strip() == "True"

@@ -56,14 +56,17 @@ def from_dict(cls: type[T], data: Any, *, where: str = "config") -> T:
     for key in data:
         if key not in fields:
             raise MomaError(f"unknown key '{where}.{key}'; known keys: {', '.join(fields)}")
-    missing = [name for name, f in fields.items() if name not in data
-               and f.default is dataclasses.MISSING
-               and f.default_factory is dataclasses.MISSING]
+    missing = [
+        name
+        for name, f in fields.items()
+        if name not in data
+        and f.default is dataclasses.MISSING
+        and f.default_factory is dataclasses.MISSING
+    ]
     if missing:
         raise MomaError(f"missing key '{where}.{missing[0]}'")
     hints = typing.get_type_hints(cls)
-    values = {name: _convert(hints[name], value, f"{where}.{name}")
-              for name, value in data.items()}
+    values = {name: _convert(hints[name], value, f"{where}.{name}") for name, value in data.items()}
     try:
         return cls(**values)
     except MomaError as exc:  # the class's own validation: say where the values came from
@@ -91,8 +94,7 @@ def _convert(tp: Any, value: Any, where: str) -> Any:
                 return _convert(option, value, where)
             except MomaError:
                 continue
-        raise MomaError(f"{where} must be {' or '.join(map(_type_name, options))}, "
-                        f"got {value!r}")
+        raise MomaError(f"{where} must be {' or '.join(map(_type_name, options))}, got {value!r}")
     if dataclasses.is_dataclass(tp) and isinstance(tp, type):
         return from_dict(tp, value, where=where)
     if origin is tuple:
@@ -104,13 +106,14 @@ def _convert(tp: Any, value: Any, where: str) -> Any:
             raise MomaError(f"{where} must be a list of {len(args)} values, got {value!r}")
         if not args:
             return tuple(value)
-        return tuple(_convert(a, v, f"{where}[{i}]")
-                     for i, (a, v) in enumerate(zip(args, value, strict=True)))
+        return tuple(
+            _convert(a, v, f"{where}[{i}]")
+            for i, (a, v) in enumerate(zip(args, value, strict=True))
+        )
     if origin is list:
         if not isinstance(value, (list, tuple)):
             raise MomaError(f"{where} must be a list, got {value!r}")
-        return [_convert(args[0] if args else Any, v, f"{where}[{i}]")
-                for i, v in enumerate(value)]
+        return [_convert(args[0] if args else Any, v, f"{where}[{i}]") for i, v in enumerate(value)]
     if origin is dict:
         if not isinstance(value, Mapping):
             raise MomaError(f"{where} must be a mapping, got {value!r}")
@@ -140,11 +143,14 @@ class _Loader(yaml.SafeLoader):
 
 _Loader.add_implicit_resolver(
     "tag:yaml.org,2002:float",
-    re.compile(r"""^(?:[-+]?(?:[0-9][0-9_]*)\.[0-9_]*(?:[eE][-+]?[0-9]+)?
+    re.compile(
+        r"""^(?:[-+]?(?:[0-9][0-9_]*)\.[0-9_]*(?:[eE][-+]?[0-9]+)?
                 |[-+]?(?:[0-9][0-9_]*)(?:[eE][-+]?[0-9]+)
                 |\.[0-9_]+(?:[eE][-+]?[0-9]+)?
                 |[-+]?\.(?:inf|Inf|INF)
-                |\.(?:nan|NaN|NAN))$""", re.X),
+                |\.(?:nan|NaN|NAN))$""",
+        re.X,
+    ),
     list("-+0123456789."),
 )
 
@@ -155,8 +161,10 @@ def read_config_file(path: str | Path) -> dict[str, Any]:
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix not in CONFIG_SUFFIXES:
-        raise MomaError(f"config file {str(path)!r}: use {', '.join(CONFIG_SUFFIXES)}, got "
-                        f"{suffix or 'no suffix'!r}")
+        raise MomaError(
+            f"config file {str(path)!r}: use {', '.join(CONFIG_SUFFIXES)}, got "
+            f"{suffix or 'no suffix'!r}"
+        )
     if not path.is_file():
         raise MomaError(f"config file {str(path)!r} does not exist")
     try:
@@ -167,11 +175,15 @@ def read_config_file(path: str | Path) -> dict[str, Any]:
         data = json.loads(text) if suffix == ".json" else yaml.load(text, Loader=_Loader)
     except (json.JSONDecodeError, yaml.YAMLError) as exc:
         detail = " ".join(str(exc).split())  # one line: YAML errors span several
-        raise MomaError(f"config file {str(path)!r} is not valid "
-                        f"{'JSON' if suffix == '.json' else 'YAML'}: {detail}") from None
+        raise MomaError(
+            f"config file {str(path)!r} is not valid "
+            f"{'JSON' if suffix == '.json' else 'YAML'}: {detail}"
+        ) from None
     if not isinstance(data, dict):
-        raise MomaError(f"config file {str(path)!r} must hold a mapping of config keys, got "
-                        f"{'nothing' if data is None else type(data).__name__}")
+        raise MomaError(
+            f"config file {str(path)!r} must hold a mapping of config keys, got "
+            f"{'nothing' if data is None else type(data).__name__}"
+        )
     return data
 
 
@@ -191,6 +203,7 @@ def merge(base: Mapping[str, Any], update: Mapping[str, Any]) -> dict[str, Any]:
     out = dict(base)
     for key, value in update.items():
         old = out.get(key)
-        out[key] = (merge(old, value) if isinstance(old, Mapping) and isinstance(value, Mapping)
-                    else value)
+        out[key] = (
+            merge(old, value) if isinstance(old, Mapping) and isinstance(value, Mapping) else value
+        )
     return out

@@ -6,4 +6,3 @@ class MomaError(ValueError):
 
     The message must name the bad value; the CLI prints it as one line and exits 2.
     """
-

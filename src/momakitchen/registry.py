@@ -25,8 +25,9 @@ class Registry(Mapping[str, T], Generic[T]):
         plural: ``kind`` in the plural, for messages (default: ``kind + "s"``).
     """
 
-    def __init__(self, kind: str, key: Callable[[T], str] | None = None, *,
-                 plural: str | None = None) -> None:
+    def __init__(
+        self, kind: str, key: Callable[[T], str] | None = None, *, plural: str | None = None
+    ) -> None:
         self.kind = kind
         self.plural = plural or f"{kind}s"
         self._key: Callable[[T], str] = key or (lambda entry: entry.name)  # type: ignore[attr-defined]
@@ -45,8 +46,9 @@ class Registry(Mapping[str, T], Generic[T]):
         try:
             return self._entries[name]
         except (KeyError, TypeError):
-            raise MomaError(f"unknown {self.kind} {name!r}; known {self.plural}: "
-                            f"{', '.join(self._entries)}") from None
+            raise MomaError(
+                f"unknown {self.kind} {name!r}; known {self.plural}: {', '.join(self._entries)}"
+            ) from None
 
     def names(self) -> tuple[str, ...]:
         return tuple(self._entries)

@@ -16,5 +16,3 @@ def client():
     c = pb.connect(pb.DIRECT)
     yield c
     pb.disconnect(c)
-
-

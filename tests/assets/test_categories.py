@@ -87,7 +87,7 @@ def test_thirty_instances_differ_load_and_match_their_metadata(name, client):
 @pytest.mark.parametrize("name", ALL)
 def test_same_params_same_urdf_and_json_round_trip(name):
     cat = get_category(name)
-    (_env, p), = _instances(name, 1, seed=7)
+    ((_env, p),) = _instances(name, 1, seed=7)
     rng = np.random.default_rng(7)
     again = cat.sample(rng, envelope_for(name, rng))
     assert again == p  # sampling is a function of the generator state
@@ -135,9 +135,14 @@ def test_handle_types_vary_across_cabinets():
 
 
 # Envelope maxima used to probe the whole range a layout might grant.
-ENVELOPE_MAX = {"cabinet": (1.2, 0.8, 1.0), "sink": (1.2, 0.8, 1.0),
-                "dishwasher": (0.65, 0.8, 1.0), "oven": (0.9, 0.8, 1.0),
-                "fridge": (0.95, 0.85, 2.2), "microwave": (0.8, 0.6, 0.6)}
+ENVELOPE_MAX = {
+    "cabinet": (1.2, 0.8, 1.0),
+    "sink": (1.2, 0.8, 1.0),
+    "dishwasher": (0.65, 0.8, 1.0),
+    "oven": (0.9, 0.8, 1.0),
+    "fridge": (0.95, 0.85, 2.2),
+    "microwave": (0.8, 0.6, 0.6),
+}
 
 
 @pytest.mark.parametrize("name", sorted(ENVELOPE_MAX))

@@ -57,8 +57,12 @@ CABINET = """<?xml version="1.0"?>
 
 def _folder(root: Path) -> Path:
     bottle = BOX.replace("0.4 0.3 0.2", "0.08 0.08 0.3")  # PartNet-like: not metric
-    for cat, ident, text in [("StorageFurniture", "101", CABINET), ("Bottle", "7", bottle),
-                             ("trolley", "a", BOX), ("Unrelated", "1", BOX)]:
+    for cat, ident, text in [
+        ("StorageFurniture", "101", CABINET),
+        ("Bottle", "7", bottle),
+        ("trolley", "a", BOX),
+        ("Unrelated", "1", BOX),
+    ]:
         d = root / cat / ident
         d.mkdir(parents=True)
         (d / "mobility.urdf").write_text(text)
@@ -68,8 +72,10 @@ def _folder(root: Path) -> Path:
 def test_scan_maps_partnet_and_own_names(tmp_path):
     assets = scan_folder(_folder(tmp_path))
     assert [(a.category, a.source_category, a.asset_id) for a in assets] == [
-        ("bottle", "Bottle", "7"), ("cabinet", "StorageFurniture", "101"),
-        ("trolley", "trolley", "a")]
+        ("bottle", "Bottle", "7"),
+        ("cabinet", "StorageFurniture", "101"),
+        ("trolley", "trolley", "a"),
+    ]
 
 
 def test_tiny_folder_loads_in_our_frames(tmp_path, client):
@@ -82,8 +88,12 @@ def test_tiny_folder_loads_in_our_frames(tmp_path, client):
     assert lo[2] == pytest.approx(0.0, abs=0.003)
     cab = models["cabinet"]
     (art,) = cab.articulations
-    assert (art.joint, art.joint_type, art.part, art.open_direction) == ("hinge", "revolute",
-                                                                         "door", 1)
+    assert (art.joint, art.joint_type, art.part, art.open_direction) == (
+        "hinge",
+        "revolute",
+        "door",
+        1,
+    )
     assert art.limit == pytest.approx(1.57)
     assert art.handle.link == "door"
     body = load(cab, client, fixed=True)
@@ -105,11 +115,18 @@ def test_furniture_is_scaled_into_its_envelope(tmp_path, client):
     assert hi - lo == pytest.approx(model.size, abs=0.004)
 
 
-@pytest.mark.parametrize("text, match", [
-    ("<robot name='x'><link name='a'>", "cannot parse"),
-    ("<robot name='x'><link name='a'><visual><geometry><mesh filename='gone.obj'/></geometry>"
-     "</visual></link></robot>", "gone.obj"),
-])
+@pytest.mark.parametrize(
+    "text, match",
+    [
+        ("<robot name='x'><link name='a'>", "cannot parse"),
+        (
+            "<robot name='x'><link name='a'><visual><geometry>"
+            "<mesh filename='gone.obj'/></geometry>"
+            "</visual></link></robot>",
+            "gone.obj",
+        ),
+    ],
+)
 def test_broken_urdf_names_the_file(tmp_path, text, match):
     d = tmp_path / "Bottle" / "9"
     d.mkdir(parents=True)
@@ -173,7 +190,8 @@ def test_procedural_streams_unchanged_without_registration(tmp_path):
         fridge = get_category("fridge")
         env = Envelope(0.8, 0.7, 1.9)
         assert fridge.sample(np.random.default_rng(1), env) == fridge.sample_procedural(
-            np.random.default_rng(1), env)
+            np.random.default_rng(1), env
+        )
     finally:
         clear_external_assets()
 

@@ -36,8 +36,9 @@ def test_assets_rest_still_for_one_second(kind, client):
     top = 0.0
     if kind in ("rigid", "appliance"):
         top = 0.9
-        slab = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=[40, 3, 0.02],
-                                       physicsClientId=client)
+        slab = pb.createCollisionShape(
+            pb.GEOM_BOX, halfExtents=[40, 3, 0.02], physicsClientId=client
+        )
         pb.createMultiBody(0, slab, basePosition=[35, 0, top - 0.02], physicsClientId=client)
     bodies = []
     x = 0.0
@@ -77,8 +78,14 @@ def pull_open(model, client: int, force: float, seconds: float = 0.5) -> dict[st
             rot = np.asarray(pb.getMatrixFromQuaternion(st[5])).reshape(3, 3)
             point = np.asarray(st[4]) + rot @ np.asarray(art.handle.position)
             direction = rot @ np.asarray(art.handle.normal)
-            pb.applyExternalForce(body, k, (force * direction).tolist(), point.tolist(),
-                                  pb.WORLD_FRAME, physicsClientId=client)
+            pb.applyExternalForce(
+                body,
+                k,
+                (force * direction).tolist(),
+                point.tolist(),
+                pb.WORLD_FRAME,
+                physicsClientId=client,
+            )
             pb.stepSimulation(physicsClientId=client)
         q = pb.getJointState(body, j, physicsClientId=client)[0]
         out[art.joint] = q * art.open_direction

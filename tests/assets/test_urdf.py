@@ -36,8 +36,7 @@ def test_fmt_is_fixed_precision_without_negative_zero():
 
 
 def test_box_and_cylinder_inertia_formulas():
-    com, inertia = mass_properties(Link("a", (Shape(Box((0.2, 0.4, 0.6)), (0.1, 0.0, 0.0)),),
-                                        12.0))
+    com, inertia = mass_properties(Link("a", (Shape(Box((0.2, 0.4, 0.6)), (0.1, 0.0, 0.0)),), 12.0))
     assert com == pytest.approx([0.1, 0.0, 0.0])
     assert np.diag(inertia) == pytest.approx([0.16 + 0.36, 0.04 + 0.36, 0.04 + 0.16])
     # a cylinder laid along x: its axial moment m r^2 / 2 moves to ixx
@@ -55,14 +54,26 @@ def test_parallel_axis_and_density_weighting():
     assert inertia[1, 1] == pytest.approx(2 * (0.4 * 1.0 * 0.01 + 1.0 * 0.25))
     assert inertia[0, 0] == pytest.approx(2 * 0.4 * 1.0 * 0.01)
     # a denser shape pulls the centre of mass towards it
-    heavy = Link("h", (Shape(Box((0.1, 0.1, 0.1)), (0, 0, 0), density=3.0),
-                       Shape(Box((0.1, 0.1, 0.1)), (1, 0, 0), density=1.0)), 4.0)
+    heavy = Link(
+        "h",
+        (
+            Shape(Box((0.1, 0.1, 0.1)), (0, 0, 0), density=3.0),
+            Shape(Box((0.1, 0.1, 0.1)), (1, 0, 0), density=1.0),
+        ),
+        4.0,
+    )
     assert mass_properties(heavy)[0][0] == pytest.approx(0.25)
 
 
 def test_visual_only_shapes_carry_no_mass_and_no_size():
-    link = Link("v", (Shape(Box((0.1, 0.1, 0.1)), (0, 0, 0.05)),
-                      Shape(Box((1.0, 1.0, 1.0)), (0, 0, 0), collision=False)), 1.0)
+    link = Link(
+        "v",
+        (
+            Shape(Box((0.1, 0.1, 0.1)), (0, 0, 0.05)),
+            Shape(Box((1.0, 1.0, 1.0)), (0, 0, 0), collision=False),
+        ),
+        1.0,
+    )
     com, _ = mass_properties(link)
     assert com == pytest.approx([0, 0, 0.05])
     lo, hi = bounding_box((link,), ())
@@ -72,8 +83,9 @@ def test_visual_only_shapes_carry_no_mass_and_no_size():
 def test_bounding_box_follows_joints_and_rotations():
     base = Link("base", (Shape(Box((1.0, 1.0, 1.0)), (0, 0, 0.5)),), 10.0)
     arm = Link("arm", (Shape(Cylinder(0.05, 0.4), (0, 0, 0), ALONG_X),), 1.0)
-    j = Joint("j", "revolute", "base", "arm", (0.5 + 0.2, 0.0, 1.0), rpy=(0, 0, math.pi / 2),
-              upper=1.0)
+    j = Joint(
+        "j", "revolute", "base", "arm", (0.5 + 0.2, 0.0, 1.0), rpy=(0, 0, math.pi / 2), upper=1.0
+    )
     lo, hi = bounding_box((base, arm), (j,))
     # the cylinder along the arm's x points along the base's y after the 90 deg yaw
     assert lo == pytest.approx((-0.5, -0.5, 0.0))
@@ -81,11 +93,28 @@ def test_bounding_box_follows_joints_and_rotations():
 
 
 def test_robot_urdf_is_valid_and_loads(client):
-    links = (Link("base", (Shape(Box((0.5, 0.5, 0.1)), (0, 0, 0.05), material="m"),), 5.0,
-                  Contact(0.9, 0.01, 0.02)),
-             Link("lid", (Shape(Box((0.5, 0.02, 0.3)), (0, 0.01, 0.15)),), 0.5))
-    joints = (Joint("hinge", "revolute", "base", "lid", (0, 0.25, 0.1), axis=(1, 0, 0),
-                    upper=1.5, damping=0.1, friction=0.2),)
+    links = (
+        Link(
+            "base",
+            (Shape(Box((0.5, 0.5, 0.1)), (0, 0, 0.05), material="m"),),
+            5.0,
+            Contact(0.9, 0.01, 0.02),
+        ),
+        Link("lid", (Shape(Box((0.5, 0.02, 0.3)), (0, 0.01, 0.15)),), 0.5),
+    )
+    joints = (
+        Joint(
+            "hinge",
+            "revolute",
+            "base",
+            "lid",
+            (0, 0.25, 0.1),
+            axis=(1, 0, 0),
+            upper=1.5,
+            damping=0.1,
+            friction=0.2,
+        ),
+    )
     text = robot_urdf("thing", links, joints, {"m": (0.1, 0.2, 0.3, 1.0)})
     root = ET.fromstring(text)
     assert [e.get("name") for e in root.findall("link")] == ["base", "lid"]

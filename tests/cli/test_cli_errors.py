@@ -26,10 +26,13 @@ def test_unknown_command(capsys):
     assert len(capsys.readouterr().err.strip().splitlines()) == 1
 
 
-@pytest.mark.parametrize("argv", [
-    ["label", "--scene-id", "1", "--robot", "r2d2", "--out", "OUT"],
-    ["label", "--scene-id", "1", "--config", "99", "--out", "OUT"],
-])
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["label", "--scene-id", "1", "--robot", "r2d2", "--out", "OUT"],
+        ["label", "--scene-id", "1", "--config", "99", "--out", "OUT"],
+    ],
+)
 def test_label_bad_input(argv, tmp_path, capsys):
     argv = [str(tmp_path / "o") if a == "OUT" else a for a in argv]
     assert main(argv) == 2

@@ -10,17 +10,34 @@ from momakitchen.cli.main import main
 @pytest.fixture(scope="module")
 def dataset(tmp_path_factory):
     root = tmp_path_factory.mktemp("syn") / "data"
-    assert main(["generate", "--out", str(root), "--scenes", "5", "--synthetic",
-                 "--quiet"]) == 0
+    assert main(["generate", "--out", str(root), "--scenes", "5", "--synthetic", "--quiet"]) == 0
     return root
 
 
 @pytest.fixture(scope="module")
 def run(dataset, tmp_path_factory):
     out = tmp_path_factory.mktemp("runs") / "navaff"
-    assert main(["train", "--data", str(dataset), "--model", "navaff", "--out", str(out),
-                 "--max-steps", "2", "--batch-size", "2", "--lambda-zero", "0.3",
-                 "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "train",
+                "--data",
+                str(dataset),
+                "--model",
+                "navaff",
+                "--out",
+                str(out),
+                "--max-steps",
+                "2",
+                "--batch-size",
+                "2",
+                "--lambda-zero",
+                "0.3",
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     return out
 
 
@@ -29,22 +46,52 @@ def test_train_then_evaluate(run, dataset, tmp_path, capsys):
     saved = json.loads((run / "config.json").read_text())["train_config"]
     assert saved["max_steps"] == 2 and saved["model_config"]["lambda_zero"] == 0.3
     report_path = tmp_path / "eval.json"
-    assert main(["evaluate", "--data", str(dataset), "--checkpoint", str(run),
-                 "--json", str(report_path), "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "evaluate",
+                "--data",
+                str(dataset),
+                "--checkpoint",
+                str(run),
+                "--json",
+                str(report_path),
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     report = json.loads(report_path.read_text())
     assert report["model"] == "navaff" and report["episodes"] > 0
     assert set(report["metrics"]) >= {"rmse", "logmse", "pcc", "sim", "cos", "ciou"}
     assert "| navaff (cpu) |" in capsys.readouterr().out
 
 
-@pytest.mark.parametrize(("argv", "needle"), [
-    (["train", "--data", "DATA", "--model", "nonsense", "--out", "OUT"], "nonsense"),
-    (["train", "--data", "MISSING", "--model", "navaff", "--out", "OUT"], "missing"),
-    (["evaluate", "--data", "DATA", "--checkpoint", "RUN", "--json", "OUT/e.json",
-      "--model", "pointnet2"], "pointnet2"),
-    (["evaluate", "--data", "DATA", "--checkpoint", "OUT/none", "--json", "OUT/e.json"],
-     "none"),
-])
+@pytest.mark.parametrize(
+    ("argv", "needle"),
+    [
+        (["train", "--data", "DATA", "--model", "nonsense", "--out", "OUT"], "nonsense"),
+        (["train", "--data", "MISSING", "--model", "navaff", "--out", "OUT"], "missing"),
+        (
+            [
+                "evaluate",
+                "--data",
+                "DATA",
+                "--checkpoint",
+                "RUN",
+                "--json",
+                "OUT/e.json",
+                "--model",
+                "pointnet2",
+            ],
+            "pointnet2",
+        ),
+        (
+            ["evaluate", "--data", "DATA", "--checkpoint", "OUT/none", "--json", "OUT/e.json"],
+            "none",
+        ),
+    ],
+)
 def test_bad_input(argv, needle, dataset, run, tmp_path, capsys):
     subst = {"DATA": str(dataset), "MISSING": str(tmp_path / "missing"), "RUN": str(run)}
     argv = [subst.get(a, a).replace("OUT", str(tmp_path / "out")) for a in argv]

@@ -23,9 +23,12 @@ def test_unknown_command_builds_every_parser():
 
 
 def test_generate_does_not_import_torch():
-    code = ("import sys; from momakitchen.cli.main import build_parser; "
-            "build_parser('generate').parse_args(['generate', '--out', 'x', '--scenes', '1']); "
-            "print('torch' in sys.modules)")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                         check=True).stdout.split()
+    code = (
+        "import sys; from momakitchen.cli.main import build_parser; "
+        "build_parser('generate').parse_args(['generate', '--out', 'x', '--scenes', '1']); "
+        "print('torch' in sys.modules)"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True
+    ).stdout.split()
     assert out[-1] == "False"

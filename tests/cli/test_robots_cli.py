@@ -13,18 +13,35 @@ from momakitchen.cli.main import main
 from momakitchen.robots.spec import ROBOTS
 from momakitchen.robots.user import ENV_VAR, unregister_user_robot
 
-MANUFACTURER_REACH = {"panda": 0.85, "flexiv": 0.78, "ur5e": 0.85, "xarm6": 0.70,
-                      "realman": 0.90, "elephant": 0.63}
-MOUNT_HEIGHT = {"panda": 1.03, "flexiv": 1.03, "ur5e": 1.03, "xarm6": 0.33,
-                "realman": 1.03, "elephant": 1.03}
+MANUFACTURER_REACH = {
+    "panda": 0.85,
+    "flexiv": 0.78,
+    "ur5e": 0.85,
+    "xarm6": 0.70,
+    "realman": 0.90,
+    "elephant": 0.63,
+}
+MOUNT_HEIGHT = {
+    "panda": 1.03,
+    "flexiv": 1.03,
+    "ur5e": 1.03,
+    "xarm6": 0.33,
+    "realman": 1.03,
+    "elephant": 1.03,
+}
 
 KUKA = Path(pybullet_data.getDataPath()) / "kuka_iiwa" / "model.urdf"
 
 
 def kuka_yaml(tmp_path: Path, name: str, **extra) -> Path:
     """A user robot: the KUKA iiwa shipped with pybullet_data, with a suction flange."""
-    lines = [f"name: {name}", f"urdf: {KUKA}", "mount_height: 0.9",
-             "end_effector_link: lbr_iiwa_link_7", "end_effector: suction"]
+    lines = [
+        f"name: {name}",
+        f"urdf: {KUKA}",
+        "mount_height: 0.9",
+        "end_effector_link: lbr_iiwa_link_7",
+        "end_effector: suction",
+    ]
     lines += [f"{k}: {v}" for k, v in extra.items()]
     path = tmp_path / f"{name}.yaml"
     path.write_text("\n".join(lines) + "\n")
@@ -71,8 +88,10 @@ def test_export_urdf_loads_in_plain_pybullet(tmp_path, capsys, name):
     client = p.connect(p.DIRECT)
     try:
         body = p.loadURDF(str(out), physicsClientId=client)
-        names = {p.getJointInfo(body, j, physicsClientId=client)[12].decode()
-                 for j in range(p.getNumJoints(body, physicsClientId=client))}
+        names = {
+            p.getJointInfo(body, j, physicsClientId=client)[12].decode()
+            for j in range(p.getNumJoints(body, physicsClientId=client))
+        }
         assert "tcp" in names
         assert ("suction_cup" in names) == (name == "ur5e")
     finally:
@@ -100,8 +119,9 @@ def test_user_robot_yaml_option(tmp_path, capsys, cleanup):
     assert rows["kuka"]["reach_m"] == 0.8 and rows["kuka"]["dof"] == 7
     assert rows["kuka"]["end_effector"] == "suction"
     out = tmp_path / "kuka.urdf"
-    assert main(["robots", "export-urdf", "kuka", "--out", str(out),
-                 "--robot-yaml", str(path)]) == 0
+    assert (
+        main(["robots", "export-urdf", "kuka", "--out", str(out), "--robot-yaml", str(path)]) == 0
+    )
     client = p.connect(p.DIRECT)
     try:
         p.loadURDF(str(out), physicsClientId=client)
@@ -118,8 +138,9 @@ def test_user_robot_env_var(tmp_path, capsys, cleanup, monkeypatch):
 
 def test_yaml_missing_field_one_line_exit_2(tmp_path, capsys):
     path = tmp_path / "bad.yaml"
-    path.write_text(f"name: bad\nurdf: {KUKA}\nend_effector_link: lbr_iiwa_link_7\n"
-                    "end_effector: suction\n")
+    path.write_text(
+        f"name: bad\nurdf: {KUKA}\nend_effector_link: lbr_iiwa_link_7\nend_effector: suction\n"
+    )
     assert main(["robots", "--robot-yaml", str(path)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1
@@ -131,8 +152,10 @@ def test_urdf_that_does_not_parse_one_line_exit_2(tmp_path, capsys):
     urdf = tmp_path / "broken.urdf"
     urdf.write_text("<robot name='broken'><link name='a'>")
     path = tmp_path / "broken.yaml"
-    path.write_text(f"name: broken\nurdf: {urdf}\nmount_height: 1.0\n"
-                    "end_effector_link: a\nend_effector: suction\n")
+    path.write_text(
+        f"name: broken\nurdf: {urdf}\nmount_height: 1.0\n"
+        "end_effector_link: a\nend_effector: suction\n"
+    )
     assert main(["robots", "--robot-yaml", str(path)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1

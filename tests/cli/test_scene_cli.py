@@ -17,7 +17,11 @@ def test_scene_command_is_deterministic(tmp_path, capsys):
 
 
 def test_scene_config_out_of_range(tmp_path, capsys):
-    assert main(["scene", "--scene-id", "1", "--out", str(tmp_path), "--configs", "2",
-                 "--config", "5"]) == 2
+    assert (
+        main(
+            ["scene", "--scene-id", "1", "--out", str(tmp_path), "--configs", "2", "--config", "5"]
+        )
+        == 2
+    )
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "5" in err

@@ -10,7 +10,17 @@ from momakitchen.data.synthetic_scene import SyntheticSceneConfig, synthetic_sce
 SMALL = SyntheticSceneConfig(configs_per_scene=2, episodes_per_config=3)
 
 
-def make_dataset(root: Path, scenes: int = 5, config: SyntheticSceneConfig = SMALL,
-                 workers: int = 1, card: bool = False) -> dict:
-    return generate_dataset(GenerateRequest(out=root, num_scenes=scenes, workers=workers),
-                            synthetic_scene_records, config, progress=False, write_card=card)
+def make_dataset(
+    root: Path,
+    scenes: int = 5,
+    config: SyntheticSceneConfig = SMALL,
+    workers: int = 1,
+    card: bool = False,
+) -> dict:
+    return generate_dataset(
+        GenerateRequest(out=root, num_scenes=scenes, workers=workers),
+        synthetic_scene_records,
+        config,
+        progress=False,
+        write_card=card,
+    )

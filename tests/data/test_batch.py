@@ -110,7 +110,5 @@ def test_bad_samples_raise_moma_error(data):
         EpisodeCollator(num_global=0)
     with pytest.raises(MomaError, match="empty"):
         collate_episodes([])
-    masked = validate_sample(
-        dict(s, global_mask=torch.arange(s["global_xyz"].shape[0]) % 2 == 0)
-    )
+    masked = validate_sample(dict(s, global_mask=torch.arange(s["global_xyz"].shape[0]) % 2 == 0))
     assert masked["global_xyz"].shape[0] == (s["global_xyz"].shape[0] + 1) // 2

@@ -31,10 +31,16 @@ def test_real_producer_two_scenes_any_worker_count(tmp_path):
 
     cfg = GenerationConfig(scene=SceneConfig(configs_per_scene=1))
     a, b = tmp_path / "a", tmp_path / "b"
-    generate_dataset(GenerateRequest(out=a, num_scenes=2, workers=2), scene_records, cfg,
-                     progress=False)
-    generate_dataset(GenerateRequest(out=b, num_scenes=2, workers=1), scene_records, cfg,
-                     progress=False, write_card=False)
+    generate_dataset(
+        GenerateRequest(out=a, num_scenes=2, workers=2), scene_records, cfg, progress=False
+    )
+    generate_dataset(
+        GenerateRequest(out=b, num_scenes=2, workers=1),
+        scene_records,
+        cfg,
+        progress=False,
+        write_card=False,
+    )
     # Shards are byte-identical across worker counts and processes, physics included (each
     # configuration is simulated in a fresh world; robot caches are computed apart).
     assert _digests(a) == _digests(b)
@@ -59,10 +65,19 @@ def test_real_producer_two_scenes_any_worker_count(tmp_path):
 def test_ray_backend_on_a_local_instance_matches_local(tmp_path):
     pytest.importorskip("ray")
     cfg = SyntheticSceneConfig(configs_per_scene=2, episodes_per_config=2)
-    generate_dataset(GenerateRequest(out=tmp_path / "ray", num_scenes=4, workers=2,
-                                     backend="ray"),
-                     synthetic_scene_records, cfg, progress=False, write_card=False)
-    generate_dataset(GenerateRequest(out=tmp_path / "local", num_scenes=4),
-                     synthetic_scene_records, cfg, progress=False, write_card=False)
+    generate_dataset(
+        GenerateRequest(out=tmp_path / "ray", num_scenes=4, workers=2, backend="ray"),
+        synthetic_scene_records,
+        cfg,
+        progress=False,
+        write_card=False,
+    )
+    generate_dataset(
+        GenerateRequest(out=tmp_path / "local", num_scenes=4),
+        synthetic_scene_records,
+        cfg,
+        progress=False,
+        write_card=False,
+    )
     assert _digests(tmp_path / "ray") == _digests(tmp_path / "local")
     assert check_dataset(tmp_path / "ray")["episodes"] == 16

@@ -21,8 +21,9 @@ from momakitchen.data.manifest import load_manifest
 from momakitchen.data.synthetic_scene import SyntheticSceneConfig, synthetic_scene_records
 from momakitchen.errors import MomaError
 
-SLOW_SCENES = SyntheticSceneConfig(configs_per_scene=2, episodes_per_config=3,
-                                   seconds_per_scene=0.3)
+SLOW_SCENES = SyntheticSceneConfig(
+    configs_per_scene=2, episodes_per_config=3, seconds_per_scene=0.3
+)
 KILL_SCENES = 8
 
 DRIVER = """
@@ -59,9 +60,12 @@ def test_sigkill_halfway_then_resume_equals_uninterrupted_run(tmp_path, victims)
     """``group``: the driver and its pool workers die mid-scene (a lost machine);
     ``parent``: only the driver dies; its pool workers must not outlive it."""
     killed = tmp_path / "killed"
-    proc = subprocess.Popen([sys.executable, "-c", DRIVER, str(killed), str(KILL_SCENES)],
-                            start_new_session=True, stdout=subprocess.DEVNULL,
-                            stderr=subprocess.DEVNULL)
+    proc = subprocess.Popen(
+        [sys.executable, "-c", DRIVER, str(killed), str(KILL_SCENES)],
+        start_new_session=True,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
     deadline = time.monotonic() + 90
     try:
         while time.monotonic() < deadline:
@@ -82,11 +86,21 @@ def test_sigkill_halfway_then_resume_equals_uninterrupted_run(tmp_path, victims)
     assert 3 <= len(shards) < KILL_SCENES
     assert not load_manifest(killed)["complete"]
     # Resume with another worker count; the reference run is uninterrupted with 1 worker.
-    generate_dataset(GenerateRequest(out=killed, num_scenes=KILL_SCENES, workers=1),
-                     synthetic_scene_records, SLOW_SCENES, progress=False, write_card=False)
+    generate_dataset(
+        GenerateRequest(out=killed, num_scenes=KILL_SCENES, workers=1),
+        synthetic_scene_records,
+        SLOW_SCENES,
+        progress=False,
+        write_card=False,
+    )
     ref = tmp_path / "ref"
-    generate_dataset(GenerateRequest(out=ref, num_scenes=KILL_SCENES, workers=1),
-                     synthetic_scene_records, SLOW_SCENES, progress=False, write_card=False)
+    generate_dataset(
+        GenerateRequest(out=ref, num_scenes=KILL_SCENES, workers=1),
+        synthetic_scene_records,
+        SLOW_SCENES,
+        progress=False,
+        write_card=False,
+    )
     if victims == "parent":  # orphaned workers notice and exit (within about 0.5 s)
         deadline = time.monotonic() + 10
         while _alive_in_group(proc.pid) and time.monotonic() < deadline:
@@ -114,8 +128,7 @@ def test_resume_skips_existing_and_grows(tmp_path):
     m2 = make_dataset(root, scenes=6)
     assert (root / "scenes" / "scene_000001.h5").stat().st_mtime_ns == first  # not rewritten
     assert m1["counts"]["total"]["scenes"] == 3 and m2["counts"]["total"]["scenes"] == 6
-    assert m2["complete"] and sorted(m2["splits"]["train"] + m2["splits"]["test"]) == list(
-        range(6))
+    assert m2["complete"] and sorted(m2["splits"]["train"] + m2["splits"]["test"]) == list(range(6))
 
 
 def test_resume_with_another_config_is_refused(tmp_path):
@@ -156,8 +169,21 @@ def test_bad_input_is_one_line_exit_2_and_keeps_data(tmp_path, capsys):
 
 def test_ray_backend_without_ray_is_a_clear_error(tmp_path, monkeypatch, capsys):
     monkeypatch.setitem(sys.modules, "ray", None)  # import ray -> ImportError
-    assert main(["generate", "--synthetic", "--out", str(tmp_path / "r"), "--scenes", "1",
-                 "--backend", "ray"]) == 2
+    assert (
+        main(
+            [
+                "generate",
+                "--synthetic",
+                "--out",
+                str(tmp_path / "r"),
+                "--scenes",
+                "1",
+                "--backend",
+                "ray",
+            ]
+        )
+        == 2
+    )
     assert "pip install 'momakitchen[ray]'" in capsys.readouterr().err
     assert not (tmp_path / "r").exists()
 
@@ -192,4 +218,5 @@ def test_a_run_killed_before_its_first_manifest_is_continued(tmp_path):
     (root / "scenes" / ".tmp-123-scene_000000.h5").write_bytes(b"partial")
     m = make_dataset(root, scenes=1)
     assert m["complete"] and sorted(p.name for p in (root / "scenes").iterdir()) == [
-        "scene_000000.h5"]
+        "scene_000000.h5"
+    ]

@@ -14,14 +14,15 @@ def test_split_is_deterministic_and_80_20():
     assert splits == [scene_split(s) for s in range(1000)]
     assert splits.count("test") == 200
     for block in range(0, 1000, SPLIT_BLOCK):  # exactly one test scene per block
-        assert splits[block:block + SPLIT_BLOCK].count("test") == 1
-    assert len({splits[i:i + SPLIT_BLOCK].index("test") for i in range(0, 1000, 5)}) == 5
+        assert splits[block : block + SPLIT_BLOCK].count("test") == 1
+    assert len({splits[i : i + SPLIT_BLOCK].index("test") for i in range(0, 1000, 5)}) == 5
 
 
 def test_all_six_robots_in_both_splits_for_20_scenes(tmp_path):
     # 10 configurations per scene, robots assigned as SceneConfig does.
-    cfg = SyntheticSceneConfig(configs_per_scene=10, episodes_per_config=1, image_size=(4, 4),
-                               num_global=16, num_floor=8)
+    cfg = SyntheticSceneConfig(
+        configs_per_scene=10, episodes_per_config=1, image_size=(4, 4), num_global=16, num_floor=8
+    )
     m = make_dataset(tmp_path / "ds", scenes=20, config=cfg)
     assert m["counts"]["test"]["scenes"] == 4 and m["counts"]["train"]["scenes"] == 16
     for split in ("train", "test"):
@@ -32,8 +33,9 @@ def test_all_six_robots_in_both_splits_for_20_scenes(tmp_path):
 def test_synthetic_robot_assignment_is_the_scene_samplers():
     from momakitchen.scene.configuration import SceneConfig, sample_scene
 
-    cfg = SyntheticSceneConfig(configs_per_scene=10, episodes_per_config=1, image_size=(4, 4),
-                               num_global=16, num_floor=8)
+    cfg = SyntheticSceneConfig(
+        configs_per_scene=10, episodes_per_config=1, image_size=(4, 4), num_global=16, num_floor=8
+    )
     real = [c.robot for c in sample_scene(3, SceneConfig()).configurations]
     assert [lab.robot for lab, _ in synthetic_scene_records(3, cfg)] == real
     assert len(set(real)) == 6

@@ -48,8 +48,14 @@ def test_export_import_round_trip(small_dataset, tmp_path, capsys):
                 np.testing.assert_array_equal(la.trial_stages, lb.trial_stages)
                 np.testing.assert_allclose(la.trial_positions, lb.trial_positions, atol=1e-9)
                 for x, y in zip(ea, eb, strict=True):
-                    for f in ("global_xyz", "floor_xyz", "floor_label", "camera_pose",
-                              "intrinsics", "descriptor"):
+                    for f in (
+                        "global_xyz",
+                        "floor_xyz",
+                        "floor_label",
+                        "camera_pose",
+                        "intrinsics",
+                        "descriptor",
+                    ):
                         np.testing.assert_allclose(getattr(x, f), getattr(y, f), atol=1e-6)
                     for f in ("global_rgb", "global_align", "rgb", "semantic", "depth"):
                         np.testing.assert_array_equal(getattr(x, f), getattr(y, f))
@@ -68,8 +74,10 @@ def test_import_of_a_plain_reference_folder_rebuilds_alignment(small_dataset, tm
         data = json.loads(info.read_text())
         info.write_text(json.dumps({"robot_name": data["robot_name"]}))
     import_reference(ref, tmp_path / "back")
-    with SceneShard(list_shards(small_dataset)[0]) as sa, \
-            SceneShard(list_shards(tmp_path / "back")[0]) as sb:
+    with (
+        SceneShard(list_shards(small_dataset)[0]) as sa,
+        SceneShard(list_shards(tmp_path / "back")[0]) as sb,
+    ):
         x, y = sa.episode(0, 0), sb.episode(0, 0)
     # Every flagged point is recovered; a few unflagged neighbours within 3.1 cm may join.
     assert np.all(y.global_align[x.global_align == 1] == 1)
@@ -77,14 +85,22 @@ def test_import_of_a_plain_reference_folder_rebuilds_alignment(small_dataset, tm
     np.testing.assert_array_equal(x.floor_label, y.floor_label)
     np.testing.assert_allclose(x.descriptor, y.descriptor)
     assert y.rgb.shape == (0, 0, 3)
-    assert (ref / "rgbd" / "rgbd_scene_000000_config_000" / "episode_000" / CLOUD_DIR /
-            BARRIER_PLY.format(0)).exists() or not np.any(x.global_align == -1)
+    assert (
+        ref
+        / "rgbd"
+        / "rgbd_scene_000000_config_000"
+        / "episode_000"
+        / CLOUD_DIR
+        / BARRIER_PLY.format(0)
+    ).exists() or not np.any(x.global_align == -1)
 
 
 def test_ply_ascii_and_errors(tmp_path):
     p = tmp_path / "a.ply"
-    p.write_text("ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\n"
-                 "property float z\nproperty uchar red\nend_header\n0 1 2 255\n3 4 5 7\n")
+    p.write_text(
+        "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\n"
+        "property float z\nproperty uchar red\nend_header\n0 1 2 255\n3 4 5 7\n"
+    )
     d = read_ply(p)
     np.testing.assert_array_equal(d["y"], [1, 4])
     assert d["red"].dtype == np.uint8 and d["red"][1] == 7

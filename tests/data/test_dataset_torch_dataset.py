@@ -28,8 +28,9 @@ def test_samples_follow_the_contract(small_dataset):
     assert s["global_rgb"].dtype == torch.float32
     assert 0.0 <= float(s["global_rgb"].min()) and float(s["global_rgb"].max()) <= 1.0
     assert set(np.unique(s["global_align"].numpy())) <= {-1.0, 0.0, 1.0}
-    np.testing.assert_allclose(s["robot"].numpy(),
-                               robot_descriptor(ROBOTS[s["robot_name"]]), rtol=1e-6)
+    np.testing.assert_allclose(
+        s["robot"].numpy(), robot_descriptor(ROBOTS[s["robot_name"]]), rtol=1e-6
+    )
     with SceneShard(list_shards(small_dataset)[s["scene_id"]]) as shard:
         ep = shard.episode(s["config_index"], s["episode_index"])
     np.testing.assert_array_equal(s["floor_label"].numpy(), ep.floor_label)
@@ -46,8 +47,13 @@ def test_splits_partition_the_scenes(small_dataset):
 
 def test_dataloader_with_two_workers_and_collator(small_dataset):
     ds = EpisodeDataset(small_dataset, split="train")
-    loader = DataLoader(ds, batch_size=4, num_workers=2, shuffle=False,
-                        collate_fn=EpisodeCollator(num_global=256, num_floor=200))
+    loader = DataLoader(
+        ds,
+        batch_size=4,
+        num_workers=2,
+        shuffle=False,
+        collate_fn=EpisodeCollator(num_global=256, num_floor=200),
+    )
     batches = list(loader)
     assert sum(len(b["scene_id"]) for b in batches) == len(ds)
     b = batches[0]
@@ -71,15 +77,21 @@ def test_bad_root_and_split(tmp_path, small_dataset):
 def _records_with_an_empty_floor(scene_id, config):
     records = synthetic_scene_records(scene_id, config)
     ep = records[0][1][1]
-    records[0][1][1] = dataclasses.replace(ep, floor_xyz=ep.floor_xyz[:0],
-                                           floor_label=ep.floor_label[:0])
+    records[0][1][1] = dataclasses.replace(
+        ep, floor_xyz=ep.floor_xyz[:0], floor_label=ep.floor_label[:0]
+    )
     return records
 
 
 def test_episodes_without_floor_points_are_skipped(tmp_path):
     root = tmp_path / "ds"
-    generate_dataset(GenerateRequest(out=root, num_scenes=1), _records_with_an_empty_floor,
-                     SMALL, progress=False, write_card=False)
+    generate_dataset(
+        GenerateRequest(out=root, num_scenes=1),
+        _records_with_an_empty_floor,
+        SMALL,
+        progress=False,
+        write_card=False,
+    )
     assert check_dataset(root)["episodes"] == 6  # valid data, counted
     assert dataset_stats(root)["episodes_with_empty_cloud"] == 1
     ds = EpisodeDataset(root, split="all")

@@ -17,6 +17,11 @@ def real_view(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
     root = tmp_path_factory.mktemp("view") / "ds"
     cfg = GenerationConfig(scene=SceneConfig(configs_per_scene=1), views=ViewConfig(episodes=2))
-    generate_dataset(GenerateRequest(out=root, num_scenes=1, first_scene_id=3), scene_records,
-                     cfg, progress=False, write_card=False)
+    generate_dataset(
+        GenerateRequest(out=root, num_scenes=1, first_scene_id=3),
+        scene_records,
+        cfg,
+        progress=False,
+        write_card=False,
+    )
     return root

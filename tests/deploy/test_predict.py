@@ -23,8 +23,13 @@ def episode(real_view):
 
 
 def _inputs(ep):
-    return dict(depth=ep.depth, intrinsics=ep.intrinsics, camera_to_base=ep.camera_to_base,
-                target_mask=ep.semantic == TARGET, robot=ep.robot)
+    return dict(
+        depth=ep.depth,
+        intrinsics=ep.intrinsics,
+        camera_to_base=ep.camera_to_base,
+        target_mask=ep.semantic == TARGET,
+        robot=ep.robot,
+    )
 
 
 def test_predict_gives_evaluates_map_on_a_dataset_episode(real_view, episode, tiny_run):
@@ -35,20 +40,26 @@ def test_predict_gives_evaluates_map_on_a_dataset_episode(real_view, episode, ti
 
     run = load_checkpoint(tiny_run)
     data = EpisodeDataset(real_view, "all")
-    sample = next(data[i] for i in range(len(data))
-                  if data[i]["episode_index"] == episode.episode_index)
-    expected = predict_batch(run.model, EpisodeCollator(run.config.num_global, None,
-                                                        run.config.seed)([sample]))[0].numpy()
+    sample = next(
+        data[i] for i in range(len(data)) if data[i]["episode_index"] == episode.episode_index
+    )
+    expected = predict_batch(
+        run.model, EpisodeCollator(run.config.num_global, None, run.config.seed)([sample])
+    )[0].numpy()
     ep = episode
-    pred = momakitchen.predict(**_inputs(ep), rgb=ep.rgb,
-                               obstacle_masks=[ep.semantic == OBSTACLE], checkpoint=tiny_run,
-                               episode_id=(3, 0, ep.episode_index))
+    pred = momakitchen.predict(
+        **_inputs(ep),
+        rgb=ep.rgb,
+        obstacle_masks=[ep.semantic == OBSTACLE],
+        checkpoint=tiny_run,
+        episode_id=(3, 0, ep.episode_index),
+    )
     np.testing.assert_array_equal(pred.floor_xyz.astype(np.float32), ep.floor_xyz)
     np.testing.assert_allclose(pred.affordance, expected, rtol=0, atol=1e-6)
     assert pred.poses.shape == (5, 3) and (pred.uncertainty >= 0).all()
     assert pred.pose_scores[0] == pytest.approx(pred.affordance.max())
     # the yaw faces the target centroid
-    dx, dy = (pred.target_xyz[:2] - pred.poses[0, :2])
+    dx, dy = pred.target_xyz[:2] - pred.poses[0, :2]
     assert np.cos(pred.poses[0, 2] - np.arctan2(dy, dx)) == pytest.approx(1.0)
 
 
@@ -58,8 +69,11 @@ def test_predict_any_resolution_invalid_depth_and_uncertainty(episode, tiny_run)
     depth[::7] = np.nan  # invalid pixels are ignored
     depth[1::7] = 0.0
     half = {k: v for k, v in _inputs(ep).items()}
-    half.update(depth=depth[::2, ::2], target_mask=(ep.semantic == TARGET)[::2, ::2],
-                intrinsics=np.asarray(ep.intrinsics) / 2)
+    half.update(
+        depth=depth[::2, ::2],
+        target_mask=(ep.semantic == TARGET)[::2, ::2],
+        intrinsics=np.asarray(ep.intrinsics) / 2,
+    )
     a = momakitchen.predict(**half, checkpoint=tiny_run, mc_samples=4)
     b = momakitchen.predict(**half, checkpoint=tiny_run, mc_samples=4)
     assert len(a.floor_xyz) > 50 and np.isfinite(a.affordance).all()
@@ -85,8 +99,9 @@ def test_predict_bad_input(episode, tiny_run):
         with pytest.raises(MomaError, match=message):
             momakitchen.predict(**{**ok, **change}, checkpoint=tiny_run)
     with pytest.raises(MomaError, match="reach"):
-        momakitchen.predict(**{**ok, "robot": {"reach": 9.0, "mount_height": 1.0}},
-                            checkpoint=tiny_run)
+        momakitchen.predict(
+            **{**ok, "robot": {"reach": 9.0, "mount_height": 1.0}}, checkpoint=tiny_run
+        )
 
 
 def test_predict_cli(episode, tiny_run, tmp_path, capsys):
@@ -101,10 +116,23 @@ def test_predict_cli(episode, tiny_run, tmp_path, capsys):
     Image.fromarray(((ep.semantic == TARGET) * 255).astype(np.uint8)).save(mask)
     np.save(tmp_path / "tf.npy", ep.camera_to_base)
     np.save(tmp_path / "rgb.npy", ep.rgb)
-    args = ["predict", "--depth", str(depth_png), "--intrinsics", *map(str, ep.intrinsics),
-            "--extrinsics", str(tmp_path / "tf.npy"), "--target-mask", str(mask),
-            "--rgb", str(tmp_path / "rgb.npy"), "--checkpoint", str(tiny_run),
-            "--out", str(tmp_path / "out")]
+    args = [
+        "predict",
+        "--depth",
+        str(depth_png),
+        "--intrinsics",
+        *map(str, ep.intrinsics),
+        "--extrinsics",
+        str(tmp_path / "tf.npy"),
+        "--target-mask",
+        str(mask),
+        "--rgb",
+        str(tmp_path / "rgb.npy"),
+        "--checkpoint",
+        str(tiny_run),
+        "--out",
+        str(tmp_path / "out"),
+    ]
     assert main([*args, "--robot", "panda"]) == 0
     result = json.loads((tmp_path / "out" / "prediction.json").read_text())
     assert len(result["poses"]) == 5 and result["floor_points"]["rows"]
@@ -115,6 +143,6 @@ def test_predict_cli(episode, tiny_run, tmp_path, capsys):
     bad = tmp_path / "bad.npy"
     np.save(bad, np.eye(4) * 3)
     i = args.index("--extrinsics")
-    assert main([*args[:i + 1], str(bad), *args[i + 2:], "--robot", "panda"]) == 2
+    assert main([*args[: i + 1], str(bad), *args[i + 2 :], "--robot", "panda"]) == 2
     err = capsys.readouterr().err
     assert "unknown robot" in err and "rigid" in err

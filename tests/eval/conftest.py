@@ -17,6 +17,11 @@ def real_dataset(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
     root = tmp_path_factory.mktemp("msr") / "ds"
     cfg = GenerationConfig(scene=SceneConfig(configs_per_scene=2), views=ViewConfig(episodes=2))
-    generate_dataset(GenerateRequest(out=root, num_scenes=1), scene_records, cfg,
-                     progress=False, write_card=False)
+    generate_dataset(
+        GenerateRequest(out=root, num_scenes=1),
+        scene_records,
+        cfg,
+        progress=False,
+        write_card=False,
+    )
     return root

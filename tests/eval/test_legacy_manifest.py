@@ -34,7 +34,12 @@ def test_a_manifest_naming_the_old_producer_loads_and_resumes(real_dataset, tmp_
     shard = next((root / "scenes").glob("*.h5"))
     before = shard.read_bytes()
     # Resuming with the same producer and config is accepted and keeps the shard.
-    generate_dataset(GenerateRequest(out=root, num_scenes=1), scene_records, cfg,
-                     progress=False, write_card=False)
+    generate_dataset(
+        GenerateRequest(out=root, num_scenes=1),
+        scene_records,
+        cfg,
+        progress=False,
+        write_card=False,
+    )
     assert shard.read_bytes() == before
     assert json.loads(path.read_text())["producer"] == mf.KITCHEN

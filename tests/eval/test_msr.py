@@ -47,12 +47,14 @@ def test_msr_runs_the_labelling_trial(real_dataset, monkeypatch):
         return result
 
     monkeypatch.setattr(TrialRunner, "run", recording)
-    result = run_msr(real_dataset, methods=["oracle", "nearest"],
-                     config=MsrConfig(max_configs=1))
+    result = run_msr(real_dataset, methods=["oracle", "nearest"], config=MsrConfig(max_configs=1))
     rec = result["records"][0]
     ran = {(x, y): ok for x, y, ok in calls}
-    chosen = [(tuple(p), o) for m in rec["methods"].values()
-              for p, o in zip(m["points"], m["outcomes"], strict=True)]
+    chosen = [
+        (tuple(p), o)
+        for m in rec["methods"].values()
+        for p, o in zip(m["points"], m["outcomes"], strict=True)
+    ]
     assert chosen and len(ran) == len({p for p, _ in chosen})  # one run per distinct point
     assert all(ran[p] == o for p, o in chosen)
 
@@ -100,8 +102,13 @@ def test_msr_bad_input(real_dataset, tmp_path):
     with pytest.raises(MomaError, match="does not exist"):
         run_msr(tmp_path / "nope", methods=["oracle"])
     synthetic = tmp_path / "synthetic"
-    generate_dataset(GenerateRequest(out=synthetic, num_scenes=1), synthetic_scene_records,
-                     SyntheticSceneConfig(), progress=False, write_card=False)
+    generate_dataset(
+        GenerateRequest(out=synthetic, num_scenes=1),
+        synthetic_scene_records,
+        SyntheticSceneConfig(),
+        progress=False,
+        write_card=False,
+    )
     with pytest.raises(MomaError, match="rebuild its worlds"):
         run_msr(synthetic, methods=["oracle"])
     with pytest.raises(MomaError, match="top_k"):
@@ -112,12 +119,38 @@ def test_msr_cli(real_dataset, tmp_path, capsys):
     from momakitchen.cli.main import main
 
     out = tmp_path / "msr.json"
-    assert main(["msr", "--data", str(real_dataset), "--method", "random", "--json", str(out),
-                 "--max-configs", "1", "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "msr",
+                "--data",
+                str(real_dataset),
+                "--method",
+                "random",
+                "--json",
+                str(out),
+                "--max-configs",
+                "1",
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     assert json.loads(out.read_text())["methods"]["random"]["trials"] >= 1
     assert "Top-1 MSR" in capsys.readouterr().out
-    assert main(["msr", "--data", str(real_dataset), "--checkpoint", str(tmp_path / "none"),
-                 "--json", str(out)]) == 2
-    assert main(["msr", "--data", str(real_dataset), "--method", "best", "--json",
-                 str(out)]) == 2
+    assert (
+        main(
+            [
+                "msr",
+                "--data",
+                str(real_dataset),
+                "--checkpoint",
+                str(tmp_path / "none"),
+                "--json",
+                str(out),
+            ]
+        )
+        == 2
+    )
+    assert main(["msr", "--data", str(real_dataset), "--method", "best", "--json", str(out)]) == 2
     assert "unknown MSR method" in capsys.readouterr().err

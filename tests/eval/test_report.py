@@ -20,9 +20,16 @@ def _tiny(out: Path, model: str, lambda_zero: float = 0.7) -> Path:
     from momakitchen.train.config import TrainConfig
 
     data = SyntheticEpisodes(SyntheticConfig(num_episodes=4, num_global=256, num_floor=128))
-    cfg = TrainConfig(model=model, preset="custom", num_global=256, num_floor=128, epochs=1,
-                      batch_size=2, progress=False,
-                      model_config=dataclasses.replace(TINY_MODEL, lambda_zero=lambda_zero))
+    cfg = TrainConfig(
+        model=model,
+        preset="custom",
+        num_global=256,
+        num_floor=128,
+        epochs=1,
+        batch_size=2,
+        progress=False,
+        model_config=dataclasses.replace(TINY_MODEL, lambda_zero=lambda_zero),
+    )
     train(cfg, data, None, out)
     return out
 
@@ -31,22 +38,38 @@ def _tiny(out: Path, model: str, lambda_zero: float = 0.7) -> Path:
 def report(real_dataset, tmp_path_factory):
     runs = tmp_path_factory.mktemp("runs")
     req = BenchmarkRequest(
-        data=real_dataset, runs=(_tiny(runs / "navaff", "navaff"),),
+        data=real_dataset,
+        runs=(_tiny(runs / "navaff", "navaff"),),
         ablations=(_tiny(runs / "no-vam", "navaff-no-vam"),),
         sweep=(_tiny(runs / "lam1", "navaff", 1.0), _tiny(runs / "lam01", "navaff", 0.1)),
-        out=tmp_path_factory.mktemp("bench") / "out", max_configs=1, examples=1,
-        progress=False)
+        out=tmp_path_factory.mktemp("bench") / "out",
+        max_configs=1,
+        examples=1,
+        progress=False,
+    )
     return req, run_benchmark(req, log=lambda _: None)
 
 
 def test_report_tables_and_figures(report):
     req, result = report
     text = (req.out / "RESULTS.md").read_text()
-    for section in ("## Methods", "## Ablations", "## Per scene", "## Loss weight",
-                    "## Confidence", "## Examples"):
+    for section in (
+        "## Methods",
+        "## Ablations",
+        "## Per scene",
+        "## Loss weight",
+        "## Confidence",
+        "## Examples",
+    ):
         assert section in text
-    for name in ("qualitative.png", "lambda_sweep.png", "msr.json", "benchmark.json",
-                 "metrics/navaff.json", "metrics/no-vam.json"):
+    for name in (
+        "qualitative.png",
+        "lambda_sweep.png",
+        "msr.json",
+        "benchmark.json",
+        "metrics/navaff.json",
+        "metrics/no-vam.json",
+    ):
         assert (req.out / name).stat().st_size > 0
     assert [s["lambda_zero"] for s in result["sweep"]] == [0.1, 1.0]  # sorted by lambda
     assert set(result["msr"]) == {"navaff", "random", "nearest", "oracle"}
@@ -71,9 +94,25 @@ def test_report_reuses_metrics_and_msr(report, monkeypatch, tmp_path):
     monkeypatch.setattr(evaluate_module, "evaluate", fail)
     monkeypatch.setattr(msr_module, "run_msr", fail)
     out = tmp_path / "again"
-    assert main(["benchmark", "--data", str(req.data), "--runs", str(run), "--msr",
-                 str(req.out / "msr.json"), "--out", str(out), "--examples", "1",
-                 "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "benchmark",
+                "--data",
+                str(req.data),
+                "--runs",
+                str(run),
+                "--msr",
+                str(req.out / "msr.json"),
+                "--out",
+                str(out),
+                "--examples",
+                "1",
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     again = json.loads((out / "benchmark.json").read_text())
     assert again["runs"][str(run)] == result["runs"][str(run)]
     assert again["msr"] == result["msr"]
@@ -85,12 +124,26 @@ def test_report_bad_input(report, tmp_path, capsys):
     del msr["methods"]["oracle"]
     partial = tmp_path / "partial.json"
     partial.write_text(json.dumps(msr))
-    argv = ["benchmark", "--data", str(req.data), "--runs", str(req.runs[0]), "--out",
-            str(tmp_path / "o")]
+    argv = [
+        "benchmark",
+        "--data",
+        str(req.data),
+        "--runs",
+        str(req.runs[0]),
+        "--out",
+        str(tmp_path / "o"),
+    ]
     assert main([*argv, "--msr", str(partial)]) == 2
     assert "oracle" in capsys.readouterr().err
     assert main([*argv, "--ablations", str(tmp_path / "nope")]) == 2
     assert "nope" in capsys.readouterr().err
     with pytest.raises(MomaError, match="distinct names"):
-        run_benchmark(BenchmarkRequest(data=req.data, runs=req.runs, out=tmp_path / "d",
-                                       sweep=(req.runs[0],), msr=req.out / "msr.json"))
+        run_benchmark(
+            BenchmarkRequest(
+                data=req.data,
+                runs=req.runs,
+                out=tmp_path / "d",
+                sweep=(req.runs[0],),
+                msr=req.out / "msr.json",
+            )
+        )

@@ -29,8 +29,9 @@ def world(scene):
 def test_project_backproject_round_trip():
     intr = Intrinsics.from_fov(640, 480, 45.0)
     rng = np.random.default_rng(0)
-    pts = np.stack([rng.uniform(-1, 1, 100), rng.uniform(-1, 1, 100), rng.uniform(0.5, 5, 100)],
-                   axis=1)
+    pts = np.stack(
+        [rng.uniform(-1, 1, 100), rng.uniform(-1, 1, 100), rng.uniform(0.5, 5, 100)], axis=1
+    )
     uv = project(pts, intr)
     assert np.allclose(intr.fx * pts[:, 0] / pts[:, 2] + intr.cx, uv[:, 0])
     # Back-project a depth image holding one point per pixel centre.
@@ -52,8 +53,7 @@ def test_rendered_depth_backprojects_onto_the_surfaces(world):
     pts = transform(cam, pts_cam)
     sel = np.random.default_rng(1).choice(len(pts), 200, replace=False)
     v, u = np.divmod(idx[sel], intr.width)
-    rays = np.stack([(u - intr.cx) / intr.fx, (v - intr.cy) / intr.fy,
-                     np.ones(len(sel))], axis=1)
+    rays = np.stack([(u - intr.cx) / intr.fx, (v - intr.cy) / intr.fy, np.ones(len(sel))], axis=1)
     ends = transform(cam, rays * 20.0)
     starts = np.repeat(cam[:3, 3][None], len(sel), axis=0)
     hits = p.rayTestBatch(starts.tolist(), ends.tolist(), physicsClientId=world.client)
@@ -81,8 +81,10 @@ def test_episodes_are_well_formed(episodes):
     cfg, (labels, eps) = episodes
     assert len(eps) == 10
     assert labels.trial_outcomes.sum() > 0
-    dists = [np.hypot(e.base_pose[0] - cfg.target.anchor[0],
-                      e.base_pose[1] - cfg.target.anchor[1]) for e in eps]
+    dists = [
+        np.hypot(e.base_pose[0] - cfg.target.anchor[0], e.base_pose[1] - cfg.target.anchor[1])
+        for e in eps
+    ]
     assert dists[-1] > dists[0], "viewpoints move away from the target"
     for e in eps:
         e.validate()

@@ -146,8 +146,9 @@ def test_mc_samples_split_the_backbone_where_the_dropout_starts(name, tiny_confi
     model = build_model(name, tiny_config)
     backbone = model.backbone
     if type(backbone).encode is Backbone.encode:  # the whole backbone counts as encode
-        assert not any(isinstance(m, torch.nn.Dropout) or getattr(m, "dropout", 0)
-                       for m in backbone.modules())
+        assert not any(
+            isinstance(m, torch.nn.Dropout) or getattr(m, "dropout", 0) for m in backbone.modules()
+        )
     batch = collate_episodes(samples[:1])
     model.eval()
     with torch.no_grad():

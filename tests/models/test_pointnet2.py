@@ -91,7 +91,6 @@ def test_kdtree_and_topk_neighbour_search_agree(monkeypatch):
     kd = pn.ball_query((0.2, 0.4), (4, 8), xyz, mask, centers)
     kd_w = pn.three_nn_weights(centers, xyz, mask)
 
-
     real_knn = pn._knn
 
     def topk_knn(points, m, queries, k):

@@ -21,8 +21,14 @@ PI = math.pi
 
 def rot_rpy(r: float, pi_: float, y: float) -> np.ndarray:
     """URDF fixed-axis roll-pitch-yaw: R = Rz(y) Ry(p) Rx(r)."""
-    cr, sr, cp, sp, cy, sy = (math.cos(r), math.sin(r), math.cos(pi_), math.sin(pi_),
-                              math.cos(y), math.sin(y))
+    cr, sr, cp, sp, cy, sy = (
+        math.cos(r),
+        math.sin(r),
+        math.cos(pi_),
+        math.sin(pi_),
+        math.cos(y),
+        math.sin(y),
+    )
     rx = np.array([[1, 0, 0], [0, cr, -sr], [0, sr, cr]])
     ry = np.array([[cp, 0, sp], [0, 1, 0], [-sp, 0, cp]])
     rz = np.array([[cy, -sy, 0], [sy, cy, 0], [0, 0, 1]])
@@ -60,10 +66,14 @@ def ur5e_dh_fk(q) -> np.ndarray:
     for i in range(6):
         ct, st = math.cos(q[i]), math.sin(q[i])
         ca, sa = math.cos(alpha[i]), math.sin(alpha[i])
-        m = m @ np.array([[ct, -st * ca, st * sa, a[i] * ct],
-                          [st, ct * ca, -ct * sa, a[i] * st],
-                          [0, sa, ca, d[i]],
-                          [0, 0, 0, 1]])
+        m = m @ np.array(
+            [
+                [ct, -st * ca, st * sa, a[i] * ct],
+                [st, ct * ca, -ct * sa, a[i] * st],
+                [0, sa, ca, d[i]],
+                [0, 0, 0, 1],
+            ]
+        )
     return m
 
 

@@ -56,8 +56,12 @@ def test_register_measures_reach_and_works_in_pybullet(registered):
 def test_explicit_reach_is_kept(tiny_robot_files, tmp_path):
     _, yaml_path = tiny_robot_files
     data = yaml.safe_load(yaml_path.read_text())
-    data.update(reach=0.6, name="tiny_explicit", finger_joints=["fl_joint", "fr_joint"],
-                home=[0, 0.3, 0.8, 0])
+    data.update(
+        reach=0.6,
+        name="tiny_explicit",
+        finger_joints=["fl_joint", "fr_joint"],
+        home=[0, 0.3, 0.8, 0],
+    )
     other = tmp_path / "explicit.yaml"
     other.write_text(yaml.safe_dump(data))
     spec = register_user_robot(other)

@@ -41,7 +41,7 @@ def test_furniture_stands_along_the_wall_inside_the_room(scene_id):
         c = a.corners()
         assert c[:, 1].min() >= -1e-6, "units stand against the wall at y = 0"
         assert c[:, 0].min() > 0 and c[:, 0].max() < layout.room.width
-        for b in fps[i + 1:]:
+        for b in fps[i + 1 :]:
             assert not overlaps(a, b)
     cats = [u.category for u in layout.furniture]
     assert "sink" in cats and cats.count("cabinet") >= 2
@@ -63,15 +63,17 @@ def test_configurations_respect_the_rules(scene_id):
         assert 1 <= len(cfg.objects) <= 3
         assert 1 <= len(cfg.obstacles) <= 3
         for obj in cfg.objects:
-            assert any(a.x0 <= obj.x <= a.x1 and a.y0 <= obj.y <= a.y1
-                       and abs(a.z - obj.z) < 0.01 for a in areas), obj
+            assert any(
+                a.x0 <= obj.x <= a.x1 and a.y0 <= obj.y <= a.y1 and abs(a.z - obj.z) < 0.01
+                for a in areas
+            ), obj
         tx, ty, _ = cfg.target.anchor
         for i, ob in enumerate(cfg.obstacles):
             rel = np.array([ob.x - tx, ob.y - ty])
             assert np.linalg.norm(rel) <= reach + 1e-6 and rel[1] > 0, "inside the semicircle"
             fp = ob.footprint()
             assert not any(overlaps(fp, f) for f in furniture)
-            assert not any(overlaps(fp, o.footprint()) for o in cfg.obstacles[i + 1:])
+            assert not any(overlaps(fp, o.footprint()) for o in cfg.obstacles[i + 1 :])
         if cfg.target.is_articulated:
             unit = layout.unit(cfg.target.uid)
             assert cfg.target.articulation < len(unit.model.articulations)

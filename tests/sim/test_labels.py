@@ -15,8 +15,8 @@ def test_dense_map_hand_computed():
     cfg = DenseMapConfig(theta=0.15, k=2, sigma=0.05)
     q = np.array([[0.0, 0.0], [0.05, 0.0], [0.03, 0.0], [1.0, 1.0]])
     v = dense_map(pos, out, q, cfg)
-    w0, w1 = math.exp(-0.03**2 / (2 * 0.05**2)), math.exp(-0.07**2 / (2 * 0.05**2))
-    expected0 = 1 / (1 + math.exp(-0.1**2 / (2 * 0.05**2)))
+    w0, w1 = math.exp(-(0.03**2) / (2 * 0.05**2)), math.exp(-(0.07**2) / (2 * 0.05**2))
+    expected0 = 1 / (1 + math.exp(-(0.1**2) / (2 * 0.05**2)))
     assert v[0] == pytest.approx(expected0, rel=1e-6)
     assert v[1] == pytest.approx(0.5, rel=1e-6)  # equidistant
     assert v[2] == pytest.approx(w0 / (w0 + w1), rel=1e-6)

@@ -30,13 +30,19 @@ def test_configurations_spawn_without_penetration_and_stay_put(world, scene):
 
 def test_reloading_a_configuration_restores_the_world(world, scene):
     world.load_configuration(scene.configurations[1])
-    ids = {u: p.getBasePositionAndOrientation(b.body_id, physicsClientId=world.client)
-           for u, b in world.bodies.items() if b.kind == "rigid"}
+    ids = {
+        u: p.getBasePositionAndOrientation(b.body_id, physicsClientId=world.client)
+        for u, b in world.bodies.items()
+        if b.kind == "rigid"
+    }
     world.step(100)
     world.load_configuration(scene.configurations[0])
     world.load_configuration(scene.configurations[1])
-    again = {u: p.getBasePositionAndOrientation(b.body_id, physicsClientId=world.client)
-             for u, b in world.bodies.items() if b.kind == "rigid"}
+    again = {
+        u: p.getBasePositionAndOrientation(b.body_id, physicsClientId=world.client)
+        for u, b in world.bodies.items()
+        if b.kind == "rigid"
+    }
     assert ids.keys() == again.keys()
     for uid in ids:
         assert np.allclose(ids[uid][0], again[uid][0], atol=1e-9)

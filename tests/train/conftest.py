@@ -8,7 +8,6 @@ from momakitchen.train import TrainConfig
 torch.set_num_threads(1)
 
 
-
 def tiny_train_config(**changes) -> TrainConfig:
     base = TrainConfig(
         model="navaff",
@@ -33,7 +32,5 @@ def make_config():
 @pytest.fixture(scope="session")
 def tiny_sets():
     train = SyntheticEpisodes(SyntheticConfig(num_episodes=8, num_global=256, num_floor=128))
-    val = SyntheticEpisodes(
-        SyntheticConfig(num_episodes=4, num_global=256, num_floor=128, seed=9)
-    )
+    val = SyntheticEpisodes(SyntheticConfig(num_episodes=4, num_global=256, num_floor=128, seed=9))
     return train, val

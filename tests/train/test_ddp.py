@@ -14,10 +14,27 @@ def test_two_process_torchrun_run_completes(tmp_path):
     out = tmp_path / "ddp"
     env = dict(os.environ, OMP_NUM_THREADS="1")
     proc = subprocess.run(
-        [*cmd, "--nproc_per_node", "2", "--master_port", "29533",
-         "-m", "momakitchen.train.ddp_smoke", "--out", str(out), "--episodes", "8",
-         "--epochs", "2", "--batch-size", "2"],
-        capture_output=True, text=True, timeout=300, env=env,
+        [
+            *cmd,
+            "--nproc_per_node",
+            "2",
+            "--master_port",
+            "29533",
+            "-m",
+            "momakitchen.train.ddp_smoke",
+            "--out",
+            str(out),
+            "--episodes",
+            "8",
+            "--epochs",
+            "2",
+            "--batch-size",
+            "2",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        env=env,
     )
     assert proc.returncode == 0, proc.stderr[-3000:]
     summary = json.loads(proc.stdout.strip().splitlines()[-1])

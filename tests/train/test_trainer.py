@@ -54,8 +54,14 @@ def test_training_writes_a_reloadable_checkpoint(tmp_path, tiny_sets, make_confi
     train_set, val_set = tiny_sets
     run = tmp_path / "run"
     result = train(make_config(), train_set, val_set, run)
-    for name in ("config.json", "model.safetensors", "trainer_state.safetensors",
-                 "trainer_state.json", "log.csv", "loss_curve.png"):
+    for name in (
+        "config.json",
+        "model.safetensors",
+        "trainer_state.safetensors",
+        "trainer_state.json",
+        "log.csv",
+        "loss_curve.png",
+    ):
         assert (run / name).is_file(), name
     assert not list(run.glob("*.pt")) and not list(run.glob("*.pkl"))
     info = json.loads((run / "config.json").read_text())
@@ -125,8 +131,9 @@ def test_resume_continues_exactly(tmp_path, tiny_sets, make_config):
     assert state["progress"]["epoch"] == 2
     resumed = train(cfg, train_set, None, tmp_path / "cut", resume=True)
     assert resumed.global_step == full.global_step == 6
-    for (k, a), b in zip(full.model.state_dict().items(), resumed.model.state_dict().values(),
-                         strict=True):
+    for (k, a), b in zip(
+        full.model.state_dict().items(), resumed.model.state_dict().values(), strict=True
+    ):
         assert torch.allclose(a, b, atol=1e-6), k
     assert [h["epoch"] for h in resumed.history] == [1, 2, 3]
 
@@ -167,7 +174,11 @@ def _overfit(tmp_path, make_config, steps):
 
     data = SyntheticEpisodes(SyntheticConfig(num_episodes=4, num_global=256, num_floor=128))
     cfg = make_config(
-        epochs=steps, lr=3e-3, min_lr_ratio=0.1, val_every=steps, checkpoint_every=steps,
+        epochs=steps,
+        lr=3e-3,
+        min_lr_ratio=0.1,
+        val_every=steps,
+        checkpoint_every=steps,
         log_every=10,
     ).replace_model(dropout=0.0)
     torch.manual_seed(cfg.seed)

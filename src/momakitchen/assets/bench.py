@@ -28,18 +28,28 @@ def default_envelope(name: str, rng: np.random.Generator) -> Envelope | None:
     """An envelope in the ranges a kitchen layout uses (None for objects and obstacles)."""
     kind = get_category(name).kind
     if kind == "appliance":
-        return Envelope(round(float(rng.uniform(0.45, 0.6)), 4),
-                        round(float(rng.uniform(0.33, 0.42)), 4), 0.4)
+        return Envelope(
+            round(float(rng.uniform(0.45, 0.6)), 4), round(float(rng.uniform(0.33, 0.42)), 4), 0.4
+        )
     if kind != "furniture":
         return None
     if name == "fridge":
-        return Envelope(round(float(rng.uniform(0.7, 0.9)), 4),
-                        round(float(rng.uniform(0.6, 0.78)), 4),
-                        round(float(rng.uniform(1.75, 2.0)), 4))
-    lo, hi = {"cabinet": (0.45, 0.9), "sink": (0.6, 0.9), "dishwasher": (0.58, 0.62),
-              "oven": (0.58, 0.76)}[name]
-    return Envelope(round(float(rng.uniform(lo, hi)), 4), round(float(rng.uniform(0.56, 0.66)), 4),
-                    round(float(rng.uniform(0.86, 0.94)), 4))
+        return Envelope(
+            round(float(rng.uniform(0.7, 0.9)), 4),
+            round(float(rng.uniform(0.6, 0.78)), 4),
+            round(float(rng.uniform(1.75, 2.0)), 4),
+        )
+    lo, hi = {
+        "cabinet": (0.45, 0.9),
+        "sink": (0.6, 0.9),
+        "dishwasher": (0.58, 0.62),
+        "oven": (0.58, 0.76),
+    }[name]
+    return Envelope(
+        round(float(rng.uniform(lo, hi)), 4),
+        round(float(rng.uniform(0.56, 0.66)), 4),
+        round(float(rng.uniform(0.86, 0.94)), 4),
+    )
 
 
 def run(samples: int, load: int, seed: int = 0) -> list[dict]:
@@ -64,39 +74,58 @@ def run(samples: int, load: int, seed: int = 0) -> list[dict]:
                 t_sample += t1 - t0
                 t_build += t2 - t1
                 texts.add(model.urdf)
-                variants.add(tuple(v for v in dataclasses.astuple(params)
-                                   if isinstance(v, (str, int)) and not isinstance(v, bool)))
+                variants.add(
+                    tuple(
+                        v
+                        for v in dataclasses.astuple(params)
+                        if isinstance(v, (str, int)) and not isinstance(v, bool)
+                    )
+                )
                 if len(models) < load:
                     models.append(model)
             loads = []
             for model in models:
                 t0 = time.perf_counter()
                 path = cached_urdf(model.urdf, name)
-                body = pb.loadURDF(str(path), useFixedBase=True,
-                                   flags=pb.URDF_USE_INERTIA_FROM_FILE, physicsClientId=client)
+                body = pb.loadURDF(
+                    str(path),
+                    useFixedBase=True,
+                    flags=pb.URDF_USE_INERTIA_FROM_FILE,
+                    physicsClientId=client,
+                )
                 loads.append(time.perf_counter() - t0)
                 pb.removeBody(body, physicsClientId=client)
-            rows.append({
-                "category": name, "kind": cat.kind, "samples": samples, "distinct": len(texts),
-                "variants": len(variants),
-                "sample_ms": 1e3 * t_sample / samples, "build_ms": 1e3 * t_build / samples,
-                "load_ms": 1e3 * statistics.mean(loads) if loads else float("nan"),
-                "links": max(m.urdf.count("<link ") for m in models) if models else 0,
-            })
+            rows.append(
+                {
+                    "category": name,
+                    "kind": cat.kind,
+                    "samples": samples,
+                    "distinct": len(texts),
+                    "variants": len(variants),
+                    "sample_ms": 1e3 * t_sample / samples,
+                    "build_ms": 1e3 * t_build / samples,
+                    "load_ms": 1e3 * statistics.mean(loads) if loads else float("nan"),
+                    "links": max(m.urdf.count("<link ") for m in models) if models else 0,
+                }
+            )
     finally:
         pb.disconnect(client)
     return rows
 
 
 def markdown(rows: list[dict]) -> str:
-    out = ["| category | kind | distinct / samples | variants | sample (ms) | build (ms) | "
-           "write + load (ms) | links (max) |",
-           "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: |"]
+    out = [
+        "| category | kind | distinct / samples | variants | sample (ms) | build (ms) | "
+        "write + load (ms) | links (max) |",
+        "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: |",
+    ]
     for r in rows:
-        out.append(f"| {r['category']} | {r['kind']} | {r['distinct']} / {r['samples']} | "
-                   f"{r['variants']} | "
-                   f"{r['sample_ms']:.2f} | {r['build_ms']:.2f} | {r['load_ms']:.2f} | "
-                   f"{r['links']} |")
+        out.append(
+            f"| {r['category']} | {r['kind']} | {r['distinct']} / {r['samples']} | "
+            f"{r['variants']} | "
+            f"{r['sample_ms']:.2f} | {r['build_ms']:.2f} | {r['load_ms']:.2f} | "
+            f"{r['links']} |"
+        )
     return "\n".join(out)
 
 

@@ -23,8 +23,14 @@ from momakitchen.assets.urdf import ALONG_Y, RGBA, Cylinder, Joint, Link, Shape
 BASE = "carcass"
 
 
-def _fronts(p: C.CounterParams, g: C.CounterGeometry, layout: str, columns: int, hinge: str,
-            drawer_fracs: tuple[float, ...]) -> tuple[list[Link], list[Joint], list[Articulation]]:
+def _fronts(
+    p: C.CounterParams,
+    g: C.CounterGeometry,
+    layout: str,
+    columns: int,
+    hinge: str,
+    drawer_fracs: tuple[float, ...],
+) -> tuple[list[Link], list[Joint], list[Articulation]]:
     """Doors and drawers filling the front area (drawer rows from the top, doors below)."""
     links, joints, arts = [], [], []
     x0, x1 = -p.width / 2 + C.GAP, p.width / 2 - C.GAP
@@ -45,8 +51,9 @@ def _fronts(p: C.CounterParams, g: C.CounterGeometry, layout: str, columns: int,
         cols = C.split(x0, x1, columns)
         for c, (a, b) in enumerate(cols):
             side = hinge if columns == 1 else ("left" if c == 0 else "right")
-            lk, jt, ar = C.counter_door(p, g, f"door_{c}", BASE, a, b, z0, z - C.GAP if rows else z,
-                                side)
+            lk, jt, ar = C.counter_door(
+                p, g, f"door_{c}", BASE, a, b, z0, z - C.GAP if rows else z, side
+            )
             links.append(lk)
             joints.append(jt)
             arts.append(ar)
@@ -72,8 +79,9 @@ class Cabinet(ProceduralCategory):
         shelf: int
 
     @classmethod
-    def sample_procedural(cls, rng: np.random.Generator, envelope: Envelope | None = None
-                          ) -> Params:
+    def sample_procedural(
+        cls, rng: np.random.Generator, envelope: Envelope | None = None
+    ) -> Params:
         base = C.sample_counter(rng, envelope, cls.name)
         layout = pick(rng, ("doors", "drawer_doors", "drawers"))
         w = base["width"]
@@ -85,9 +93,14 @@ class Cabinet(ProceduralCategory):
         else:
             fracs = (u(rng, 0.15, 0.22),) if layout == "drawer_doors" else ()
             columns = 1 if w < 0.55 else (2 if w > 0.7 else int(rng.integers(1, 3)))
-        return cls.Params(**base, layout=layout, columns=columns,
-                          hinge=pick(rng, ("left", "right")), drawer_fracs=fracs,
-                          shelf=int(layout != "drawers" and rng.random() < 0.7))
+        return cls.Params(
+            **base,
+            layout=layout,
+            columns=columns,
+            hinge=pick(rng, ("left", "right")),
+            drawer_fracs=fracs,
+            shelf=int(layout != "drawers" and rng.random() < 0.7),
+        )
 
     @classmethod
     def build_procedural(cls, p: Params) -> AssetModel:
@@ -95,8 +108,14 @@ class Cabinet(ProceduralCategory):
         shapes = C.carcass_shapes(p, g, shelf=bool(p.shelf))
         base = Link(BASE, tuple(shapes), round(C.density_mass(shapes), 3))
         links, joints, arts = _fronts(p, g, p.layout, p.columns, p.hinge, p.drawer_fracs)
-        return finish(cls.name, [base, *links], joints, C.materials(p),
-                      articulations=tuple(arts), placement_areas=(C.countertop_area(g),))
+        return finish(
+            cls.name,
+            [base, *links],
+            joints,
+            C.materials(p),
+            articulations=tuple(arts),
+            placement_areas=(C.countertop_area(g),),
+        )
 
 
 @register_category
@@ -126,8 +145,9 @@ class Sink(ProceduralCategory):
         faucet_rgba: RGBA
 
     @classmethod
-    def sample_procedural(cls, rng: np.random.Generator, envelope: Envelope | None = None
-                          ) -> Params:
+    def sample_procedural(
+        cls, rng: np.random.Generator, envelope: Envelope | None = None
+    ) -> Params:
         C.check_envelope(cls.name, envelope, cls.MIN_ENVELOPE)
         base = C.sample_counter(rng, envelope, cls.name)
         w, d = base["width"], base["depth"]
@@ -137,15 +157,22 @@ class Sink(ProceduralCategory):
         steel = rng.random() < 0.7
         basin = (0.78, 0.79, 0.8) if steel else pick_colour(rng)
         return cls.Params(
-            **base, front=pick(rng, ("doors", "doors", "panel")),
-            columns=1 if w < 0.6 else 2, hinge=pick(rng, ("left", "right")),
-            basin_width=bw, basin_depth=u(rng, 0.32, min(0.42, d - 0.22)),
-            basin_height=u(rng, 0.15, 0.2), basin_offset=u(rng, -room, room),
-            faucet_height=u(rng, 0.18, 0.32), spout_length=u(rng, 0.14, 0.2),
-            lever_length=u(rng, 0.08, 0.12), lever_side=pick(rng, ("left", "right")),
+            **base,
+            front=pick(rng, ("doors", "doors", "panel")),
+            columns=1 if w < 0.6 else 2,
+            hinge=pick(rng, ("left", "right")),
+            basin_width=bw,
+            basin_depth=u(rng, 0.32, min(0.42, d - 0.22)),
+            basin_height=u(rng, 0.15, 0.2),
+            basin_offset=u(rng, -room, room),
+            faucet_height=u(rng, 0.18, 0.32),
+            spout_length=u(rng, 0.14, 0.2),
+            lever_length=u(rng, 0.08, 0.12),
+            lever_side=pick(rng, ("left", "right")),
             basin_rgba=jitter(rng, basin, 0.03),
-            faucet_rgba=jitter(rng, (0.8, 0.81, 0.83) if rng.random() < 0.8 else (0.1, 0.1, 0.1),
-                               0.02),
+            faucet_rgba=jitter(
+                rng, (0.8, 0.81, 0.83) if rng.random() < 0.8 else (0.1, 0.1, 0.1), 0.02
+            ),
         )
 
     @classmethod
@@ -173,8 +200,12 @@ class Sink(ProceduralCategory):
             box_at((bx1 - t, by0, zb), (bx1, by1, g.z_carcass), "basin", steel),
             box_at((bx0, by0, zb), (bx1, by0 + t, g.z_carcass), "basin", steel),
             box_at((bx0, by1 - t, zb), (bx1, by1, g.z_carcass), "basin", steel),
-            Shape(Cylinder(0.025, 0.004), (p.basin_offset, (by0 + by1) / 2, zb + t + 0.002),
-                  material="faucet", collision=False),  # drain
+            Shape(
+                Cylinder(0.025, 0.004),
+                (p.basin_offset, (by0 + by1) / 2, zb + t + 0.002),
+                material="faucet",
+                collision=False,
+            ),  # drain
         ]
         # faucet: column behind the basin, spout over it
         fx, fy = p.basin_offset, max(0.05, by0 - 0.05)
@@ -182,14 +213,25 @@ class Sink(ProceduralCategory):
         H = p.height
         shapes += [
             Shape(Cylinder(0.028, 0.02), (fx, fy, H + 0.01), material="faucet", density=METAL),
-            Shape(Cylinder(col_r, p.faucet_height), (fx, fy, H + p.faucet_height / 2),
-                  material="faucet", density=METAL),
-            Shape(Cylinder(0.012, p.spout_length),
-                  (fx, fy + p.spout_length / 2, H + p.faucet_height - 0.012), ALONG_Y,
-                  material="faucet", density=METAL),
-            Shape(Cylinder(0.01, 0.03), (fx, fy + p.spout_length - 0.01,
-                                         H + p.faucet_height - 0.035),
-                  material="faucet", density=METAL),
+            Shape(
+                Cylinder(col_r, p.faucet_height),
+                (fx, fy, H + p.faucet_height / 2),
+                material="faucet",
+                density=METAL,
+            ),
+            Shape(
+                Cylinder(0.012, p.spout_length),
+                (fx, fy + p.spout_length / 2, H + p.faucet_height - 0.012),
+                ALONG_Y,
+                material="faucet",
+                density=METAL,
+            ),
+            Shape(
+                Cylinder(0.01, 0.03),
+                (fx, fy + p.spout_length - 0.01, H + p.faucet_height - 0.035),
+                material="faucet",
+                density=METAL,
+            ),
         ]
         base = Link(BASE, tuple(shapes), round(C.density_mass(shapes), 3))
         links: list[Link] = []
@@ -198,29 +240,70 @@ class Sink(ProceduralCategory):
         if p.front == "doors":
             links, joints, arts = _fronts(p, g, "doors", p.columns, p.hinge, ())
         else:
-            panel = box_at((-hw + C.GAP, 0.0, 0.0), (hw - C.GAP, p.front_thickness,
-                                                       g.z_fronts[1] - g.z_fronts[0]),
-                           "front", C.MDF)
+            panel = box_at(
+                (-hw + C.GAP, 0.0, 0.0),
+                (hw - C.GAP, p.front_thickness, g.z_fronts[1] - g.z_fronts[0]),
+                "front",
+                C.MDF,
+            )
             links = [Link("front_panel", (panel,), round(C.density_mass([panel]), 3))]
-            joints = [Joint("front_panel_fixed", "fixed", BASE, "front_panel",
-                            (0.0, g.y_front, g.z_fronts[0]))]
+            joints = [
+                Joint(
+                    "front_panel_fixed",
+                    "fixed",
+                    BASE,
+                    "front_panel",
+                    (0.0, g.y_front, g.z_fronts[0]),
+                )
+            ]
         # lever: a bar on the side of the column pointing to the front, lifted to open
         sx = -1.0 if p.lever_side == "left" else 1.0
         lr = 0.007
-        lever = Link("lever", (
-            Shape(Cylinder(0.011, 0.02), (0.0, 0.0, 0.0), (0.0, math.pi / 2, 0.0),
-                  material="faucet"),
-            Shape(Cylinder(lr, p.lever_length), (sx * 0.004, p.lever_length / 2, 0.0), ALONG_Y,
-                  material="faucet"),
-        ), round(0.02 + 0.5 * p.lever_length, 4))
+        lever = Link(
+            "lever",
+            (
+                Shape(
+                    Cylinder(0.011, 0.02),
+                    (0.0, 0.0, 0.0),
+                    (0.0, math.pi / 2, 0.0),
+                    material="faucet",
+                ),
+                Shape(
+                    Cylinder(lr, p.lever_length),
+                    (sx * 0.004, p.lever_length / 2, 0.0),
+                    ALONG_Y,
+                    material="faucet",
+                ),
+            ),
+            round(0.02 + 0.5 * p.lever_length, 4),
+        )
         pivot = (fx + sx * (col_r + 0.01), fy, H + min(0.07, p.faucet_height * 0.35))
         limit = 0.6
-        joints.append(Joint("lever_hinge", "revolute", BASE, "lever", pivot,
-                            axis=(1.0, 0.0, 0.0), lower=0.0, upper=limit, effort=5.0,
-                            velocity=3.0, damping=0.002, friction=0.01))
+        joints.append(
+            Joint(
+                "lever_hinge",
+                "revolute",
+                BASE,
+                "lever",
+                pivot,
+                axis=(1.0, 0.0, 0.0),
+                lower=0.0,
+                upper=limit,
+                effort=5.0,
+                velocity=3.0,
+                damping=0.002,
+                friction=0.01,
+            )
+        )
         links.append(lever)
-        grasp = GraspFrame("lever", (sx * 0.004, round(p.lever_length * 0.75, 6), lr),
-                           (0.0, 0.0, 1.0), (1.0, 0.0, 0.0), 2 * lr, "lever")
+        grasp = GraspFrame(
+            "lever",
+            (sx * 0.004, round(p.lever_length * 0.75, 6), lr),
+            (0.0, 0.0, 1.0),
+            (1.0, 0.0, 0.0),
+            2 * lr,
+            "lever",
+        )
         arts.append(Articulation("lever_hinge", "revolute", "lever", grasp, 1, limit))
         mats = {**C.materials(p), "basin": p.basin_rgba, "faucet": p.faucet_rgba}
         # free countertop: left and right of the basin, and the strip in front of it
@@ -230,8 +313,14 @@ class Sink(ProceduralCategory):
             areas.append(Rect(round(-hw + m, 6), round(bx0 - m, 6), m, round(g.y_top - m, 6), H))
         if hw - m - (bx1 + m) >= 0.08:
             areas.append(Rect(round(bx1 + m, 6), round(hw - m, 6), m, round(g.y_top - m, 6), H))
-        return finish(cls.name, [base, *links], joints, mats, articulations=tuple(arts),
-                      placement_areas=tuple(areas))
+        return finish(
+            cls.name,
+            [base, *links],
+            joints,
+            mats,
+            articulations=tuple(arts),
+            placement_areas=tuple(areas),
+        )
 
 
 def pick_colour(rng: np.random.Generator) -> tuple[float, float, float]:

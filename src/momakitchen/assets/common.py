@@ -63,8 +63,7 @@ class ProceduralCategory(AssetCategory):
         return super().params_from_dict(data)
 
     @classmethod
-    def sample_procedural(cls, rng: np.random.Generator, envelope: Envelope | None = None
-                          ) -> Any:
+    def sample_procedural(cls, rng: np.random.Generator, envelope: Envelope | None = None) -> Any:
         raise NotImplementedError
 
     @classmethod
@@ -98,25 +97,36 @@ def jitter(rng: np.random.Generator, base: tuple[float, ...], amount: float = 0.
     return rgba(tuple(c.tolist()), base[3] if len(base) > 3 else 1.0)
 
 
-def palette_colour(rng: np.random.Generator, palette: tuple[tuple[float, ...], ...],
-                   amount: float = 0.04) -> RGBA:
+def palette_colour(
+    rng: np.random.Generator, palette: tuple[tuple[float, ...], ...], amount: float = 0.04
+) -> RGBA:
     return jitter(rng, palette[int(rng.integers(len(palette)))], amount)
 
 
 # Plausible kitchen materials (RGB).
 FRONT_COLOURS = (
-    (0.95, 0.95, 0.93), (0.92, 0.89, 0.82), (0.80, 0.81, 0.80), (0.30, 0.31, 0.33),
-    (0.55, 0.63, 0.55), (0.20, 0.25, 0.38), (0.72, 0.56, 0.38), (0.45, 0.30, 0.20),
-    (0.60, 0.47, 0.35), (0.13, 0.13, 0.14),
+    (0.95, 0.95, 0.93),
+    (0.92, 0.89, 0.82),
+    (0.80, 0.81, 0.80),
+    (0.30, 0.31, 0.33),
+    (0.55, 0.63, 0.55),
+    (0.20, 0.25, 0.38),
+    (0.72, 0.56, 0.38),
+    (0.45, 0.30, 0.20),
+    (0.60, 0.47, 0.35),
+    (0.13, 0.13, 0.14),
 )
 CARCASS_COLOURS = ((0.93, 0.93, 0.91), (0.85, 0.80, 0.70), (0.60, 0.60, 0.60))
 COUNTERTOP_COLOURS = (
-    (0.18, 0.18, 0.19), (0.90, 0.90, 0.88), (0.62, 0.46, 0.30), (0.55, 0.55, 0.53),
-    (0.08, 0.08, 0.09), (0.78, 0.74, 0.66),
+    (0.18, 0.18, 0.19),
+    (0.90, 0.90, 0.88),
+    (0.62, 0.46, 0.30),
+    (0.55, 0.55, 0.53),
+    (0.08, 0.08, 0.09),
+    (0.78, 0.74, 0.66),
 )
 HANDLE_COLOURS = ((0.75, 0.76, 0.78), (0.62, 0.62, 0.60), (0.08, 0.08, 0.08), (0.72, 0.58, 0.30))
-APPLIANCE_COLOURS = ((0.80, 0.81, 0.82), (0.95, 0.95, 0.95), (0.12, 0.12, 0.13),
-                     (0.68, 0.69, 0.70))
+APPLIANCE_COLOURS = ((0.80, 0.81, 0.82), (0.95, 0.95, 0.95), (0.12, 0.12, 0.13), (0.68, 0.69, 0.70))
 GLASS = (0.08, 0.09, 0.10, 1.0)
 
 HANDLE_TYPES = ("bar_h", "bar_v", "flat_h", "knob")
@@ -133,8 +143,9 @@ class Handle:
     width: float
 
 
-def make_handle(kind: str, centre: Vec3, length: float, thickness: float, standoff: float,
-                material: str) -> Handle:
+def make_handle(
+    kind: str, centre: Vec3, length: float, thickness: float, standoff: float, material: str
+) -> Handle:
     """A handle on a front whose outward normal is +y; ``centre`` lies on the front surface.
 
     ``bar_h``/``bar_v``: round bar on two posts; ``flat_h``/``flat_v``: rectangular bar on two
@@ -147,8 +158,12 @@ def make_handle(kind: str, centre: Vec3, length: float, thickness: float, stando
         r = thickness / 2
         shapes = (
             Shape(Cylinder(0.006, standoff), (x, y + standoff / 2, z), ALONG_Y, material),
-            Shape(Cylinder(r, thickness * 0.6), (x, y + standoff + thickness * 0.3, z), ALONG_Y,
-                  material),
+            Shape(
+                Cylinder(r, thickness * 0.6),
+                (x, y + standoff + thickness * 0.3, z),
+                ALONG_Y,
+                material,
+            ),
         )
         return Handle(shapes, (x, y + standoff + thickness * 0.6, z), (1.0, 0.0, 0.0), thickness)
     if kind in ("bar_h", "bar_v", "flat_h", "flat_v"):
@@ -164,8 +179,11 @@ def make_handle(kind: str, centre: Vec3, length: float, thickness: float, stando
         if kind.startswith("bar"):
             bar = Shape(Cylinder(thickness / 2, length), (x, bar_y, z), along, material)
         else:
-            dims = (length, thickness, thickness * 1.6) if horizontal else \
-                (thickness * 1.6, thickness, length)
+            dims = (
+                (length, thickness, thickness * 1.6)
+                if horizontal
+                else (thickness * 1.6, thickness, length)
+            )
             bar = Shape(Box(dims), (x, bar_y, z), (0.0, 0.0, 0.0), material)
         width = thickness * (1.6 if kind.startswith("flat") else 1.0)
         closing = (0.0, 0.0, 1.0) if horizontal else (1.0, 0.0, 0.0)
@@ -173,8 +191,9 @@ def make_handle(kind: str, centre: Vec3, length: float, thickness: float, stando
     raise MomaError(f"unknown handle type {kind!r}; known: bar_h, bar_v, flat_h, flat_v, knob")
 
 
-def handle_grasp(link: str, h: Handle, normal: Vec3 = (0.0, 1.0, 0.0), name: str = "handle"
-                 ) -> GraspFrame:
+def handle_grasp(
+    link: str, h: Handle, normal: Vec3 = (0.0, 1.0, 0.0), name: str = "handle"
+) -> GraspFrame:
     return GraspFrame(link, h.position, normal, h.closing_axis, h.width, name)
 
 
@@ -214,13 +233,18 @@ def finish(
     )
 
 
-def box_at(lo: Vec3, hi: Vec3, material: str, density: float = 1.0,
-           collision: bool = True) -> Shape:
+def box_at(
+    lo: Vec3, hi: Vec3, material: str, density: float = 1.0, collision: bool = True
+) -> Shape:
     """A box given by its lower and upper corners (easier to read than centre + size)."""
     size = tuple(b - a for a, b in zip(lo, hi, strict=True))
     centre = tuple((a + b) / 2 for a, b in zip(lo, hi, strict=True))
     if min(size) <= 0:
         raise MomaError(f"degenerate box {lo} .. {hi}")
-    return Shape(Box(size), centre, material=material, density=density,  # type: ignore[arg-type]
-                 collision=collision)
-
+    return Shape(
+        Box(size),
+        centre,
+        material=material,
+        density=density,  # type: ignore[arg-type]
+        collision=collision,
+    )

@@ -74,28 +74,39 @@ class CounterParams:
     handle_rgba: RGBA
 
 
-def sample_counter(rng: np.random.Generator, envelope: Envelope | None, name: str,
-                   handle_types: tuple[str, ...] = HANDLE_TYPES) -> dict:
+def sample_counter(
+    rng: np.random.Generator,
+    envelope: Envelope | None,
+    name: str,
+    handle_types: tuple[str, ...] = HANDLE_TYPES,
+) -> dict:
     """Field values of :class:`CounterParams` for a unit filling ``envelope``."""
     env = check_envelope(name, envelope, MIN_ENVELOPE)
     handle_type = pick(rng, handle_types)
     knob = handle_type == "knob"
     top_material = "wood" if rng.random() < 0.25 else "stone"
-    top_rgba = palette_colour(rng, COUNTERTOP_COLOURS[2:3] if top_material == "wood"
-                              else COUNTERTOP_COLOURS)
+    top_rgba = palette_colour(
+        rng, COUNTERTOP_COLOURS[2:3] if top_material == "wood" else COUNTERTOP_COLOURS
+    )
     return dict(
         # the envelope as given (rounding could push a unit past its slot)
-        width=float(env.width), depth=float(env.depth), height=float(env.height),
-        plinth_height=u(rng, 0.08, 0.13), plinth_recess=u(rng, 0.04, 0.07),
-        panel=u(rng, 0.016, 0.019), front_thickness=u(rng, 0.018, 0.022),
+        width=float(env.width),
+        depth=float(env.depth),
+        height=float(env.height),
+        plinth_height=u(rng, 0.08, 0.13),
+        plinth_recess=u(rng, 0.04, 0.07),
+        panel=u(rng, 0.016, 0.019),
+        front_thickness=u(rng, 0.018, 0.022),
         top_thickness=u(rng, 0.02, 0.04) if top_material == "stone" else u(rng, 0.03, 0.04),
-        top_overhang=u(rng, 0.01, 0.025), top_material=top_material,
+        top_overhang=u(rng, 0.01, 0.025),
+        top_material=top_material,
         handle_type=handle_type,
         handle_length=0.0 if knob else u(rng, 0.1, 0.32),
         handle_thickness=u(rng, 0.025, 0.034) if knob else u(rng, 0.01, 0.016),
         handle_standoff=u(rng, 0.018, 0.03),
         carcass_rgba=palette_colour(rng, CARCASS_COLOURS, 0.02),
-        front_rgba=palette_colour(rng, FRONT_COLOURS), top_rgba=top_rgba,
+        front_rgba=palette_colour(rng, FRONT_COLOURS),
+        top_rgba=top_rgba,
         handle_rgba=palette_colour(rng, HANDLE_COLOURS, 0.03),
     )
 
@@ -124,15 +135,20 @@ def geometry(p: CounterParams) -> CounterGeometry:
     y_front = p.depth - handle_depth(p) - p.front_thickness
     z_carcass = p.height - p.top_thickness
     return CounterGeometry(
-        w=p.width, depth=p.depth, height=p.height, y_front=y_front,
+        w=p.width,
+        depth=p.depth,
+        height=p.height,
+        y_front=y_front,
         y_top=min(p.depth, y_front + p.front_thickness + p.top_overhang),
-        z_carcass=z_carcass, z_fronts=(p.plinth_height + GAP, z_carcass - GAP),
+        z_carcass=z_carcass,
+        z_fronts=(p.plinth_height + GAP, z_carcass - GAP),
         x_inner=(-p.width / 2 + p.panel, p.width / 2 - p.panel),
     )
 
 
-def carcass_shapes(p: CounterParams, g: CounterGeometry, *, countertop: bool = True,
-                   shelf: bool = False) -> list[Shape]:
+def carcass_shapes(
+    p: CounterParams, g: CounterGeometry, *, countertop: bool = True, shelf: bool = False
+) -> list[Shape]:
     """Side, back and bottom panels, plinth, optional shelf, and the countertop slab."""
     hw, t = p.width / 2, p.panel
     (xi0, xi1), zc = g.x_inner, g.z_carcass
@@ -141,32 +157,48 @@ def carcass_shapes(p: CounterParams, g: CounterGeometry, *, countertop: bool = T
         box_at((xi1, 0.0, 0.0), (hw, g.y_front, zc), "carcass", MDF),
         box_at((xi0, 0.0, p.plinth_height), (xi1, t, zc), "carcass", MDF),
         box_at((xi0, t, p.plinth_height), (xi1, g.y_front, p.plinth_height + t), "carcass", MDF),
-        box_at((xi0, g.y_front - p.plinth_recess - t, 0.0),
-               (xi1, g.y_front - p.plinth_recess, p.plinth_height), "plinth", MDF),
+        box_at(
+            (xi0, g.y_front - p.plinth_recess - t, 0.0),
+            (xi1, g.y_front - p.plinth_recess, p.plinth_height),
+            "plinth",
+            MDF,
+        ),
     ]
     if shelf:
         zs = (p.plinth_height + zc) / 2
-        shapes.append(box_at((xi0, t, zs - t / 2), (xi1, g.y_front - 0.02, zs + t / 2),
-                             "carcass", MDF))
+        shapes.append(
+            box_at((xi0, t, zs - t / 2), (xi1, g.y_front - 0.02, zs + t / 2), "carcass", MDF)
+        )
     if countertop:
         shapes.append(countertop_slab(p, g, -hw, hw, 0.0, g.y_top))
     return shapes
 
 
-def countertop_slab(p: CounterParams, g: CounterGeometry, x0: float, x1: float, y0: float,
-                    y1: float) -> Shape:
+def countertop_slab(
+    p: CounterParams, g: CounterGeometry, x0: float, x1: float, y0: float, y1: float
+) -> Shape:
     density = STONE if p.top_material == "stone" else WOOD
     return box_at((x0, y0, g.z_carcass), (x1, y1, g.height), "top", density)
 
 
 def materials(p: CounterParams) -> dict[str, RGBA]:
-    return {"carcass": p.carcass_rgba, "plinth": p.front_rgba, "front": p.front_rgba,
-            "top": p.top_rgba, "handle": p.handle_rgba}
+    return {
+        "carcass": p.carcass_rgba,
+        "plinth": p.front_rgba,
+        "front": p.front_rgba,
+        "top": p.top_rgba,
+        "handle": p.handle_rgba,
+    }
 
 
 def countertop_area(g: CounterGeometry, margin: float = 0.01) -> Rect:
-    return Rect(round(-g.w / 2 + margin, 6), round(g.w / 2 - margin, 6), margin,
-                round(g.y_top - margin, 6), round(g.height, 6))
+    return Rect(
+        round(-g.w / 2 + margin, 6),
+        round(g.w / 2 - margin, 6),
+        margin,
+        round(g.y_top - margin, 6),
+        round(g.height, 6),
+    )
 
 
 @dataclass(frozen=True)
@@ -176,11 +208,20 @@ class HandleSpec:
     thickness: float
     standoff: float
 
-    def make(self, centre: tuple[float, float, float], length: float | None = None,
-             kind: str | None = None) -> Handle:
-        return make_handle(kind or self.kind, centre,
-                           self.length if length is None else length, self.thickness,
-                           self.standoff, "handle")
+    def make(
+        self,
+        centre: tuple[float, float, float],
+        length: float | None = None,
+        kind: str | None = None,
+    ) -> Handle:
+        return make_handle(
+            kind or self.kind,
+            centre,
+            self.length if length is None else length,
+            self.thickness,
+            self.standoff,
+            "handle",
+        )
 
 
 def handle_spec(p: CounterParams) -> HandleSpec:
@@ -188,14 +229,29 @@ def handle_spec(p: CounterParams) -> HandleSpec:
 
 
 def with_density(shapes: tuple[Shape, ...], density: float) -> tuple[Shape, ...]:
-    return tuple(Shape(s.geometry, s.xyz, s.rpy, s.material, s.collision, s.visual, density)
-                 for s in shapes)
+    return tuple(
+        Shape(s.geometry, s.xyz, s.rpy, s.material, s.collision, s.visual, density) for s in shapes
+    )
 
 
-def door(name: str, parent: str, y_front: float, x0: float, x1: float, z0: float, z1: float,
-         hinge: str, handle: HandleSpec, thickness: float, *, handle_at_top: bool = True,
-         material: str = "front", density: float = MDF, extra: tuple[Shape, ...] = (),
-         limit: float = 1.75) -> tuple[Link, Joint, Articulation]:
+def door(
+    name: str,
+    parent: str,
+    y_front: float,
+    x0: float,
+    x1: float,
+    z0: float,
+    z1: float,
+    hinge: str,
+    handle: HandleSpec,
+    thickness: float,
+    *,
+    handle_at_top: bool = True,
+    material: str = "front",
+    density: float = MDF,
+    extra: tuple[Shape, ...] = (),
+    limit: float = 1.75,
+) -> tuple[Link, Joint, Articulation]:
     """A side-hinged door covering ``[x0, x1] x [z0, z1]`` with its back face at ``y_front``.
 
     The joint sits on the hinge edge at the back face of the door; both hinge sides open with
@@ -213,21 +269,55 @@ def door(name: str, parent: str, y_front: float, x0: float, x1: float, z0: float
     hx = sx * (dw - 0.04 - hl / 2) if handle.kind in ("bar_h", "flat_h") else sx * (dw - 0.045)
     top_z = dh - 0.06 - (hl / 2 if vertical else 0.0)
     h = handle.make((hx, t, top_z if handle_at_top else dh / 2), hl)
-    mirrored = tuple(Shape(s.geometry, (sx * s.xyz[0], s.xyz[1], s.xyz[2]), s.rpy, s.material,
-                           s.collision, s.visual, s.density) for s in extra)
+    mirrored = tuple(
+        Shape(
+            s.geometry,
+            (sx * s.xyz[0], s.xyz[1], s.xyz[2]),
+            s.rpy,
+            s.material,
+            s.collision,
+            s.visual,
+            s.density,
+        )
+        for s in extra
+    )
     shapes = (panel, *with_density(h.shapes, METAL), *mirrored)
     link = Link(name, shapes, round(density_mass(shapes), 4))
-    joint = Joint(f"{name}_hinge", "revolute", parent, name, (x0 if left else x1, y_front, z0),
-                  axis=(0.0, 0.0, 1.0 if left else -1.0), lower=0.0, upper=limit, effort=50.0,
-                  velocity=3.0, damping=DOOR_DYNAMICS[0], friction=DOOR_DYNAMICS[1])
+    joint = Joint(
+        f"{name}_hinge",
+        "revolute",
+        parent,
+        name,
+        (x0 if left else x1, y_front, z0),
+        axis=(0.0, 0.0, 1.0 if left else -1.0),
+        lower=0.0,
+        upper=limit,
+        effort=50.0,
+        velocity=3.0,
+        damping=DOOR_DYNAMICS[0],
+        friction=DOOR_DYNAMICS[1],
+    )
     art = Articulation(joint.name, "revolute", "door", handle_grasp(name, h), 1, limit)
     return link, joint, art
 
 
-def flap(name: str, parent: str, y_front: float, x0: float, x1: float, z0: float, z1: float,
-         handle: HandleSpec, thickness: float, *, material: str, density: float,
-         extra: tuple[Shape, ...] = (), handle_length: float | None = None,
-         limit: float = 1.45) -> tuple[Link, Joint, Articulation]:
+def flap(
+    name: str,
+    parent: str,
+    y_front: float,
+    x0: float,
+    x1: float,
+    z0: float,
+    z1: float,
+    handle: HandleSpec,
+    thickness: float,
+    *,
+    material: str,
+    density: float,
+    extra: tuple[Shape, ...] = (),
+    handle_length: float | None = None,
+    limit: float = 1.45,
+) -> tuple[Link, Joint, Articulation]:
     """A pull-down door (dishwasher, oven) hinged about a horizontal axis at its bottom edge.
 
     The hinge runs through the middle of the door's thickness, so a closed door carries no
@@ -241,17 +331,41 @@ def flap(name: str, parent: str, y_front: float, x0: float, x1: float, z0: float
     h = handle.make((0.0, t / 2, dh - 0.05), hl, kind)
     shapes = (panel, *with_density(h.shapes, METAL), *extra)
     link = Link(name, shapes, round(density_mass(shapes), 4))
-    joint = Joint(f"{name}_hinge", "revolute", parent, name, ((x0 + x1) / 2, y_front + t / 2, z0),
-                  axis=(-1.0, 0.0, 0.0), lower=0.0, upper=limit, effort=80.0, velocity=3.0,
-                  damping=FLAP_DYNAMICS[0], friction=FLAP_DYNAMICS[1])
+    joint = Joint(
+        f"{name}_hinge",
+        "revolute",
+        parent,
+        name,
+        ((x0 + x1) / 2, y_front + t / 2, z0),
+        axis=(-1.0, 0.0, 0.0),
+        lower=0.0,
+        upper=limit,
+        effort=80.0,
+        velocity=3.0,
+        damping=FLAP_DYNAMICS[0],
+        friction=FLAP_DYNAMICS[1],
+    )
     art = Articulation(joint.name, "revolute", "door", handle_grasp(name, h), 1, limit)
     return link, joint, art
 
 
-def drawer(name: str, parent: str, y_front: float, x0: float, x1: float, z0: float, z1: float,
-           handle: HandleSpec, thickness: float, inner_depth: float, inner_width: float, *,
-           material: str = "front", box_material: str = "carcass", density: float = MDF
-           ) -> tuple[Link, Joint, Articulation]:
+def drawer(
+    name: str,
+    parent: str,
+    y_front: float,
+    x0: float,
+    x1: float,
+    z0: float,
+    z1: float,
+    handle: HandleSpec,
+    thickness: float,
+    inner_depth: float,
+    inner_width: float,
+    *,
+    material: str = "front",
+    box_material: str = "carcass",
+    density: float = MDF,
+) -> tuple[Link, Joint, Articulation]:
     """A drawer: front panel plus a box sliding into the carcass along +y."""
     t = thickness
     fw, fh = x1 - x0, z1 - z0
@@ -267,28 +381,67 @@ def drawer(name: str, parent: str, y_front: float, x0: float, x1: float, z0: flo
         box_at((-bw, -d, 0.02), (bw, -d + wall, 0.02 + bh), box_material, MDF),
     ]
     kind = {"bar_v": "bar_h", "flat_v": "flat_h"}.get(handle.kind, handle.kind)
-    h = handle.make((0.0, t, fh / 2 if fh < 0.25 else fh - 0.08), min(handle.length, fw * 0.6),
-                    kind)
+    h = handle.make(
+        (0.0, t, fh / 2 if fh < 0.25 else fh - 0.08), min(handle.length, fw * 0.6), kind
+    )
     shapes += list(with_density(h.shapes, METAL))
     link = Link(name, tuple(shapes), round(density_mass(shapes), 4))
     limit = round(d * 0.8, 4)
-    joint = Joint(f"{name}_slide", "prismatic", parent, name, ((x0 + x1) / 2, y_front, z0),
-                  axis=(0.0, 1.0, 0.0), lower=0.0, upper=limit, effort=200.0, velocity=1.0,
-                  damping=DRAWER_DYNAMICS[0], friction=DRAWER_DYNAMICS[1])
+    joint = Joint(
+        f"{name}_slide",
+        "prismatic",
+        parent,
+        name,
+        ((x0 + x1) / 2, y_front, z0),
+        axis=(0.0, 1.0, 0.0),
+        lower=0.0,
+        upper=limit,
+        effort=200.0,
+        velocity=1.0,
+        damping=DRAWER_DYNAMICS[0],
+        friction=DRAWER_DYNAMICS[1],
+    )
     art = Articulation(joint.name, "prismatic", "drawer", handle_grasp(name, h), 1, limit)
     return link, joint, art
 
 
-def counter_door(p: CounterParams, g: CounterGeometry, name: str, parent: str, x0: float,
-                 x1: float, z0: float, z1: float, hinge: str) -> tuple[Link, Joint, Articulation]:
-    return door(name, parent, g.y_front, x0, x1, z0, z1, hinge, handle_spec(p),
-                p.front_thickness)
+def counter_door(
+    p: CounterParams,
+    g: CounterGeometry,
+    name: str,
+    parent: str,
+    x0: float,
+    x1: float,
+    z0: float,
+    z1: float,
+    hinge: str,
+) -> tuple[Link, Joint, Articulation]:
+    return door(name, parent, g.y_front, x0, x1, z0, z1, hinge, handle_spec(p), p.front_thickness)
 
 
-def counter_drawer(p: CounterParams, g: CounterGeometry, name: str, parent: str, x0: float,
-                   x1: float, z0: float, z1: float) -> tuple[Link, Joint, Articulation]:
-    return drawer(name, parent, g.y_front, x0, x1, z0, z1, handle_spec(p), p.front_thickness,
-                  g.y_front - p.panel - 0.02, g.x_inner[1] - g.x_inner[0])
+def counter_drawer(
+    p: CounterParams,
+    g: CounterGeometry,
+    name: str,
+    parent: str,
+    x0: float,
+    x1: float,
+    z0: float,
+    z1: float,
+) -> tuple[Link, Joint, Articulation]:
+    return drawer(
+        name,
+        parent,
+        g.y_front,
+        x0,
+        x1,
+        z0,
+        z1,
+        handle_spec(p),
+        p.front_thickness,
+        g.y_front - p.panel - 0.02,
+        g.x_inner[1] - g.x_inner[0],
+    )
 
 
 def split(x0: float, x1: float, n: int) -> list[tuple[float, float]]:

@@ -67,11 +67,16 @@ SOURCE = "external"
 # Size (m) an external object is scaled to: ("height" | "extent", low, high); "extent" is
 # the largest side of the bounding box.
 TYPICAL_SIZE: dict[str, tuple[str, float, float]] = {
-    "bottle": ("height", 0.22, 0.34), "pot": ("extent", 0.26, 0.38),
-    "fruit": ("extent", 0.06, 0.085), "medicine_bottle": ("height", 0.06, 0.12),
-    "vegetable": ("extent", 0.08, 0.22), "chair": ("height", 0.8, 1.0),
-    "table": ("height", 0.72, 0.78), "bin": ("height", 0.4, 0.7),
-    "trolley": ("height", 0.75, 0.92), "cart": ("height", 0.85, 1.0),
+    "bottle": ("height", 0.22, 0.34),
+    "pot": ("extent", 0.26, 0.38),
+    "fruit": ("extent", 0.06, 0.085),
+    "medicine_bottle": ("height", 0.06, 0.12),
+    "vegetable": ("extent", 0.08, 0.22),
+    "chair": ("height", 0.8, 1.0),
+    "table": ("height", 0.72, 0.78),
+    "bin": ("height", 0.4, 0.7),
+    "trolley": ("height", 0.75, 0.92),
+    "cart": ("height", 0.85, 1.0),
 }
 MAX_GRASP_WIDTH = 0.075
 HAND_SIZED = ("bottle", "fruit", "medicine_bottle", "vegetable")
@@ -150,8 +155,9 @@ def _parse(path: Path) -> ET.Element:
     except (ET.ParseError, OSError) as exc:
         raise MomaError(f"external asset {str(path)!r}: cannot parse URDF ({exc})") from None
     if root.tag != "robot":
-        raise MomaError(f"external asset {str(path)!r}: root element is <{root.tag}>, "
-                        "expected <robot>")
+        raise MomaError(
+            f"external asset {str(path)!r}: root element is <{root.tag}>, expected <robot>"
+        )
     return root
 
 
@@ -174,20 +180,27 @@ def _root_link(root: ET.Element, path: Path) -> str:
     return roots[0]
 
 
-def _wrapper(root: ET.Element, root_link: str, offset: np.ndarray,
-             rpy: tuple[float, float, float]) -> str:
+def _wrapper(
+    root: ET.Element, root_link: str, offset: np.ndarray, rpy: tuple[float, float, float]
+) -> str:
     """The URDF with a new root link placing the old root at ``offset`` (unscaled units)."""
     root = ET.fromstring(ET.tostring(root))  # leave the caller's tree alone
     link = ET.Element("link", {"name": ROOT_LINK})
     inertial = ET.SubElement(link, "inertial")
     ET.SubElement(inertial, "mass", {"value": "0.001"})
-    ET.SubElement(inertial, "inertia", {"ixx": "1e-06", "ixy": "0", "ixz": "0", "iyy": "1e-06",
-                                        "iyz": "0", "izz": "1e-06"})
+    ET.SubElement(
+        inertial,
+        "inertia",
+        {"ixx": "1e-06", "ixy": "0", "ixz": "0", "iyy": "1e-06", "iyz": "0", "izz": "1e-06"},
+    )
     joint = ET.Element("joint", {"name": f"{ROOT_LINK}_fixed", "type": "fixed"})
     ET.SubElement(joint, "parent", {"link": ROOT_LINK})
     ET.SubElement(joint, "child", {"link": root_link})
-    ET.SubElement(joint, "origin", {"xyz": " ".join(fmt(v) for v in offset),
-                                    "rpy": " ".join(fmt(v) for v in rpy)})
+    ET.SubElement(
+        joint,
+        "origin",
+        {"xyz": " ".join(fmt(v) for v in offset), "rpy": " ".join(fmt(v) for v in rpy)},
+    )
     root.insert(0, link)
     root.append(joint)
     return ET.tostring(root, encoding="unicode") + "\n"
@@ -229,13 +242,17 @@ def measure(path: str, rpy: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> Mea
         try:
             body = pb.loadURDF(str(probe), useFixedBase=True, physicsClientId=client)
         except pb.error as exc:
-            raise MomaError(f"external asset {str(path)!r}: PyBullet cannot load it "
-                            f"({exc})") from None
+            raise MomaError(
+                f"external asset {str(path)!r}: PyBullet cannot load it ({exc})"
+            ) from None
         n = pb.getNumJoints(body, physicsClientId=client)
         # links without collision shapes (our wrapper root, PartNet's empty base) report a
         # box around their origin: leave them out
-        boxes = [pb.getAABB(body, k, physicsClientId=client) for k in range(-1, n)
-                 if pb.getCollisionShapeData(body, k, physicsClientId=client)]
+        boxes = [
+            pb.getAABB(body, k, physicsClientId=client)
+            for k in range(-1, n)
+            if pb.getCollisionShapeData(body, k, physicsClientId=client)
+        ]
         if not boxes:
             raise MomaError(f"external asset {str(path)!r}: has no collision geometry")
         lo = np.min([b[0] for b in boxes], axis=0)
@@ -248,13 +265,21 @@ def measure(path: str, rpy: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> Mea
                 continue
             a, b = (np.asarray(v) for v in pb.getAABB(body, k, physicsClientId=client))
             front = np.array([(a[0] + b[0]) / 2, b[1], (a[2] + b[2]) / 2])
-            state = pb.getLinkState(body, k, computeForwardKinematics=True,
-                                    physicsClientId=client)
+            state = pb.getLinkState(body, k, computeForwardKinematics=True, physicsClientId=client)
             rot = np.asarray(pb.getMatrixFromQuaternion(state[5])).reshape(3, 3)
             local = rot.T @ (front - np.asarray(state[4]))
             kind = "revolute" if info[2] == pb.JOINT_REVOLUTE else "prismatic"
-            joints.append((info[1].decode(), kind, info[12].decode(), float(info[8]),
-                           float(info[9]), local, rot))
+            joints.append(
+                (
+                    info[1].decode(),
+                    kind,
+                    info[12].decode(),
+                    float(info[8]),
+                    float(info[9]),
+                    local,
+                    rot,
+                )
+            )
     finally:
         pb.disconnect(client)
     m = Measurement(root, root_link, lo, hi, float(mass), tuple(joints))
@@ -285,19 +310,27 @@ def _object_grasps(size: tuple[float, float, float]) -> tuple[GraspFrame, ...]:
     w, d, h = size
     out = []
     if d <= MAX_GRASP_WIDTH:
-        out.append(GraspFrame(ROOT_LINK, (w / 2, 0.0, h / 2), (1.0, 0.0, 0.0), (0.0, 1.0, 0.0),
-                              d, "side+x"))
+        out.append(
+            GraspFrame(
+                ROOT_LINK, (w / 2, 0.0, h / 2), (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), d, "side+x"
+            )
+        )
     if w <= MAX_GRASP_WIDTH:
-        out.append(GraspFrame(ROOT_LINK, (0.0, d / 2, h / 2), (0.0, 1.0, 0.0), (1.0, 0.0, 0.0),
-                              w, "side+y"))
+        out.append(
+            GraspFrame(
+                ROOT_LINK, (0.0, d / 2, h / 2), (0.0, 1.0, 0.0), (1.0, 0.0, 0.0), w, "side+y"
+            )
+        )
     if min(w, d) <= MAX_GRASP_WIDTH:
         closing = (1.0, 0.0, 0.0) if w <= d else (0.0, 1.0, 0.0)
-        out.append(GraspFrame(ROOT_LINK, (0.0, 0.0, h), (0.0, 0.0, 1.0), closing, min(w, d),
-                              "top"))
+        out.append(GraspFrame(ROOT_LINK, (0.0, 0.0, h), (0.0, 0.0, 1.0), closing, min(w, d), "top"))
     else:
         # too wide for the gripper (a pot): straddle the rim at the +x edge from above
-        out.append(GraspFrame(ROOT_LINK, (w / 2 - 0.015, 0.0, h), (0.0, 0.0, 1.0),
-                              (1.0, 0.0, 0.0), 0.03, "rim+x"))
+        out.append(
+            GraspFrame(
+                ROOT_LINK, (w / 2 - 0.015, 0.0, h), (0.0, 0.0, 1.0), (1.0, 0.0, 0.0), 0.03, "rim+x"
+            )
+        )
     return tuple(out)
 
 
@@ -321,10 +354,14 @@ def build_external(params: ExternalParams) -> AssetModel:
     file = cached_urdf(text, f"external-{params.category}")
     arts = []
     for name, jtype, child, lower, upper, local, rot in m.joints:
-        grasp = GraspFrame(child, tuple(float(v) for v in local * scale),  # type: ignore[arg-type]
-                           tuple(float(v) for v in rot.T @ (0.0, 1.0, 0.0)),  # type: ignore
-                           tuple(float(v) for v in rot.T @ (0.0, 0.0, 1.0)),  # type: ignore
-                           0.03, "handle")
+        grasp = GraspFrame(
+            child,
+            tuple(float(v) for v in local * scale),  # type: ignore[arg-type]
+            tuple(float(v) for v in rot.T @ (0.0, 1.0, 0.0)),  # type: ignore
+            tuple(float(v) for v in rot.T @ (0.0, 0.0, 1.0)),  # type: ignore
+            0.03,
+            "handle",
+        )
         direction = 1 if upper >= -lower else -1
         travel = (upper if direction > 0 else -lower) * (scale if jtype == "prismatic" else 1.0)
         part = "door" if jtype == "revolute" else "drawer"
@@ -336,9 +373,15 @@ def build_external(params: ExternalParams) -> AssetModel:
         areas = (Rect(-w / 2 + 0.01, w / 2 - 0.01, 0.01, d - 0.01, h),)
     grasps = _object_grasps(scaled) if kind == "rigid" else ()  # type: ignore[arg-type]
     return AssetModel(
-        category=params.category, urdf=text, size=scaled,  # type: ignore[arg-type]
-        mass=round(m.mass * scale**3, 6), grasps=grasps, articulations=tuple(arts),
-        placement_areas=areas, path=str(file), scale=scale,
+        category=params.category,
+        urdf=text,
+        size=scaled,  # type: ignore[arg-type]
+        mass=round(m.mass * scale**3, 6),
+        grasps=grasps,
+        articulations=tuple(arts),
+        placement_areas=areas,
+        path=str(file),
+        scale=scale,
     )
 
 
@@ -359,8 +402,10 @@ def register_external_assets(root: str | Path, share: float = 0.5) -> list[Exter
         raise MomaError(f"external asset share must be in (0, 1], got {share}")
     assets = scan_folder(root)
     if not assets:
-        raise MomaError(f"external asset folder {str(root)!r} holds no "
-                        f"<category>/<id>/{URDF_NAME} of a known category")
+        raise MomaError(
+            f"external asset folder {str(root)!r} holds no "
+            f"<category>/<id>/{URDF_NAME} of a known category"
+        )
     for a in assets:
         measure(a.path)
     by_category: dict[str, list[ExternalAsset]] = {}
@@ -381,9 +426,12 @@ def registered(category: str) -> tuple[ExternalAsset, ...]:
     return _REGISTERED.get(category, ())
 
 
-def sample_external(assets: list[ExternalAsset] | tuple[ExternalAsset, ...], category: str,
-                    rng: np.random.Generator, envelope: Envelope | None = None
-                    ) -> ExternalParams:
+def sample_external(
+    assets: list[ExternalAsset] | tuple[ExternalAsset, ...],
+    category: str,
+    rng: np.random.Generator,
+    envelope: Envelope | None = None,
+) -> ExternalParams:
     """Pick one external asset of ``category`` uniformly, with a target size (objects) or
     the envelope (furniture, appliances). Pure data."""
     pool = [a for a in assets if a.category == category]
@@ -398,8 +446,9 @@ def sample_external(assets: list[ExternalAsset] | tuple[ExternalAsset, ...], cat
     return ExternalParams(category=category, path=asset.path, target=target, envelope=env)
 
 
-def maybe_sample(category: str, rng: np.random.Generator, envelope: Envelope | None
-                 ) -> ExternalParams | None:
+def maybe_sample(
+    category: str, rng: np.random.Generator, envelope: Envelope | None
+) -> ExternalParams | None:
     """An external draw for ``share`` of the calls when the category has registered assets;
     None (and no random numbers consumed) otherwise."""
     pool = _REGISTERED.get(category)
@@ -411,5 +460,6 @@ def maybe_sample(category: str, rng: np.random.Generator, envelope: Envelope | N
 def load_folder(root: str | Path) -> list[AssetModel]:
     """Build every asset of a folder at its natural scale (1.0); raises a MomaError naming
     the first broken file."""
-    return [build_external(ExternalParams(a.category, a.path, scale=1.0))
-            for a in scan_folder(root)]
+    return [
+        build_external(ExternalParams(a.category, a.path, scale=1.0)) for a in scan_folder(root)
+    ]

@@ -146,8 +146,7 @@ class AssetCategory:
         return cls.Params(**values)
 
 
-CATEGORIES: Registry[type[AssetCategory]] = Registry("asset category",
-                                                      plural="asset categories")
+CATEGORIES: Registry[type[AssetCategory]] = Registry("asset category", plural="asset categories")
 
 
 def register_category(cls: type[AssetCategory]) -> type[AssetCategory]:

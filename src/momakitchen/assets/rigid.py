@@ -45,18 +45,34 @@ MAX_GRASP_WIDTH = 0.075
 def side_grasps(z: float, radius: float, name: str = "side") -> tuple[GraspFrame, ...]:
     """Four horizontal grasps around a vertical round section of ``radius`` at height ``z``."""
     out = []
-    for label, n in (("+x", (1.0, 0.0, 0.0)), ("-x", (-1.0, 0.0, 0.0)),
-                     ("+y", (0.0, 1.0, 0.0)), ("-y", (0.0, -1.0, 0.0))):
+    for label, n in (
+        ("+x", (1.0, 0.0, 0.0)),
+        ("-x", (-1.0, 0.0, 0.0)),
+        ("+y", (0.0, 1.0, 0.0)),
+        ("-y", (0.0, -1.0, 0.0)),
+    ):
         pos = (round(n[0] * radius, 6), round(n[1] * radius, 6), round(z, 6))
         closing = (0.0, 1.0, 0.0) if n[0] != 0 else (1.0, 0.0, 0.0)
         out.append(GraspFrame(BODY, pos, n, closing, round(2 * radius, 6), f"{name}{label}"))
     return tuple(out)
 
 
-def top_grasp(z_top: float, width: float, closing: tuple[float, float, float] = (1.0, 0.0, 0.0),
-              x: float = 0.0, y: float = 0.0, name: str = "top") -> GraspFrame:
-    return GraspFrame(BODY, (round(x, 6), round(y, 6), round(z_top, 6)), (0.0, 0.0, 1.0),
-                      closing, round(width, 6), name)
+def top_grasp(
+    z_top: float,
+    width: float,
+    closing: tuple[float, float, float] = (1.0, 0.0, 0.0),
+    x: float = 0.0,
+    y: float = 0.0,
+    name: str = "top",
+) -> GraspFrame:
+    return GraspFrame(
+        BODY,
+        (round(x, 6), round(y, 6), round(z_top, 6)),
+        (0.0, 0.0, 1.0),
+        closing,
+        round(width, 6),
+        name,
+    )
 
 
 def flat_base(radius: float, height: float = 0.004) -> Shape:
@@ -91,8 +107,9 @@ class Bottle(ProceduralCategory):
         label_rgba: RGBA
 
     @classmethod
-    def sample_procedural(cls, rng: np.random.Generator, envelope: Envelope | None = None
-                          ) -> Params:
+    def sample_procedural(
+        cls, rng: np.random.Generator, envelope: Envelope | None = None
+    ) -> Params:
         style = pick(rng, ("wine", "water", "oil", "soda"))
         if style == "wine":
             r, hb, glass = u(rng, 0.035, 0.0375), u(rng, 0.17, 0.2), (0.12, 0.25, 0.12, 1.0)
@@ -107,10 +124,17 @@ class Bottle(ProceduralCategory):
             r, hb, glass = u(rng, 0.026, 0.033), u(rng, 0.12, 0.17), (0.35, 0.15, 0.1, 1.0)
             mass, mu, cap = u(rng, 0.4, 0.6, 3), u(rng, 0.6, 0.8, 3), (0.85, 0.1, 0.1)
         return cls.Params(
-            style=style, radius=r, body_height=hb, shoulder_height=u(rng, 0.03, 0.05),
-            neck_radius=u(rng, 0.012, 0.016), neck_height=u(rng, 0.05, 0.09),
-            cap_height=u(rng, 0.012, 0.03), mass=mass, friction=mu,
-            body_rgba=jitter(rng, glass, 0.05), cap_rgba=jitter(rng, cap, 0.08),
+            style=style,
+            radius=r,
+            body_height=hb,
+            shoulder_height=u(rng, 0.03, 0.05),
+            neck_radius=u(rng, 0.012, 0.016),
+            neck_height=u(rng, 0.05, 0.09),
+            cap_height=u(rng, 0.012, 0.03),
+            mass=mass,
+            friction=mu,
+            body_rgba=jitter(rng, glass, 0.05),
+            cap_rgba=jitter(rng, cap, 0.08),
             label_rgba=jitter(rng, (0.9, 0.88, 0.8), 0.1),
         )
 
@@ -125,12 +149,17 @@ class Bottle(ProceduralCategory):
         shapes = (
             Shape(Cylinder(p.radius, z1), (0.0, 0.0, z1 / 2), material="body"),
             Shape(Cylinder(mid_r, p.shoulder_height), (0.0, 0.0, (z1 + z2) / 2), material="body"),
-            Shape(Cylinder(p.neck_radius, p.neck_height), (0.0, 0.0, (z2 + z3) / 2),
-                  material="body"),
+            Shape(
+                Cylinder(p.neck_radius, p.neck_height), (0.0, 0.0, (z2 + z3) / 2), material="body"
+            ),
             Shape(Cylinder(cap_r, p.cap_height), (0.0, 0.0, (z3 + z4) / 2), material="cap"),
             # the label is a visual skin only: it must not change the collision size
-            Shape(Cylinder(p.radius + 0.0008, z1 * 0.45), (0.0, 0.0, z1 * 0.5), material="label",
-                  collision=False),
+            Shape(
+                Cylinder(p.radius + 0.0008, z1 * 0.45),
+                (0.0, 0.0, z1 * 0.5),
+                material="label",
+                collision=False,
+            ),
         )
         link = Link(BODY, shapes, p.mass, Contact(p.friction, 0.0005, 0.001))
         grasps = (
@@ -169,13 +198,18 @@ class Pot(ProceduralCategory):
     SEGMENTS = 16  # wall facets of the round pot
 
     @classmethod
-    def sample_procedural(cls, rng: np.random.Generator, envelope: Envelope | None = None
-                          ) -> Params:
+    def sample_procedural(
+        cls, rng: np.random.Generator, envelope: Envelope | None = None
+    ) -> Params:
         style = pick(rng, ("saucepan", "casserole"))
         body = pick(rng, ("steel", "black", "red", "copper", "enamel"))
-        colour = {"steel": (0.78, 0.79, 0.8), "black": (0.12, 0.12, 0.13),
-                  "red": (0.7, 0.12, 0.1), "copper": (0.72, 0.45, 0.28),
-                  "enamel": (0.2, 0.35, 0.6)}[body]
+        colour = {
+            "steel": (0.78, 0.79, 0.8),
+            "black": (0.12, 0.12, 0.13),
+            "red": (0.7, 0.12, 0.1),
+            "copper": (0.72, 0.45, 0.28),
+            "enamel": (0.2, 0.35, 0.6),
+        }[body]
         handle = (0.1, 0.1, 0.1) if rng.random() < 0.6 else colour
         if style == "saucepan":
             r, h, hl = u(rng, 0.07, 0.1), u(rng, 0.07, 0.12), u(rng, 0.15, 0.2)
@@ -184,10 +218,17 @@ class Pot(ProceduralCategory):
             r, h, hl = u(rng, 0.09, 0.12), u(rng, 0.08, 0.13), u(rng, 0.04, 0.06)
             hw, mass = u(rng, 0.02, 0.03), u(rng, 1.2, 2.5, 3)
         return cls.Params(
-            style=style, radius=r, height=h, wall=u(rng, 0.003, 0.005), handle_length=hl,
-            handle_width=hw, handle_thickness=u(rng, 0.01, 0.016),
-            lid=int(rng.random() < 0.4), mass=mass,
-            friction=u(rng, 0.4, 0.6, 3), body_rgba=jitter(rng, colour, 0.04),
+            style=style,
+            radius=r,
+            height=h,
+            wall=u(rng, 0.003, 0.005),
+            handle_length=hl,
+            handle_width=hw,
+            handle_thickness=u(rng, 0.01, 0.016),
+            lid=int(rng.random() < 0.4),
+            mass=mass,
+            friction=u(rng, 0.4, 0.6, 3),
+            body_rgba=jitter(rng, colour, 0.04),
             handle_rgba=jitter(rng, handle, 0.03),
         )
 
@@ -203,30 +244,50 @@ class Pot(ProceduralCategory):
         for k in range(n):
             a = 2 * math.pi * k / n
             rr = p.radius - p.wall / 2
-            shapes.append(Shape(
-                Box((p.wall, seg, p.height - bottom)),
-                (round(cx + rr * math.cos(a), 6), round(rr * math.sin(a), 6),
-                 (p.height + bottom) / 2),
-                (0.0, 0.0, round(a, 6)), material="body"))
+            shapes.append(
+                Shape(
+                    Box((p.wall, seg, p.height - bottom)),
+                    (
+                        round(cx + rr * math.cos(a), 6),
+                        round(rr * math.sin(a), 6),
+                        (p.height + bottom) / 2,
+                    ),
+                    (0.0, 0.0, round(a, 6)),
+                    material="body",
+                )
+            )
         zh = p.height - p.handle_thickness / 2 - 0.008
         ends = [1.0] if p.style == "saucepan" else [1.0, -1.0]
         grasps = []
         for sgn in ends:
             x0 = cx + sgn * p.radius
             xc = x0 + sgn * p.handle_length / 2
-            shapes.append(Shape(Box((p.handle_length, p.handle_width, p.handle_thickness)),
-                                (round(xc, 6), 0.0, round(zh, 6)), material="handle"))
+            shapes.append(
+                Shape(
+                    Box((p.handle_length, p.handle_width, p.handle_thickness)),
+                    (round(xc, 6), 0.0, round(zh, 6)),
+                    material="handle",
+                )
+            )
             # grasp the handle from above, 2/3 out for the saucepan, middle for side handles
             xg = x0 + sgn * p.handle_length * (0.66 if p.style == "saucepan" else 0.5)
-            grasps.append(GraspFrame(BODY, (round(xg, 6), 0.0, round(zh + p.handle_thickness / 2,
-                                                                       6)),
-                                     (0.0, 0.0, 1.0), (0.0, 1.0, 0.0), p.handle_width,
-                                     f"handle{'+' if sgn > 0 else '-'}x"))
+            grasps.append(
+                GraspFrame(
+                    BODY,
+                    (round(xg, 6), 0.0, round(zh + p.handle_thickness / 2, 6)),
+                    (0.0, 0.0, 1.0),
+                    (0.0, 1.0, 0.0),
+                    p.handle_width,
+                    f"handle{'+' if sgn > 0 else '-'}x",
+                )
+            )
         if p.lid:
-            shapes.append(Shape(Cylinder(p.radius, 0.005), (cx, 0.0, p.height + 0.0025),
-                                material="body"))
-            shapes.append(Shape(Cylinder(0.014, 0.022), (cx, 0.0, p.height + 0.016),
-                                material="handle"))
+            shapes.append(
+                Shape(Cylinder(p.radius, 0.005), (cx, 0.0, p.height + 0.0025), material="body")
+            )
+            shapes.append(
+                Shape(Cylinder(0.014, 0.022), (cx, 0.0, p.height + 0.016), material="handle")
+            )
         link = Link(BODY, tuple(shapes), p.mass, Contact(p.friction, 0.001, 0.002))
         mats = {"body": p.body_rgba, "handle": p.handle_rgba}
         return finish(cls.name, [link], [], mats, grasps=tuple(grasps))
@@ -242,8 +303,11 @@ FRUIT_COLOURS = {
     "pear": ((0.7, 0.75, 0.25), (0.75, 0.6, 0.3)),
 }
 FRUIT_RADIUS = {  # m: diameters stay <= MAX_GRASP_WIDTH
-    "apple": (0.033, 0.0375), "orange": (0.032, 0.0375), "lemon": (0.026, 0.032),
-    "peach": (0.03, 0.037), "pear": (0.03, 0.036),
+    "apple": (0.033, 0.0375),
+    "orange": (0.032, 0.0375),
+    "lemon": (0.026, 0.032),
+    "peach": (0.03, 0.037),
+    "pear": (0.03, 0.036),
 }
 FRUIT_DENSITY = {"apple": 800.0, "orange": 900.0, "lemon": 950.0, "peach": 950.0, "pear": 900.0}
 
@@ -262,15 +326,21 @@ class Fruit(ProceduralCategory):
         rgba: RGBA
 
     @classmethod
-    def sample_procedural(cls, rng: np.random.Generator, envelope: Envelope | None = None
-                          ) -> Params:
+    def sample_procedural(
+        cls, rng: np.random.Generator, envelope: Envelope | None = None
+    ) -> Params:
         fruit = pick(rng, tuple(FRUIT_RADIUS))
         lo, hi = FRUIT_RADIUS[fruit]
         elong = u(rng, 0.015, 0.03) if fruit in ("lemon", "pear") else 0.0
-        return cls.Params(fruit=fruit, radius=u(rng, lo, hi), elongation=elong,
-                          friction=u(rng, 0.6, 0.9, 3),
-                          rgba=jitter(rng, FRUIT_COLOURS[fruit][int(rng.integers(
-                              len(FRUIT_COLOURS[fruit])))], 0.06))
+        return cls.Params(
+            fruit=fruit,
+            radius=u(rng, lo, hi),
+            elongation=elong,
+            friction=u(rng, 0.6, 0.9, 3),
+            rgba=jitter(
+                rng, FRUIT_COLOURS[fruit][int(rng.integers(len(FRUIT_COLOURS[fruit])))], 0.06
+            ),
+        )
 
     @classmethod
     def build_procedural(cls, p: Params) -> AssetModel:
@@ -281,15 +351,21 @@ class Fruit(ProceduralCategory):
         if p.fruit == "lemon":  # lies on its side: two tips along x
             tip = 0.55 * r
             for s in (-1.0, 1.0):
-                shapes.append(Shape(Sphere(tip), (s * (r - tip + p.elongation), 0.0,
-                                                  zc - (r - tip) * 0.3), material="body"))
+                shapes.append(
+                    Shape(
+                        Sphere(tip),
+                        (s * (r - tip + p.elongation), 0.0, zc - (r - tip) * 0.3),
+                        material="body",
+                    )
+                )
         elif p.fruit == "pear":  # a smaller sphere on top
             r2 = 0.68 * r
             z2 = zc + r * 0.55 + p.elongation
             shapes.append(Shape(Sphere(r2), (0.0, 0.0, z2), material="body"))
             top = z2 + r2
-        stem = Shape(Cylinder(0.0025, 0.015), (0.0, 0.0, top + 0.004), material="stem",
-                     collision=False)
+        stem = Shape(
+            Cylinder(0.0025, 0.015), (0.0, 0.0, top + 0.004), material="stem", collision=False
+        )
         if p.fruit in ("apple", "pear"):
             shapes.append(stem)
         shapes.append(flat_base(r))
@@ -325,22 +401,37 @@ class MedicineBottle(ProceduralCategory):
         label_rgba: RGBA
 
     @classmethod
-    def sample_procedural(cls, rng: np.random.Generator, envelope: Envelope | None = None
-                          ) -> Params:
+    def sample_procedural(
+        cls, rng: np.random.Generator, envelope: Envelope | None = None
+    ) -> Params:
         body = pick(rng, ("amber", "white", "brown", "blue"))
-        colour = {"amber": (0.8, 0.45, 0.1), "white": (0.95, 0.95, 0.93),
-                  "brown": (0.35, 0.2, 0.1), "blue": (0.2, 0.35, 0.7)}[body]
+        colour = {
+            "amber": (0.8, 0.45, 0.1),
+            "white": (0.95, 0.95, 0.93),
+            "brown": (0.35, 0.2, 0.1),
+            "blue": (0.2, 0.35, 0.7),
+        }[body]
         cap = pick(rng, ("white", "black", "blue", "red"))
-        cap_c = {"white": (0.97, 0.97, 0.97), "black": (0.08, 0.08, 0.08),
-                 "blue": (0.1, 0.3, 0.8), "red": (0.8, 0.1, 0.1)}[cap]
+        cap_c = {
+            "white": (0.97, 0.97, 0.97),
+            "black": (0.08, 0.08, 0.08),
+            "blue": (0.1, 0.3, 0.8),
+            "red": (0.8, 0.1, 0.1),
+        }[cap]
         r, h = u(rng, 0.016, 0.027), u(rng, 0.05, 0.1)
         fill = u(rng, 0.3, 0.9, 3)  # tablets/syrup fill fraction
         mass = round(0.02 + fill * 1100.0 * math.pi * r * r * h * 0.7, 4)
-        return cls.Params(style="square" if rng.random() < 0.3 else "round", radius=r, height=h,
-                          cap_height=u(rng, 0.014, 0.024), mass=mass,
-                          friction=u(rng, 0.5, 0.8, 3), body_rgba=jitter(rng, colour, 0.05),
-                          cap_rgba=jitter(rng, cap_c, 0.03),
-                          label_rgba=jitter(rng, (0.95, 0.95, 0.9), 0.05))
+        return cls.Params(
+            style="square" if rng.random() < 0.3 else "round",
+            radius=r,
+            height=h,
+            cap_height=u(rng, 0.014, 0.024),
+            mass=mass,
+            friction=u(rng, 0.5, 0.8, 3),
+            body_rgba=jitter(rng, colour, 0.05),
+            cap_rgba=jitter(rng, cap_c, 0.03),
+            label_rgba=jitter(rng, (0.95, 0.95, 0.9), 0.05),
+        )
 
     @classmethod
     def build_procedural(cls, p: Params) -> AssetModel:
@@ -350,18 +441,31 @@ class MedicineBottle(ProceduralCategory):
             w = 2 * p.radius
             shapes: tuple[Shape, ...] = (
                 Shape(Box((w, w, p.height)), (0.0, 0.0, p.height / 2), material="body"),
-                Shape(Box((0.0012 + w, w * 0.9, p.height * 0.6)), (0.0, 0.0, p.height * 0.45),
-                      material="label", collision=False),
+                Shape(
+                    Box((0.0012 + w, w * 0.9, p.height * 0.6)),
+                    (0.0, 0.0, p.height * 0.45),
+                    material="label",
+                    collision=False,
+                ),
             )
         else:
             cap_r = p.radius + 0.0015
             shapes = (
                 Shape(Cylinder(p.radius, p.height), (0.0, 0.0, p.height / 2), material="body"),
-                Shape(Cylinder(p.radius + 0.0006, p.height * 0.6), (0.0, 0.0, p.height * 0.45),
-                      material="label", collision=False),
+                Shape(
+                    Cylinder(p.radius + 0.0006, p.height * 0.6),
+                    (0.0, 0.0, p.height * 0.45),
+                    material="label",
+                    collision=False,
+                ),
             )
-        shapes += (Shape(Cylinder(cap_r, p.cap_height), (0.0, 0.0, p.height + p.cap_height / 2),
-                         material="cap"),)
+        shapes += (
+            Shape(
+                Cylinder(cap_r, p.cap_height),
+                (0.0, 0.0, p.height + p.cap_height / 2),
+                material="cap",
+            ),
+        )
         link = Link(BODY, shapes, p.mass, Contact(p.friction, 0.0005, 0.001))
         grasps = (*side_grasps(p.height * 0.5, p.radius), top_grasp(top, 2 * cap_r))
         mats = {"body": p.body_rgba, "cap": p.cap_rgba, "label": p.label_rgba}
@@ -371,10 +475,12 @@ class MedicineBottle(ProceduralCategory):
 # ----------------------------------------------------------------------------- vegetable
 
 VEG_COLOURS = {
-    "tomato": ((0.85, 0.12, 0.08),), "bell_pepper": ((0.85, 0.1, 0.05), (0.95, 0.75, 0.1),
-                                                     (0.2, 0.6, 0.15)),
-    "carrot": ((0.95, 0.5, 0.1),), "cucumber": ((0.15, 0.4, 0.12),),
-    "potato": ((0.72, 0.58, 0.38),), "eggplant": ((0.28, 0.12, 0.3),),
+    "tomato": ((0.85, 0.12, 0.08),),
+    "bell_pepper": ((0.85, 0.1, 0.05), (0.95, 0.75, 0.1), (0.2, 0.6, 0.15)),
+    "carrot": ((0.95, 0.5, 0.1),),
+    "cucumber": ((0.15, 0.4, 0.12),),
+    "potato": ((0.72, 0.58, 0.38),),
+    "eggplant": ((0.28, 0.12, 0.3),),
 }
 
 
@@ -394,29 +500,39 @@ class Vegetable(ProceduralCategory):
         density: float
         rgba: RGBA
 
-
     RANGES: ClassVar[dict[str, tuple[tuple[float, float], tuple[float, float]]]] = {
         # (radius, length) in m
-        "tomato": ((0.025, 0.036), (0.0, 0.0)), "bell_pepper": ((0.033, 0.0375), (0.07, 0.1)),
-        "carrot": ((0.012, 0.019), (0.14, 0.2)), "cucumber": ((0.018, 0.025), (0.17, 0.24)),
-        "potato": ((0.024, 0.032), (0.07, 0.11)), "eggplant": ((0.03, 0.0375), (0.16, 0.22)),
+        "tomato": ((0.025, 0.036), (0.0, 0.0)),
+        "bell_pepper": ((0.033, 0.0375), (0.07, 0.1)),
+        "carrot": ((0.012, 0.019), (0.14, 0.2)),
+        "cucumber": ((0.018, 0.025), (0.17, 0.24)),
+        "potato": ((0.024, 0.032), (0.07, 0.11)),
+        "eggplant": ((0.03, 0.0375), (0.16, 0.22)),
     }
     DENSITY: ClassVar[dict[str, float]] = {  # kg/m^3
-        "tomato": 950.0, "bell_pepper": 450.0, "carrot": 1030.0, "cucumber": 960.0,
-        "potato": 1080.0, "eggplant": 500.0,
+        "tomato": 950.0,
+        "bell_pepper": 450.0,
+        "carrot": 1030.0,
+        "cucumber": 960.0,
+        "potato": 1080.0,
+        "eggplant": 500.0,
     }
 
     @classmethod
-    def sample_procedural(cls, rng: np.random.Generator, envelope: Envelope | None = None
-                          ) -> Params:
+    def sample_procedural(
+        cls, rng: np.random.Generator, envelope: Envelope | None = None
+    ) -> Params:
         veg = pick(rng, tuple(cls.RANGES))
         (r0, r1), (l0, l1) = cls.RANGES[veg]
         colours = VEG_COLOURS[veg]
-        return cls.Params(vegetable=veg, radius=u(rng, r0, r1),
-                          length=u(rng, l0, l1) if l1 > 0 else 0.0,
-                          friction=u(rng, 0.6, 0.9, 3),
-                          density=round(cls.DENSITY[veg] * float(rng.uniform(0.95, 1.05)), 1),
-                          rgba=jitter(rng, colours[int(rng.integers(len(colours)))], 0.05))
+        return cls.Params(
+            vegetable=veg,
+            radius=u(rng, r0, r1),
+            length=u(rng, l0, l1) if l1 > 0 else 0.0,
+            friction=u(rng, 0.6, 0.9, 3),
+            density=round(cls.DENSITY[veg] * float(rng.uniform(0.95, 1.05)), 1),
+            rgba=jitter(rng, colours[int(rng.integers(len(colours)))], 0.05),
+        )
 
     @classmethod
     def build_procedural(cls, p: Params) -> AssetModel:
@@ -426,20 +542,28 @@ class Vegetable(ProceduralCategory):
             shapes = [Shape(Sphere(r), (0.0, 0.0, r), material="body"), flat_base(r)]
             grasps = (*side_grasps(r, r), top_grasp(2 * r, 2 * r))
         elif v == "bell_pepper":
-            shapes = [Shape(Cylinder(r, p.length), (0.0, 0.0, p.length / 2), material="body"),
-                      Shape(Cylinder(0.004, 0.02), (0.0, 0.0, p.length + 0.01), material="stem",
-                            collision=False)]
+            shapes = [
+                Shape(Cylinder(r, p.length), (0.0, 0.0, p.length / 2), material="body"),
+                Shape(
+                    Cylinder(0.004, 0.02),
+                    (0.0, 0.0, p.length + 0.01),
+                    material="stem",
+                    collision=False,
+                ),
+            ]
             grasps = (*side_grasps(p.length / 2, r), top_grasp(p.length, 2 * r))
         elif v == "potato":
             # two overlapping flattened lobes lying along x
             half = p.length / 2 - r
-            shapes = [Shape(Sphere(r), (s * half, 0.0, r), material="body")
-                      for s in (-1.0, 1.0)]
+            shapes = [Shape(Sphere(r), (s * half, 0.0, r), material="body") for s in (-1.0, 1.0)]
             # a flat-bottomed middle so it rests on a patch, not on two points
-            shapes.append(Shape(Box((2 * half, 1.5 * r, 1.6 * r)), (0.0, 0.0, 0.8 * r),
-                                material="body"))
-            grasps = (top_grasp(2 * r, 2 * r, (0.0, 1.0, 0.0)),
-                      *[g for g in side_grasps(r, r) if g.name.endswith("y")])
+            shapes.append(
+                Shape(Box((2 * half, 1.5 * r, 1.6 * r)), (0.0, 0.0, 0.8 * r), material="body")
+            )
+            grasps = (
+                top_grasp(2 * r, 2 * r, (0.0, 1.0, 0.0)),
+                *[g for g in side_grasps(r, r) if g.name.endswith("y")],
+            )
         else:
             # long vegetables lie along x; every segment touches the support so none tips
             if v == "carrot":
@@ -450,24 +574,51 @@ class Vegetable(ProceduralCategory):
             shapes = []
             for rr, frac in segs:
                 ln = p.length * frac
-                shapes.append(Shape(Cylinder(rr, ln), (round(x + ln / 2, 6), 0.0, rr), ALONG_X,
-                                    material="body"))
+                shapes.append(
+                    Shape(
+                        Cylinder(rr, ln), (round(x + ln / 2, 6), 0.0, rr), ALONG_X, material="body"
+                    )
+                )
                 x += ln
             if v in ("cucumber", "eggplant"):  # rounded ends (visual only: no extra length)
                 for s in (-1.0, 1.0):
-                    shapes.append(Shape(Sphere(r * 0.98), (s * p.length / 2 * 0.97, 0.0, r),
-                                        material="body", collision=False))
-            shapes.append(Shape(Cylinder(0.004 if v != "carrot" else 0.006, 0.025),
-                                (-p.length / 2 - 0.01, 0.0, segs[0][0]), ALONG_X,
-                                material="stem", collision=False))
+                    shapes.append(
+                        Shape(
+                            Sphere(r * 0.98),
+                            (s * p.length / 2 * 0.97, 0.0, r),
+                            material="body",
+                            collision=False,
+                        )
+                    )
+            shapes.append(
+                Shape(
+                    Cylinder(0.004 if v != "carrot" else 0.006, 0.025),
+                    (-p.length / 2 - 0.01, 0.0, segs[0][0]),
+                    ALONG_X,
+                    material="stem",
+                    collision=False,
+                )
+            )
             # grasp across the thick part from above, or from the side
             xg = -p.length / 2 + p.length * segs[0][1] / 2
             grasps = (
                 top_grasp(2 * r, 2 * r, (0.0, 1.0, 0.0), x=xg),
-                GraspFrame(BODY, (round(xg, 6), round(r, 6), round(r, 6)), (0.0, 1.0, 0.0),
-                           (0.0, 0.0, 1.0), round(2 * r, 6), "side+y"),
-                GraspFrame(BODY, (round(xg, 6), round(-r, 6), round(r, 6)), (0.0, -1.0, 0.0),
-                           (0.0, 0.0, 1.0), round(2 * r, 6), "side-y"),
+                GraspFrame(
+                    BODY,
+                    (round(xg, 6), round(r, 6), round(r, 6)),
+                    (0.0, 1.0, 0.0),
+                    (0.0, 0.0, 1.0),
+                    round(2 * r, 6),
+                    "side+y",
+                ),
+                GraspFrame(
+                    BODY,
+                    (round(xg, 6), round(-r, 6), round(r, 6)),
+                    (0.0, -1.0, 0.0),
+                    (0.0, 0.0, 1.0),
+                    round(2 * r, 6),
+                    "side-y",
+                ),
             )
         shapes_t = tuple(
             Shape(s.geometry, s.xyz, s.rpy, s.material, s.collision, s.visual, p.density)
@@ -478,5 +629,3 @@ class Vegetable(ProceduralCategory):
         stem_c = (0.3, 0.6, 0.2, 1.0) if v == "carrot" else (0.25, 0.45, 0.15, 1.0)
         mats = {"body": p.rgba, "stem": stem_c}
         return finish(cls.name, [link], [], mats, grasps=grasps)
-
-

@@ -124,13 +124,21 @@ def rot(rpy: Vec3) -> np.ndarray:
     if not any(rpy):
         return _IDENTITY  # most shapes are axis-aligned
     r, p, y = rpy
-    cr, sr, cp, sp, cy, sy = (math.cos(r), math.sin(r), math.cos(p), math.sin(p),
-                              math.cos(y), math.sin(y))
-    return np.array([
-        [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-        [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-        [-sp, cp * sr, cp * cr],
-    ])
+    cr, sr, cp, sp, cy, sy = (
+        math.cos(r),
+        math.sin(r),
+        math.cos(p),
+        math.sin(p),
+        math.cos(y),
+        math.sin(y),
+    )
+    return np.array(
+        [
+            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+            [-sp, cp * sr, cp * cr],
+        ]
+    )
 
 
 def volume(g: Geometry) -> float:
@@ -270,7 +278,7 @@ def _link_xml(link: Link, materials: dict[str, RGBA]) -> list[str]:
                 "    <visual>",
                 f"      {_origin(s.xyz, s.rpy)}",
                 f"      <geometry>{geom}</geometry>",
-                f'      <material name={quoteattr(s.material)}>'
+                f"      <material name={quoteattr(s.material)}>"
                 f'<color rgba="{_vec(materials[s.material])}"/></material>',
                 "    </visual>",
             ]

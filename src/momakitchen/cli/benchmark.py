@@ -15,21 +15,46 @@ from momakitchen.cli.common import non_negative_int, positive_int
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("benchmark", help="results tables and figures (RESULTS.md)",
-                       description=__doc__)
+    p = sub.add_parser(
+        "benchmark", help="results tables and figures (RESULTS.md)", description=__doc__
+    )
     p.add_argument("--data", required=True, help="dataset directory (momakitchen generate)")
-    p.add_argument("--runs", nargs="+", required=True, metavar="RUN",
-                   help="run directories of the compared models (one per model)")
-    p.add_argument("--ablations", nargs="+", default=[], metavar="RUN",
-                   help="runs of navaff-no-* models (compared with the navaff run)")
-    p.add_argument("--sweep", nargs="+", default=[], metavar="RUN",
-                   help="runs that differ only in --lambda-zero")
-    p.add_argument("--msr", default=None, metavar="JSON",
-                   help="reuse a `momakitchen msr` result covering --runs and the baselines")
-    p.add_argument("--max-configs", type=non_negative_int, default=0,
-                   help="MSR on the first N test configurations only (0: all)")
-    p.add_argument("--examples", type=positive_int, default=4,
-                   help="rows of the qualitative figure")
+    p.add_argument(
+        "--runs",
+        nargs="+",
+        required=True,
+        metavar="RUN",
+        help="run directories of the compared models (one per model)",
+    )
+    p.add_argument(
+        "--ablations",
+        nargs="+",
+        default=[],
+        metavar="RUN",
+        help="runs of navaff-no-* models (compared with the navaff run)",
+    )
+    p.add_argument(
+        "--sweep",
+        nargs="+",
+        default=[],
+        metavar="RUN",
+        help="runs that differ only in --lambda-zero",
+    )
+    p.add_argument(
+        "--msr",
+        default=None,
+        metavar="JSON",
+        help="reuse a `momakitchen msr` result covering --runs and the baselines",
+    )
+    p.add_argument(
+        "--max-configs",
+        type=non_negative_int,
+        default=0,
+        help="MSR on the first N test configurations only (0: all)",
+    )
+    p.add_argument(
+        "--examples", type=positive_int, default=4, help="rows of the qualitative figure"
+    )
     p.add_argument("--out", required=True, help="output directory")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.set_defaults(func=run)
@@ -40,10 +65,16 @@ def run(args: argparse.Namespace) -> int:
     from momakitchen.eval.report import BenchmarkRequest, run_benchmark
 
     req = BenchmarkRequest(
-        data=Path(args.data), runs=tuple(map(Path, args.runs)),
-        out=Path(args.out), ablations=tuple(map(Path, args.ablations)),
-        sweep=tuple(map(Path, args.sweep)), msr=Path(args.msr) if args.msr else None,
-        max_configs=args.max_configs, examples=args.examples, progress=not args.quiet)
+        data=Path(args.data),
+        runs=tuple(map(Path, args.runs)),
+        out=Path(args.out),
+        ablations=tuple(map(Path, args.ablations)),
+        sweep=tuple(map(Path, args.sweep)),
+        msr=Path(args.msr) if args.msr else None,
+        max_configs=args.max_configs,
+        examples=args.examples,
+        progress=not args.quiet,
+    )
     output_dir(args.out)
     result = run_benchmark(req)
     print(f"{result['seconds']:.0f} s -> {Path(args.out) / 'RESULTS.md'}")

@@ -10,33 +10,44 @@ from tqdm import tqdm
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("check", help="integrity check of a dataset",
-                       description="Every shard opens, matches its manifest entry (size, "
-                                   "checksum, counts) and holds finite, in-range arrays. "
-                                   "Exit 2 naming the first bad shard otherwise.")
+    p = sub.add_parser(
+        "check",
+        help="integrity check of a dataset",
+        description="Every shard opens, matches its manifest entry (size, "
+        "checksum, counts) and holds finite, in-range arrays. "
+        "Exit 2 naming the first bad shard otherwise.",
+    )
     p.add_argument("dir", help="dataset directory")
     p.add_argument("--no-hash", action="store_true", help="skip the checksums (faster)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run_check)
 
-    p = sub.add_parser("stats", help="statistics of a dataset",
-                       description="Counts per split, robot and target category, trial "
-                                   "success rates, sizes.")
+    p = sub.add_parser(
+        "stats",
+        help="statistics of a dataset",
+        description="Counts per split, robot and target category, trial success rates, sizes.",
+    )
     p.add_argument("dir", help="dataset directory")
     p.add_argument("--json", action="store_true", help="print JSON")
     p.set_defaults(func=run_stats)
 
-    p = sub.add_parser("export-reference", help="write a dataset in the reference layout",
-                       description="Per-episode folders with point_cloud_transformed/*.ply, "
-                                   "the *_gaussian_success_rate.txt labels and "
-                                   "trial_info.json (momakitchen.data.reference).")
+    p = sub.add_parser(
+        "export-reference",
+        help="write a dataset in the reference layout",
+        description="Per-episode folders with point_cloud_transformed/*.ply, "
+        "the *_gaussian_success_rate.txt labels and "
+        "trial_info.json (momakitchen.data.reference).",
+    )
     p.add_argument("dir", help="dataset directory")
     p.add_argument("--out", required=True, help="output directory (empty or missing)")
     p.set_defaults(func=run_export)
 
-    p = sub.add_parser("import-reference", help="read the reference layout into a dataset",
-                       description="Reads the reference release layout (or an export) and "
-                                   "writes shards, a manifest and a dataset card.")
+    p = sub.add_parser(
+        "import-reference",
+        help="read the reference layout into a dataset",
+        description="Reads the reference release layout (or an export) and "
+        "writes shards, a manifest and a dataset card.",
+    )
     p.add_argument("dir", help="directory in the reference layout")
     p.add_argument("--out", required=True, help="dataset directory (empty or missing)")
     p.set_defaults(func=run_import)
@@ -45,15 +56,17 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 def run_check(args: argparse.Namespace) -> int:
     from momakitchen.data.integrity import check_dataset
 
-    with tqdm(desc="check", unit="shard", disable=args.quiet, file=sys.stderr,
-              leave=False) as bar:
+    with tqdm(desc="check", unit="shard", disable=args.quiet, file=sys.stderr, leave=False) as bar:
+
         def progress(done: int, total: int) -> None:
             bar.total = total
             bar.update(done - bar.n)
 
         report = check_dataset(args.dir, verify_hash=not args.no_hash, progress=progress)
-    print(f"{args.dir}: OK: {report['shards']} shards, {report['episodes']} episodes"
-          + ("" if report["complete"] else " (generation incomplete)"))
+    print(
+        f"{args.dir}: OK: {report['shards']} shards, {report['episodes']} episodes"
+        + ("" if report["complete"] else " (generation incomplete)")
+    )
     return 0
 
 
@@ -64,27 +77,37 @@ def run_stats(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(s, indent=1))
         return 0
-    print(f"{s['root']}: producer {s['producer']}, momakitchen {s['generator_version']}"
-          + ("" if s["complete"] else " (incomplete)"))
+    print(
+        f"{s['root']}: producer {s['producer']}, momakitchen {s['generator_version']}"
+        + ("" if s["complete"] else " (incomplete)")
+    )
     print(f"{'split':<10}{'scenes':>8}{'configs':>9}{'episodes':>10}{'trials':>9}{'success':>9}")
     for name, row in s["splits"].items():
         rate = row["trial_success_rate"]
-        print(f"{name:<10}{row['scenes']:>8}{row['configurations']:>9}{row['episodes']:>10}"
-              f"{row['trials']:>9}{'-' if rate is None else f'{rate:.3f}':>9}")
+        print(
+            f"{name:<10}{row['scenes']:>8}{row['configurations']:>9}{row['episodes']:>10}"
+            f"{row['trials']:>9}{'-' if rate is None else f'{rate:.3f}':>9}"
+        )
     for title, table in (("robot", s["robots"]), ("target", s["targets"])):
         print(f"{title:<16}{'train ep':>9}{'test ep':>9}{'success':>9}")
         for name, row in table.items():
             rate = row["total"]["trial_success_rate"]
-            print(f"{name:<16}{row['train'].get('episodes', 0):>9}"
-                  f"{row['test'].get('episodes', 0):>9}"
-                  f"{'-' if rate is None else f'{rate:.3f}':>9}")
+            print(
+                f"{name:<16}{row['train'].get('episodes', 0):>9}"
+                f"{row['test'].get('episodes', 0):>9}"
+                f"{'-' if rate is None else f'{rate:.3f}':>9}"
+            )
     pts = s["points_per_episode"]
-    print(f"bytes: {s['bytes']:,} ({s['bytes_per_episode']:,.0f} per episode); image "
-          f"{s['image_shape']}; points per episode: global {pts['global']}, floor "
-          f"{pts['floor']}")
+    print(
+        f"bytes: {s['bytes']:,} ({s['bytes_per_episode']:,.0f} per episode); image "
+        f"{s['image_shape']}; points per episode: global {pts['global']}, floor "
+        f"{pts['floor']}"
+    )
     if s["episodes_with_empty_cloud"]:
-        print(f"episodes without global or floor points (skipped by EpisodeDataset): "
-              f"{s['episodes_with_empty_cloud']}")
+        print(
+            f"episodes without global or floor points (skipped by EpisodeDataset): "
+            f"{s['episodes_with_empty_cloud']}"
+        )
     return 0
 
 
@@ -92,8 +115,10 @@ def run_export(args: argparse.Namespace) -> int:
     from momakitchen.data.reference import export_reference
 
     n = export_reference(args.dir, args.out)
-    print(f"{args.out}: {n['configurations']} configurations, {n['episodes']} episodes in "
-          "the reference layout")
+    print(
+        f"{args.out}: {n['configurations']} configurations, {n['episodes']} episodes in "
+        "the reference layout"
+    )
     return 0
 
 
@@ -102,6 +127,8 @@ def run_import(args: argparse.Namespace) -> int:
 
     m = import_reference(args.dir, args.out)
     c = m["counts"]["total"]
-    print(f"{args.out}: {c['scenes']} scenes, {c['configurations']} configurations, "
-          f"{c['episodes']} episodes imported")
+    print(
+        f"{args.out}: {c['scenes']} scenes, {c['configurations']} configurations, "
+        f"{c['episodes']} episodes imported"
+    )
     return 0

@@ -27,24 +27,39 @@ from momakitchen.cli.common import non_negative_int, positive_int
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    parser = sub.add_parser("generate", help="generate the dataset (resumable, parallel)",
-                            description=__doc__)
+    parser = sub.add_parser(
+        "generate", help="generate the dataset (resumable, parallel)", description=__doc__
+    )
     parser.add_argument("--out", required=True, help="dataset directory")
-    parser.add_argument("--scenes", type=non_negative_int, required=True,
-                        help="number of scenes")
-    parser.add_argument("--first-scene-id", type=non_negative_int, default=0,
-                        help="first scene id (default 0)")
-    parser.add_argument("--workers", type=positive_int, default=1,
-                        help="parallel workers (processes; CPUs of a local Ray instance)")
-    parser.add_argument("--backend", choices=("local", "ray"), default="local",
-                        help="local process pool (default) or Ray (RAY_ADDRESS or a local "
-                             "instance)")
-    parser.add_argument("--synthetic", action="store_true",
-                        help="synthetic records instead of the simulator (format smoke tests)")
-    parser.add_argument("--config", default=None, metavar="FILE",
-                        help="YAML or JSON file of generation options (any subset of the "
-                             "sections scene, trial, dense, camera, views, cloud; the rest "
-                             "default); with --synthetic, fields of the synthetic config")
+    parser.add_argument("--scenes", type=non_negative_int, required=True, help="number of scenes")
+    parser.add_argument(
+        "--first-scene-id", type=non_negative_int, default=0, help="first scene id (default 0)"
+    )
+    parser.add_argument(
+        "--workers",
+        type=positive_int,
+        default=1,
+        help="parallel workers (processes; CPUs of a local Ray instance)",
+    )
+    parser.add_argument(
+        "--backend",
+        choices=("local", "ray"),
+        default="local",
+        help="local process pool (default) or Ray (RAY_ADDRESS or a local instance)",
+    )
+    parser.add_argument(
+        "--synthetic",
+        action="store_true",
+        help="synthetic records instead of the simulator (format smoke tests)",
+    )
+    parser.add_argument(
+        "--config",
+        default=None,
+        metavar="FILE",
+        help="YAML or JSON file of generation options (any subset of the "
+        "sections scene, trial, dense, camera, views, cloud; the rest "
+        "default); with --synthetic, fields of the synthetic config",
+    )
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     parser.set_defaults(func=run)
 
@@ -53,30 +68,40 @@ def run(args: argparse.Namespace) -> int:
     from momakitchen.codec import load_config_file
     from momakitchen.data.generator import GenerateRequest, generate_dataset
 
-    request = GenerateRequest(out=Path(args.out), num_scenes=args.scenes,
-                              first_scene_id=args.first_scene_id, workers=args.workers,
-                              backend=args.backend)
+    request = GenerateRequest(
+        out=Path(args.out),
+        num_scenes=args.scenes,
+        first_scene_id=args.first_scene_id,
+        workers=args.workers,
+        backend=args.backend,
+    )
     scene_fn: Any
     config: Any
     if args.synthetic:
         from momakitchen.data.synthetic_scene import SyntheticSceneConfig, synthetic_scene_records
 
         scene_fn = synthetic_scene_records
-        config = (load_config_file(args.config, SyntheticSceneConfig) if args.config
-                  else SyntheticSceneConfig())
+        config = (
+            load_config_file(args.config, SyntheticSceneConfig)
+            if args.config
+            else SyntheticSceneConfig()
+        )
     else:
         from momakitchen.data.config import GenerationConfig
 
         # Read the file before loading the simulator: a bad file fails at once.
-        config = (load_config_file(args.config, GenerationConfig) if args.config
-                  else GenerationConfig())
+        config = (
+            load_config_file(args.config, GenerationConfig) if args.config else GenerationConfig()
+        )
         from momakitchen.generation.producer import scene_records
 
         scene_fn = scene_records
     manifest = generate_dataset(request, scene_fn, config, progress=not args.quiet)
     c = manifest["counts"]
-    print(f"{args.out}: {c['total']['scenes']} scenes, {c['total']['configurations']} "
-          f"configurations, {c['total']['episodes']} episodes (train "
-          f"{c['train']['episodes']}, test {c['test']['episodes']})"
-          + ("" if manifest["complete"] else " - incomplete"))
+    print(
+        f"{args.out}: {c['total']['scenes']} scenes, {c['total']['configurations']} "
+        f"configurations, {c['total']['episodes']} episodes (train "
+        f"{c['train']['episodes']}, test {c['test']['episodes']})"
+        + ("" if manifest["complete"] else " - incomplete")
+    )
     return 0

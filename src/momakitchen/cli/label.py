@@ -21,18 +21,32 @@ from momakitchen.version import __version__
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    parser = sub.add_parser("label", help="run the trials of a configuration: labels + PNG",
-                            description=__doc__)
+    parser = sub.add_parser(
+        "label", help="run the trials of a configuration: labels + PNG", description=__doc__
+    )
     parser.add_argument("--scene-id", type=non_negative_int, required=True)
-    parser.add_argument("--robot", default=None,
-                        help="robot to label with (default: the configuration's own robot)")
-    parser.add_argument("--config", type=non_negative_int, default=0,
-                        help="configuration index within the scene (default 0)")
+    parser.add_argument(
+        "--robot", default=None, help="robot to label with (default: the configuration's own robot)"
+    )
+    parser.add_argument(
+        "--config",
+        type=non_negative_int,
+        default=0,
+        help="configuration index within the scene (default 0)",
+    )
     parser.add_argument("--out", required=True, help="output directory")
-    parser.add_argument("--target-mass", type=non_negative_float, default=None,
-                        help="override the target's mass in kg (what-if study)")
-    parser.add_argument("--target-friction", type=non_negative_float, default=None,
-                        help="override the target's lateral friction (what-if study)")
+    parser.add_argument(
+        "--target-mass",
+        type=non_negative_float,
+        default=None,
+        help="override the target's mass in kg (what-if study)",
+    )
+    parser.add_argument(
+        "--target-friction",
+        type=non_negative_float,
+        default=None,
+        help="override the target's lateral friction (what-if study)",
+    )
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     parser.set_defaults(func=run)
 
@@ -49,8 +63,9 @@ def run(args: argparse.Namespace) -> int:
         get_robot_spec(args.robot)  # unknown names fail before any work
     scene_cfg = SceneConfig()
     if args.config >= scene_cfg.configs_per_scene:
-        raise MomaError(f"--config must be in [0, {scene_cfg.configs_per_scene - 1}], "
-                        f"got {args.config}")
+        raise MomaError(
+            f"--config must be in [0, {scene_cfg.configs_per_scene - 1}], got {args.config}"
+        )
     out = output_dir(args.out)
     scene = sample_scene(args.scene_id, scene_cfg)
     cfg = scene.configurations[args.config]
@@ -58,21 +73,36 @@ def run(args: argparse.Namespace) -> int:
         # The same configuration (objects, target, obstacles), labelled by another robot.
         cfg = dataclasses.replace(cfg, robot=args.robot)
     trial_cfg = TrialConfig()
-    with World(scene.layout) as world, tqdm(
-        desc=f"scene {args.scene_id} config {args.config} ({cfg.robot})", unit="trial",
-        disable=args.quiet, leave=False,
-    ) as bar:
+    with (
+        World(scene.layout) as world,
+        tqdm(
+            desc=f"scene {args.scene_id} config {args.config} ({cfg.robot})",
+            unit="trial",
+            disable=args.quiet,
+            leave=False,
+        ) as bar,
+    ):
+
         def progress(done: int, total: int) -> None:
             bar.total = total
             bar.update(done - bar.n)
 
-        labels = label_configuration(world, cfg, trial_config=trial_cfg,
-                                     grid_spacing=scene_cfg.grid_spacing,
-                                     target_mass=args.target_mass,
-                                     target_friction=args.target_friction, progress=progress)
+        labels = label_configuration(
+            world,
+            cfg,
+            trial_config=trial_cfg,
+            grid_spacing=scene_cfg.grid_spacing,
+            target_mass=args.target_mass,
+            target_friction=args.target_friction,
+            progress=progress,
+        )
     data = npz_bytes(
-        positions=labels.positions, yaws=labels.yaws, outcomes=labels.outcomes,
-        stages=labels.stages, moved=labels.moved, anchor=np.asarray(labels.anchor),
+        positions=labels.positions,
+        yaws=labels.yaws,
+        outcomes=labels.outcomes,
+        stages=labels.stages,
+        moved=labels.moved,
+        anchor=np.asarray(labels.anchor),
         stage_names=np.array(STAGE_NAMES),
     )
     atomic_write_bytes(out / "labels.npz", data)
@@ -87,8 +117,10 @@ def run(args: argparse.Namespace) -> int:
     with atomic_path(out / "labels.png") as tmp:
         save_label_figure(scene.layout, cfg, labels, tmp)
     s = labels.summary()
-    print(f"scene {args.scene_id} config {args.config}: {cfg.robot} -> {labels.target}: "
-          f"{s['successes']}/{s['positions']} positions succeed "
-          f"({s['physics_trials']} executed in physics), {labels.seconds['total']:.1f} s -> "
-          f"{out}/labels.npz, labels.json, labels.png")
+    print(
+        f"scene {args.scene_id} config {args.config}: {cfg.robot} -> {labels.target}: "
+        f"{s['successes']}/{s['positions']} positions succeed "
+        f"({s['physics_trials']} executed in physics), {labels.seconds['total']:.1f} s -> "
+        f"{out}/labels.npz, labels.json, labels.png"
+    )
     return 0

@@ -40,43 +40,72 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     from momakitchen.models import model_names
     from momakitchen.train import PRESETS
 
-    tr = sub.add_parser("train", help="train a model (navaff, baselines, ablations)",
-                        description=__doc__, epilog=TRAIN_CONFIG_HELP,
-                        formatter_class=argparse.RawDescriptionHelpFormatter)
+    tr = sub.add_parser(
+        "train",
+        help="train a model (navaff, baselines, ablations)",
+        description=__doc__,
+        epilog=TRAIN_CONFIG_HELP,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     tr.add_argument("--data", required=True, help="dataset directory (momakitchen generate)")
-    tr.add_argument("--model", default=None,
-                    help=f"model name: {', '.join(model_names())} (required unless the "
-                         "--config file sets 'model')")
+    tr.add_argument(
+        "--model",
+        default=None,
+        help=f"model name: {', '.join(model_names())} (required unless the "
+        "--config file sets 'model')",
+    )
     tr.add_argument("--out", required=True, help="run directory")
-    tr.add_argument("--config", default=None, metavar="FILE",
-                    help="YAML or JSON file of training config fields (explicit options "
-                         "override it; see below)")
-    tr.add_argument("--preset", default=None, choices=tuple(PRESETS),
-                    help="hyper-parameter preset (default: the --config file's, else cpu: "
-                         "trains on 2 cores)")
+    tr.add_argument(
+        "--config",
+        default=None,
+        metavar="FILE",
+        help="YAML or JSON file of training config fields (explicit options "
+        "override it; see below)",
+    )
+    tr.add_argument(
+        "--preset",
+        default=None,
+        choices=tuple(PRESETS),
+        help="hyper-parameter preset (default: the --config file's, else cpu: trains on 2 cores)",
+    )
     tr.add_argument("--epochs", type=positive_int, default=None)
     tr.add_argument("--batch-size", type=positive_int, default=None)
-    tr.add_argument("--max-steps", type=non_negative_int, default=None,
-                    help="stop after this many optimiser steps (0: no limit)")
-    tr.add_argument("--workers", type=non_negative_int, default=None,
-                    help="DataLoader worker processes")
-    tr.add_argument("--threads", type=non_negative_int, default=None,
-                    help="torch threads per process (0: torch's default)")
+    tr.add_argument(
+        "--max-steps",
+        type=non_negative_int,
+        default=None,
+        help="stop after this many optimiser steps (0: no limit)",
+    )
+    tr.add_argument(
+        "--workers", type=non_negative_int, default=None, help="DataLoader worker processes"
+    )
+    tr.add_argument(
+        "--threads",
+        type=non_negative_int,
+        default=None,
+        help="torch threads per process (0: torch's default)",
+    )
     tr.add_argument("--seed", type=non_negative_int, default=None)
-    tr.add_argument("--lambda-zero", type=non_negative_float, default=None,
-                    help="loss weight on zero-valued labels (the paper's lambda; preset 0.7)")
+    tr.add_argument(
+        "--lambda-zero",
+        type=non_negative_float,
+        default=None,
+        help="loss weight on zero-valued labels (the paper's lambda; preset 0.7)",
+    )
     tr.add_argument("--resume", action="store_true", help="continue the run in --out")
     tr.add_argument("--quiet", action="store_true", help="no progress bars")
     tr.set_defaults(func=run_train)
 
-    ev = sub.add_parser("evaluate", help="map metrics of a trained model on the test split",
-                        description=__doc__)
+    ev = sub.add_parser(
+        "evaluate", help="map metrics of a trained model on the test split", description=__doc__
+    )
     ev.add_argument("--data", required=True, help="dataset directory")
     ev.add_argument("--checkpoint", required=True, help="run directory written by train")
     ev.add_argument("--json", required=True, help="where to write the metrics (JSON)")
     ev.add_argument("--split", default="test", choices=SPLITS)
-    ev.add_argument("--model", default=None,
-                    help="expected model name (refuses a checkpoint of another model)")
+    ev.add_argument(
+        "--model", default=None, help="expected model name (refuses a checkpoint of another model)"
+    )
     ev.add_argument("--batch-size", type=positive_int, default=8)
     ev.add_argument("--quiet", action="store_true", help="no progress bar")
     ev.set_defaults(func=run_evaluate)
@@ -115,12 +144,17 @@ def train_config(args: argparse.Namespace) -> TrainConfig:
     except MomaError as exc:
         raise MomaError(f"{args.config}: {exc}" if args.config else str(exc)) from None
     overrides = {
-        name: value for name, value in (
-            ("epochs", args.epochs), ("batch_size", args.batch_size),
-            ("max_steps", args.max_steps), ("num_workers", args.workers),
-            ("num_threads", args.threads), ("seed", args.seed),
+        name: value
+        for name, value in (
+            ("epochs", args.epochs),
+            ("batch_size", args.batch_size),
+            ("max_steps", args.max_steps),
+            ("num_workers", args.workers),
+            ("num_threads", args.threads),
+            ("seed", args.seed),
             ("progress", False if args.quiet else None),
-        ) if value is not None
+        )
+        if value is not None
     }
     if overrides:
         config = config.replace(**overrides)
@@ -136,9 +170,11 @@ def run_train(args: argparse.Namespace) -> int:
     data = _dataset(args.data, "train")
     result = train(config, data, None, Path(args.out), resume=args.resume)
     last = result.history[-1] if result.history else {}
-    print(f"trained {config.model} ({config.preset} preset) on {len(data)} episodes: "
-          f"{result.global_step} steps, last epoch loss {last.get('loss', float('nan')):.4f}"
-          f" -> {args.out}")
+    print(
+        f"trained {config.model} ({config.preset} preset) on {len(data)} episodes: "
+        f"{result.global_step} steps, last epoch loss {last.get('loss', float('nan')):.4f}"
+        f" -> {args.out}"
+    )
     return 0
 
 
@@ -153,8 +189,7 @@ def run_evaluate(args: argparse.Namespace) -> int:
     load_checkpoint(run_dir, model=args.model)  # fails early on a checkpoint of another model
     data = _dataset(args.data, args.split)
     report = evaluate(run_dir, data, batch_size=args.batch_size, progress=not args.quiet)
-    report = {"data": str(args.data), "split": args.split, "checkpoint": str(run_dir),
-              **report}
+    report = {"data": str(args.data), "split": args.split, "checkpoint": str(run_dir), **report}
     out = Path(args.json)
     if out.parent and not out.parent.exists():
         out.parent.mkdir(parents=True, exist_ok=True)

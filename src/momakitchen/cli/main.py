@@ -19,10 +19,20 @@ from momakitchen.version import __version__
 
 # Command -> the module under momakitchen.cli that defines it, in the order of --help.
 COMMANDS = {
-    "demo": "demo", "robots": "robots", "scene": "scene", "label": "label",
-    "generate": "generate", "check": "dataset", "stats": "dataset",
-    "export-reference": "dataset", "import-reference": "dataset", "train": "learn",
-    "evaluate": "learn", "msr": "msr", "benchmark": "benchmark", "predict": "predict",
+    "demo": "demo",
+    "robots": "robots",
+    "scene": "scene",
+    "label": "label",
+    "generate": "generate",
+    "check": "dataset",
+    "stats": "dataset",
+    "export-reference": "dataset",
+    "import-reference": "dataset",
+    "train": "learn",
+    "evaluate": "learn",
+    "msr": "msr",
+    "benchmark": "benchmark",
+    "predict": "predict",
 }
 
 

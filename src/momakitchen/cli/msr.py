@@ -21,22 +21,39 @@ from momakitchen.fileio import atomic_write_text
 def add_parser(sub: argparse._SubParsersAction) -> None:
     from momakitchen.eval.msr import BASELINES, SPLITS
 
-    ms = sub.add_parser("msr", help="manipulation success rate in closed loop",
-                        description=__doc__)
+    ms = sub.add_parser("msr", help="manipulation success rate in closed loop", description=__doc__)
     ms.add_argument("--data", required=True, help="dataset directory (momakitchen generate)")
-    ms.add_argument("--checkpoint", action="append", default=[], metavar="RUN",
-                    help="run directory of a trained model (repeatable; with neither "
-                         "--checkpoint nor --method: the bundled model)")
-    ms.add_argument("--method", action="append", default=[], metavar="METHOD",
-                    help=f"baseline: {', '.join(BASELINES)} (repeatable)")
+    ms.add_argument(
+        "--checkpoint",
+        action="append",
+        default=[],
+        metavar="RUN",
+        help="run directory of a trained model (repeatable; with neither "
+        "--checkpoint nor --method: the bundled model)",
+    )
+    ms.add_argument(
+        "--method",
+        action="append",
+        default=[],
+        metavar="METHOD",
+        help=f"baseline: {', '.join(BASELINES)} (repeatable)",
+    )
     ms.add_argument("--json", required=True, help="where to write the results (JSON)")
     ms.add_argument("--split", default="test", choices=SPLITS)
     ms.add_argument("--top-k", type=positive_int, default=5, help="points per method (5)")
-    ms.add_argument("--min-spread", type=float, default=0.2,
-                    help="minimum distance between the Top-k points (m, 0.2)")
+    ms.add_argument(
+        "--min-spread",
+        type=float,
+        default=0.2,
+        help="minimum distance between the Top-k points (m, 0.2)",
+    )
     ms.add_argument("--seed", type=non_negative_int, default=0)
-    ms.add_argument("--max-configs", type=non_negative_int, default=0,
-                    help="only the first N configurations (0: all)")
+    ms.add_argument(
+        "--max-configs",
+        type=non_negative_int,
+        default=0,
+        help="only the first N configurations (0: all)",
+    )
     ms.add_argument("--quiet", action="store_true", help="no progress bar")
     ms.set_defaults(func=run)
 
@@ -47,8 +64,13 @@ def run(args: argparse.Namespace) -> int:
     for run_dir in args.checkpoint:
         if not Path(run_dir).is_dir():
             raise MomaError(f"checkpoint directory {run_dir!r} does not exist")
-    config = MsrConfig(top_k=args.top_k, min_spread=args.min_spread, seed=args.seed,
-                       split=args.split, max_configs=args.max_configs)
+    config = MsrConfig(
+        top_k=args.top_k,
+        min_spread=args.min_spread,
+        seed=args.seed,
+        split=args.split,
+        max_configs=args.max_configs,
+    )
     t0 = time.perf_counter()
     result = run_msr(args.data, args.checkpoint, args.method, config, progress=not args.quiet)
     result["seconds"] = round(time.perf_counter() - t0, 1)

@@ -19,25 +19,41 @@ from momakitchen.cli.common import non_negative_int, output_dir, positive_int
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("predict", help="affordance map and base poses from a robot's RGB-D frame",
-                       description=__doc__)
+    p = sub.add_parser(
+        "predict",
+        help="affordance map and base poses from a robot's RGB-D frame",
+        description=__doc__,
+    )
     p.add_argument("--depth", required=True, help="depth: 16-bit PNG (mm) or .npy (m)")
-    p.add_argument("--intrinsics", required=True, nargs=4, type=float,
-                   metavar=("FX", "FY", "CX", "CY"), help="pinhole intrinsics in pixels")
-    p.add_argument("--extrinsics", required=True,
-                   help="camera-to-base 4x4 transform (.npy or whitespace text)")
+    p.add_argument(
+        "--intrinsics",
+        required=True,
+        nargs=4,
+        type=float,
+        metavar=("FX", "FY", "CX", "CY"),
+        help="pinhole intrinsics in pixels",
+    )
+    p.add_argument(
+        "--extrinsics", required=True, help="camera-to-base 4x4 transform (.npy or whitespace text)"
+    )
     p.add_argument("--target-mask", required=True, help="target mask (PNG or .npy)")
-    p.add_argument("--obstacle-mask", action="append", default=[],
-                   help="obstacle mask (repeatable)")
+    p.add_argument(
+        "--obstacle-mask", action="append", default=[], help="obstacle mask (repeatable)"
+    )
     p.add_argument("--rgb", default=None, help="colour image (PNG or .npy), optional")
     p.add_argument("--robot", default=None, help="registered robot name (momakitchen robots)")
     p.add_argument("--reach", type=float, default=None, help="arm reach (m), if no --robot")
-    p.add_argument("--mount-height", type=float, default=None,
-                   help="arm mount height (m), if no --robot")
+    p.add_argument(
+        "--mount-height", type=float, default=None, help="arm mount height (m), if no --robot"
+    )
     p.add_argument("--checkpoint", default=None, help="run directory (default: bundled model)")
     p.add_argument("--top-k", type=positive_int, default=5)
-    p.add_argument("--mc-samples", type=non_negative_int, default=8,
-                   help="MC-dropout passes for the uncertainty (0: none)")
+    p.add_argument(
+        "--mc-samples",
+        type=non_negative_int,
+        default=8,
+        help="MC-dropout passes for the uncertainty (0: none)",
+    )
     p.add_argument("--out", required=True, help="output directory")
     p.set_defaults(func=run)
 
@@ -65,15 +81,28 @@ def run(args: argparse.Namespace) -> int:
     rgb = load_rgb(args.rgb) if args.rgb else None
     extrinsics = load_extrinsics(args.extrinsics)
     t0 = time.perf_counter()
-    pred = predict(depth, args.intrinsics, extrinsics, args.target_mask, robot, rgb=rgb,
-                   obstacle_masks=args.obstacle_mask, checkpoint=args.checkpoint,
-                   top_k=args.top_k, mc_samples=args.mc_samples)
+    pred = predict(
+        depth,
+        args.intrinsics,
+        extrinsics,
+        args.target_mask,
+        robot,
+        rgb=rgb,
+        obstacle_masks=args.obstacle_mask,
+        checkpoint=args.checkpoint,
+        top_k=args.top_k,
+        mc_samples=args.mc_samples,
+    )
     seconds = time.perf_counter() - t0
     fx, fy, cx, cy = args.intrinsics  # argparse nargs=4
     intr = Intrinsics(fx, fy, cx, cy, depth.shape[1], depth.shape[0])
     paths = write_outputs(pred, out, rgb, depth, intr, extrinsics)
     best = pred.to_dict(floor_points=False)["poses"]
-    print(json.dumps({"poses": best, "floor_points": len(pred.floor_xyz),
-                      "seconds": round(seconds, 3)}, indent=1))
+    print(
+        json.dumps(
+            {"poses": best, "floor_points": len(pred.floor_xyz), "seconds": round(seconds, 3)},
+            indent=1,
+        )
+    )
     print(f"-> {paths['json']}, {paths['png']}")
     return 0

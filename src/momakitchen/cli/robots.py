@@ -24,18 +24,35 @@ def add_parser(subparsers) -> None:
         description="List the registered robots, or export one robot's URDF.",
     )
     parser.add_argument("--json", action="store_true", help="print JSON instead of a table")
-    parser.add_argument("--robot-yaml", action="append", default=[], metavar="FILE",
-                        help="register a user robot from a YAML file (repeatable)")
+    parser.add_argument(
+        "--robot-yaml",
+        action="append",
+        default=[],
+        metavar="FILE",
+        help="register a user robot from a YAML file (repeatable)",
+    )
     parser.set_defaults(func=run, robots_command=None)
-    sub = parser.add_subparsers(dest="robots_command", metavar="[ACTION]",
-                                title="actions (optional; default: list the robots)")
-    export = sub.add_parser("export-urdf", help="write a robot's URDF (base + arm + tool)",
-                            description="Write one URDF file (mobile base, arm and "
-                                        "end-effector) that loads with p.loadURDF(FILE).")
+    sub = parser.add_subparsers(
+        dest="robots_command",
+        metavar="[ACTION]",
+        title="actions (optional; default: list the robots)",
+    )
+    export = sub.add_parser(
+        "export-urdf",
+        help="write a robot's URDF (base + arm + tool)",
+        description="Write one URDF file (mobile base, arm and "
+        "end-effector) that loads with p.loadURDF(FILE).",
+    )
     export.add_argument("name", help="robot name (see `momakitchen robots`)")
     export.add_argument("--out", required=True, metavar="FILE", help="URDF file to write")
-    export.add_argument("--robot-yaml", dest="robot_yaml_sub", action="append", default=[],
-                        metavar="FILE", help="register a user robot from a YAML file")
+    export.add_argument(
+        "--robot-yaml",
+        dest="robot_yaml_sub",
+        action="append",
+        default=[],
+        metavar="FILE",
+        help="register a user robot from a YAML file",
+    )
 
 
 def _register_user_robots(args: argparse.Namespace) -> None:
@@ -57,16 +74,18 @@ def robot_rows() -> list[dict]:
 
     rows = []
     for spec in ROBOTS.values():
-        rows.append({
-            "name": spec.name,
-            "reach_m": spec.reach,
-            "mount_height_m": spec.mount_height,
-            "dof": spec.dof,
-            "end_effector": spec.end_effector,
-            "footprint_m": list(spec.footprint),
-            "descriptor": dict(zip(DESCRIPTOR_NAMES, robot_descriptor(spec), strict=True)),
-            "descriptor_version": DESCRIPTOR_VERSION,
-        })
+        rows.append(
+            {
+                "name": spec.name,
+                "reach_m": spec.reach,
+                "mount_height_m": spec.mount_height,
+                "dof": spec.dof,
+                "end_effector": spec.end_effector,
+                "footprint_m": list(spec.footprint),
+                "descriptor": dict(zip(DESCRIPTOR_NAMES, robot_descriptor(spec), strict=True)),
+                "descriptor_version": DESCRIPTOR_VERSION,
+            }
+        )
     return rows
 
 
@@ -80,8 +99,14 @@ def run(args: argparse.Namespace) -> int:
         return 0
     header = ("name", "reach (m)", "mount height (m)", "DoF", "end-effector")
     table = [header] + [
-        (r["name"], f"{r['reach_m']:.3f}", f"{r['mount_height_m']:.2f}", str(r["dof"]),
-         r["end_effector"]) for r in rows
+        (
+            r["name"],
+            f"{r['reach_m']:.3f}",
+            f"{r['mount_height_m']:.2f}",
+            str(r["dof"]),
+            r["end_effector"],
+        )
+        for r in rows
     ]
     widths = [max(len(row[i]) for row in table) for i in range(len(header))]
     for row in table:

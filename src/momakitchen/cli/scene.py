@@ -16,19 +16,38 @@ from momakitchen.version import __version__
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    parser = sub.add_parser("scene", help="build one kitchen: scene.json and an overview PNG",
-                            description=__doc__)
-    parser.add_argument("--scene-id", type=non_negative_int, required=True,
-                        help="scene id (non-negative integer); everything derives from it")
+    parser = sub.add_parser(
+        "scene", help="build one kitchen: scene.json and an overview PNG", description=__doc__
+    )
+    parser.add_argument(
+        "--scene-id",
+        type=non_negative_int,
+        required=True,
+        help="scene id (non-negative integer); everything derives from it",
+    )
     parser.add_argument("--out", required=True, help="output directory")
-    parser.add_argument("--configs", type=positive_int, default=None,
-                        help="configurations to sample (default: SceneConfig default)")
-    parser.add_argument("--config", type=non_negative_int, default=0,
-                        help="configuration shown in the overview plan (default 0)")
-    parser.add_argument("--assets", default=None,
-                        help="external asset folder (<category>/<id>/mobility.urdf) to draw from")
-    parser.add_argument("--no-render", action="store_true",
-                        help="skip the PyBullet build and rendered view (plan only)")
+    parser.add_argument(
+        "--configs",
+        type=positive_int,
+        default=None,
+        help="configurations to sample (default: SceneConfig default)",
+    )
+    parser.add_argument(
+        "--config",
+        type=non_negative_int,
+        default=0,
+        help="configuration shown in the overview plan (default 0)",
+    )
+    parser.add_argument(
+        "--assets",
+        default=None,
+        help="external asset folder (<category>/<id>/mobility.urdf) to draw from",
+    )
+    parser.add_argument(
+        "--no-render",
+        action="store_true",
+        help="skip the PyBullet build and rendered view (plan only)",
+    )
     parser.set_defaults(func=run)
 
 
@@ -65,8 +84,9 @@ def run(args: argparse.Namespace) -> int:
         with World(scene.layout) as world:
             world.load_configuration(scene.configurations[args.config])
             camera = look_at(*view_pose(scene))
-            view = render(world.client, camera, Intrinsics.for_renderer(800, 600, 62.0),
-                          shadows=True).rgb
+            view = render(
+                world.client, camera, Intrinsics.for_renderer(800, 600, 62.0), shadows=True
+            ).rgb
     atomic_write_text(out / "scene.json", json.dumps(record, indent=1) + "\n")
     png = out / "overview.png"
     with atomic_path(png) as tmp:

@@ -117,12 +117,11 @@ def validate_sample(sample: Mapping[str, Any]) -> dict[str, Any]:
             raise MomaError(f"floor_mask must have shape ({nf},), got {fmask.shape}")
     robot = _as_array(sample["robot"], "robot")
     if robot.shape != (DESCRIPTOR_DIM,):
-        raise MomaError(
-            f"robot descriptor must have shape ({DESCRIPTOR_DIM},), got {robot.shape}"
-        )
+        raise MomaError(f"robot descriptor must have shape ({DESCRIPTOR_DIM},), got {robot.shape}")
     # (a mask that keeps everything is not applied: no copies)
     out["global_xyz"], out["global_rgb"], out["global_align"] = (
-        (xyz, rgb, align) if gmask.all() else (xyz[gmask], rgb[gmask], align[gmask]))
+        (xyz, rgb, align) if gmask.all() else (xyz[gmask], rgb[gmask], align[gmask])
+    )
     out["floor_xyz"] = fxyz if fmask.all() else fxyz[fmask]
     out["robot"] = robot
     if "floor_label" in sample and sample["floor_label"] is not None:

@@ -39,19 +39,28 @@ def save_episode_figure(ep: Episode, path: str | os.PathLike) -> None:
     order = np.argsort(np.abs(ep.global_align), kind="stable")  # flagged points on top
     g = ep.global_xyz[order]
     colours = np.array([[0.85, 0.2, 0.15], [0.75, 0.75, 0.75], [0.1, 0.45, 0.9]])
-    ax[2].scatter(-g[:, 1], g[:, 0], s=1.5, c=colours[ep.global_align[order] + 1],
-                  linewidths=0)
+    ax[2].scatter(-g[:, 1], g[:, 0], s=1.5, c=colours[ep.global_align[order] + 1], linewidths=0)
     ax[2].set_title("global cloud (blue target, red obstacle)")
-    sc = ax[3].scatter(-ep.floor_xyz[:, 1], ep.floor_xyz[:, 0], s=2, c=ep.floor_label,
-                       cmap="magma", vmin=0, vmax=1, linewidths=0)
+    sc = ax[3].scatter(
+        -ep.floor_xyz[:, 1],
+        ep.floor_xyz[:, 0],
+        s=2,
+        c=ep.floor_label,
+        cmap="magma",
+        vmin=0,
+        vmax=1,
+        linewidths=0,
+    )
     fig.colorbar(sc, ax=ax[3], fraction=0.04, label="affordance")
     ax[3].set_title("floor map")
     for a in ax[2:]:
         a.set_aspect("equal")
         a.set_xlabel("-y (m, right)")
         a.set_ylabel("x (m, forward)")
-    fig.suptitle(f"scene {ep.scene_id}, configuration {ep.config_index}, episode "
-                 f"{ep.episode_index}, robot {ep.robot}")
+    fig.suptitle(
+        f"scene {ep.scene_id}, configuration {ep.config_index}, episode "
+        f"{ep.episode_index}, robot {ep.robot}"
+    )
     fig.tight_layout()
     fig.savefig(path, dpi=80, metadata={"Software": None})
     plt.close(fig)
@@ -73,21 +82,32 @@ def _rate(row: dict[str, int]) -> str:
     return f"{row['successful_trials'] / row['trials']:.3f}" if row.get("trials") else "-"
 
 
-def render_card(manifest: dict[str, Any], stats: dict[str, Any] | None,
-                figure: bool) -> str:
+def render_card(manifest: dict[str, Any], stats: dict[str, Any] | None, figure: bool) -> str:
     c = manifest["counts"]
-    splits = [[s, c[s]["scenes"], c[s]["configurations"], c[s]["episodes"], c[s]["trials"],
-               _rate(c[s])] for s in ("train", "test", "total")]
+    splits = [
+        [s, c[s]["scenes"], c[s]["configurations"], c[s]["episodes"], c[s]["trials"], _rate(c[s])]
+        for s in ("train", "test", "total")
+    ]
     head = ["split", "scenes", "configurations", "episodes", "trials", "trial success"]
-    robots = [[r, row["train"].get("episodes", 0), row["test"].get("episodes", 0),
-               _rate(row["total"])] for r, row in c["robots"].items()]
-    missing = {s: sorted(r for r, row in c["robots"].items() if not row[s].get("episodes"))
-               for s in ("train", "test")}
-    coverage = ("Every robot appears in both splits." if not any(missing.values()) else
-                "Robots missing from a split: " + "; ".join(
-                    f"{s}: {', '.join(v)}" for s, v in missing.items() if v) + ".")
-    targets = [[t, row["train"].get("episodes", 0), row["test"].get("episodes", 0),
-                _rate(row["total"])] for t, row in c["targets"].items()]
+    robots = [
+        [r, row["train"].get("episodes", 0), row["test"].get("episodes", 0), _rate(row["total"])]
+        for r, row in c["robots"].items()
+    ]
+    missing = {
+        s: sorted(r for r, row in c["robots"].items() if not row[s].get("episodes"))
+        for s in ("train", "test")
+    }
+    coverage = (
+        "Every robot appears in both splits."
+        if not any(missing.values())
+        else "Robots missing from a split: "
+        + "; ".join(f"{s}: {', '.join(v)}" for s, v in missing.items() if v)
+        + "."
+    )
+    targets = [
+        [t, row["train"].get("episodes", 0), row["test"].get("episodes", 0), _rate(row["total"])]
+        for t, row in c["targets"].items()
+    ]
     parts = [
         "# MoMa-Kitchen dataset (momakitchen)",
         "",
@@ -96,8 +116,12 @@ def render_card(manifest: dict[str, Any], stats: dict[str, Any] | None,
         f"robot descriptor version {manifest['descriptor_version']} "
         f"({', '.join(manifest['descriptor_names'])}).",
         "",
-        "Status: " + ("complete." if manifest["complete"] else
-                      "**incomplete** (run `momakitchen generate` again to finish it)."),
+        "Status: "
+        + (
+            "complete."
+            if manifest["complete"]
+            else "**incomplete** (run `momakitchen generate` again to finish it)."
+        ),
         "",
         "One HDF5 shard per scene in `scenes/`; `manifest.json` holds the full generation "
         "config, the splits and the counts. Read it with `momakitchen.data.EpisodeDataset`, "
@@ -125,8 +149,7 @@ def render_card(manifest: dict[str, Any], stats: dict[str, Any] | None,
         parts += [
             "## Sizes",
             "",
-            f"- bytes on disk: {stats['bytes']:,} ({stats['bytes_per_episode']:,.0f} per "
-            "episode)",
+            f"- bytes on disk: {stats['bytes']:,} ({stats['bytes_per_episode']:,.0f} per episode)",
             f"- image: {stats['image_shape']}",
             f"- global points per episode: {_range(pts['global'])}",
             f"- floor points per episode: {_range(pts['floor'])}",
@@ -137,8 +160,14 @@ def render_card(manifest: dict[str, Any], stats: dict[str, Any] | None,
         ]
     if figure:
         parts += ["## Example", "", f"![example episode]({FIGURE_NAME})", ""]
-    parts += ["## Generation config", "", "```json",
-              json.dumps(manifest["config"], indent=1), "```", ""]
+    parts += [
+        "## Generation config",
+        "",
+        "```json",
+        json.dumps(manifest["config"], indent=1),
+        "```",
+        "",
+    ]
     return "\n".join(parts)
 
 
@@ -154,8 +183,9 @@ def write_dataset_card(root: str | os.PathLike, manifest: dict[str, Any] | None 
         with SceneShard(next(iter(shards.values()))) as shard:
             # The first shard's episode with the most affordance mass: an informative map.
             keys = [(c, e) for c in shard.config_indices() for e in shard.episode_indices(c)]
-            mass = [float(shard.arrays(c, e, ["floor_label"])["floor_label"].sum())
-                    for c, e in keys]
+            mass = [
+                float(shard.arrays(c, e, ["floor_label"])["floor_label"].sum()) for c, e in keys
+            ]
             ep = shard.episode(*keys[int(np.argmax(mass))])
         with atomic_path(root / FIGURE_NAME) as tmp:
             save_episode_figure(ep, tmp)

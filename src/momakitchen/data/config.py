@@ -88,14 +88,18 @@ class Preprocessing:
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.max_depth) and self.max_depth > 0):
-            raise MomaError(f"Preprocessing.max_depth must be a positive number of metres, "
-                            f"got {self.max_depth!r}")
+            raise MomaError(
+                f"Preprocessing.max_depth must be a positive number of metres, "
+                f"got {self.max_depth!r}"
+            )
 
     def describe(self) -> str:
         """One line naming every value (for messages)."""
         c = self.cloud
-        return (f"voxel={c.voxel}, floor_voxel={c.floor_voxel}, floor_z={c.floor_z}, "
-                f"max_depth={self.max_depth}")
+        return (
+            f"voxel={c.voxel}, floor_voxel={c.floor_voxel}, floor_z={c.floor_z}, "
+            f"max_depth={self.max_depth}"
+        )
 
 
 def manifest_preprocessing(manifest: dict[str, Any]) -> Preprocessing | None:

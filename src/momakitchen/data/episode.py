@@ -13,8 +13,7 @@ import numpy as np
 from momakitchen.errors import MomaError
 
 # Per-pixel semantic classes of ``Episode.semantic`` (stored as uint8).
-SEMANTIC_CLASSES = ("other", "target", "obstacle", "furniture", "object", "floor", "wall",
-                    "robot")
+SEMANTIC_CLASSES = ("other", "target", "obstacle", "furniture", "object", "floor", "wall", "robot")
 
 
 @dataclass(frozen=True)
@@ -97,5 +96,7 @@ class Episode:
         }
         bad = [k for k, ok in checks.items() if not ok]
         if bad:
-            raise MomaError(f"episode {self.scene_id}/{self.config_index}/{self.episode_index}:"
-                            f" malformed field(s) {bad}")
+            raise MomaError(
+                f"episode {self.scene_id}/{self.config_index}/{self.episode_index}:"
+                f" malformed field(s) {bad}"
+            )

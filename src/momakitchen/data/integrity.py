@@ -41,21 +41,27 @@ def _shard_entries(root: Path, manifest: dict[str, Any]) -> list[tuple[int, dict
         entries.append((sid, entry, path))
     extra = sorted(set(files) - {sid for sid, _, _ in entries})
     if extra:
-        raise MomaError(f"shard {files[extra[0]].relative_to(root)} is not in the manifest "
-                        "(an interrupted run? run 'momakitchen generate' again to finish it)")
+        raise MomaError(
+            f"shard {files[extra[0]].relative_to(root)} is not in the manifest "
+            "(an interrupted run? run 'momakitchen generate' again to finish it)"
+        )
     return entries
 
 
-def _check_episode(shard: SceneShard, c: int, e: int, where: str,
-                   floor_z: float = FLOOR_Z_MAX) -> int:
+def _check_episode(
+    shard: SceneShard, c: int, e: int, where: str, floor_z: float = FLOOR_Z_MAX
+) -> int:
     """Validate one episode's arrays (floor points below ``floor_z``); return its global +
     floor point count."""
     ep = shard.episode(c, e)
     if (ep.scene_id, ep.config_index, ep.episode_index) != (shard.scene_id, c, e):
         raise MomaError(f"{where}: identity attributes do not match its position")
     ep.validate()
-    finite = {n: bool(np.all(np.isfinite(getattr(ep, n)))) for n, t in EPISODE_ARRAYS
-              if t.startswith("float")}
+    finite = {
+        n: bool(np.all(np.isfinite(getattr(ep, n))))
+        for n, t in EPISODE_ARRAYS
+        if t.startswith("float")
+    }
     bad = [n for n, ok in finite.items() if not ok]
     if bad:
         raise MomaError(f"{where}: non-finite values in {bad}")
@@ -64,22 +70,32 @@ def _check_episode(shard: SceneShard, c: int, e: int, where: str,
     if ep.semantic.size and int(ep.semantic.max()) >= len(SEMANTIC_CLASSES):
         raise MomaError(f"{where}: semantic class {int(ep.semantic.max())} out of range")
     if ep.descriptor.shape != (DESCRIPTOR_DIM,):
-        raise MomaError(f"{where}: descriptor shape {ep.descriptor.shape}, expected "
-                        f"({DESCRIPTOR_DIM},)")
+        raise MomaError(
+            f"{where}: descriptor shape {ep.descriptor.shape}, expected ({DESCRIPTOR_DIM},)"
+        )
     if ep.floor_xyz.size and float(ep.floor_xyz[:, 2].max()) >= floor_z + 1e-6:
-        raise MomaError(f"{where}: floor point at z = {float(ep.floor_xyz[:, 2].max()):.4f} m "
-                        f">= {floor_z}")
+        raise MomaError(
+            f"{where}: floor point at z = {float(ep.floor_xyz[:, 2].max()):.4f} m >= {floor_z}"
+        )
     return ep.global_xyz.shape[0] + ep.floor_xyz.shape[0]
 
 
-def check_shard(root: Path, sid: int, entry: dict[str, Any], path: Path,
-                verify_hash: bool = True, floor_z: float = FLOOR_Z_MAX) -> int:
+def check_shard(
+    root: Path,
+    sid: int,
+    entry: dict[str, Any],
+    path: Path,
+    verify_hash: bool = True,
+    floor_z: float = FLOOR_Z_MAX,
+) -> int:
     """Check one shard against its manifest entry (floor points below ``floor_z``); return
     its episode count."""
     name = entry["file"]
     if path.stat().st_size != entry["bytes"]:
-        raise MomaError(f"shard {name}: {path.stat().st_size} bytes, the manifest says "
-                        f"{entry['bytes']} (truncated or replaced)")
+        raise MomaError(
+            f"shard {name}: {path.stat().st_size} bytes, the manifest says "
+            f"{entry['bytes']} (truncated or replaced)"
+        )
     if verify_hash and file_sha256(path) != entry["sha256"]:
         raise MomaError(f"shard {name}: checksum differs from the manifest (corrupt)")
     try:
@@ -90,36 +106,52 @@ def check_shard(root: Path, sid: int, entry: dict[str, Any], path: Path,
         if shard.scene_id != sid:
             raise MomaError(f"shard {name}: holds scene {shard.scene_id}")
         if shard.descriptor_version != DESCRIPTOR_VERSION:
-            raise MomaError(f"shard {name}: descriptor version {shard.descriptor_version}, "
-                            f"expected {DESCRIPTOR_VERSION}")
+            raise MomaError(
+                f"shard {name}: descriptor version {shard.descriptor_version}, "
+                f"expected {DESCRIPTOR_VERSION}"
+            )
         configs = shard.config_indices()
         per_config = [len(shard.episode_indices(c)) for c in configs]
-        if configs != list(range(entry["configurations"])) or \
-                per_config != entry["episodes_per_config"]:
-            raise MomaError(f"shard {name}: {len(configs)} configurations / {per_config} "
-                            f"episodes, the manifest says {entry['configurations']} / "
-                            f"{entry['episodes_per_config']}")
+        if (
+            configs != list(range(entry["configurations"]))
+            or per_config != entry["episodes_per_config"]
+        ):
+            raise MomaError(
+                f"shard {name}: {len(configs)} configurations / {per_config} "
+                f"episodes, the manifest says {entry['configurations']} / "
+                f"{entry['episodes_per_config']}"
+            )
         for c in configs:
             where = f"shard {name} configuration {c}"
             lab = shard.configuration(c)
             if lab.robot != entry["robots"][c] or lab.target != entry["targets"][c]:
                 raise MomaError(f"{where}: robot/target differ from the manifest")
             p = lab.trial_positions.shape[0]
-            if lab.trial_positions.shape != (p, 2) or lab.trial_yaws.shape != (p,) or \
-                    lab.trial_stages.shape != (p,) or lab.trial_moved.shape != (p,):
+            if (
+                lab.trial_positions.shape != (p, 2)
+                or lab.trial_yaws.shape != (p,)
+                or lab.trial_stages.shape != (p,)
+                or lab.trial_moved.shape != (p,)
+            ):
                 raise MomaError(f"{where}: trial arrays of inconsistent shapes")
-            if not (np.all(np.isfinite(lab.trial_positions)) and np.all(np.isfinite(
-                    lab.trial_yaws)) and np.all(np.isfinite(lab.trial_moved))):
+            if not (
+                np.all(np.isfinite(lab.trial_positions))
+                and np.all(np.isfinite(lab.trial_yaws))
+                and np.all(np.isfinite(lab.trial_moved))
+            ):
                 raise MomaError(f"{where}: non-finite trial values")
             if p and int(lab.trial_stages.max()) >= len(STAGE_NAMES):
                 raise MomaError(f"{where}: trial stage {int(lab.trial_stages.max())} out of range")
             if int((lab.trial_stages == 0).sum()) != entry["successes"][c]:
                 raise MomaError(f"{where}: success count differs from the manifest")
             for e in shard.episode_indices(c):
-                if list(shard.num_points(c, e)) != [entry["global_points"][c][e],
-                                                    entry["floor_points"][c][e]]:
-                    raise MomaError(f"shard {name} episode {c}/{e}: point counts differ "
-                                    "from the manifest")
+                if list(shard.num_points(c, e)) != [
+                    entry["global_points"][c][e],
+                    entry["floor_points"][c][e],
+                ]:
+                    raise MomaError(
+                        f"shard {name} episode {c}/{e}: point counts differ from the manifest"
+                    )
                 try:
                     _check_episode(shard, c, e, f"shard {name} episode {c}/{e}", floor_z)
                 except (OSError, KeyError, ValueError) as exc:
@@ -129,8 +161,12 @@ def check_shard(root: Path, sid: int, entry: dict[str, Any], path: Path,
     return sum(per_config)
 
 
-def check_dataset(root: str | os.PathLike, *, verify_hash: bool = True,
-                  progress: Callable[[int, int], None] | None = None) -> dict[str, Any]:
+def check_dataset(
+    root: str | os.PathLike,
+    *,
+    verify_hash: bool = True,
+    progress: Callable[[int, int], None] | None = None,
+) -> dict[str, Any]:
     """Check every shard (opens, checksum, counts, finite in-range arrays) and the totals.
 
     Raises MomaError naming the first bad shard; returns ``{"shards", "episodes"}``.
@@ -187,25 +223,37 @@ def dataset_stats(root: str | os.PathLike) -> dict[str, Any]:
             except (OSError, KeyError, ValueError) as exc:
                 raise MomaError(f"shard {entry['file']}: unreadable ({exc})") from None
     n_ep = max(1, counts["total"]["episodes"])
-    empty = sum(1 for _, entry, _ in entries for c, cfg in enumerate(entry["floor_points"])
-                for e, nf in enumerate(cfg) if nf == 0 or entry["global_points"][c][e] == 0)
+    empty = sum(
+        1
+        for _, entry, _ in entries
+        for c, cfg in enumerate(entry["floor_points"])
+        for e, nf in enumerate(cfg)
+        if nf == 0 or entry["global_points"][c][e] == 0
+    )
 
     def rate(row: dict[str, int]) -> float | None:
         return round(row["successful_trials"] / row["trials"], 4) if row.get("trials") else None
 
-    robots_in = {s: sorted(r for r, row in counts["robots"].items() if row[s].get("episodes"))
-                 for s in mf.SPLITS}
+    robots_in = {
+        s: sorted(r for r, row in counts["robots"].items() if row[s].get("episodes"))
+        for s in mf.SPLITS
+    }
     return {
         "root": str(root),
         "producer": manifest["producer"],
         "generator_version": manifest["generator_version"],
         "complete": manifest["complete"],
-        "splits": {s: {**counts[s], "trial_success_rate": rate(counts[s])}
-                   for s in ("total", *mf.SPLITS)},
-        "robots": {r: {s: {**row[s], "trial_success_rate": rate(row[s])} for s in row}
-                   for r, row in counts["robots"].items()},
-        "targets": {t: {s: {**row[s], "trial_success_rate": rate(row[s])} for s in row}
-                    for t, row in counts["targets"].items()},
+        "splits": {
+            s: {**counts[s], "trial_success_rate": rate(counts[s])} for s in ("total", *mf.SPLITS)
+        },
+        "robots": {
+            r: {s: {**row[s], "trial_success_rate": rate(row[s])} for s in row}
+            for r, row in counts["robots"].items()
+        },
+        "targets": {
+            t: {s: {**row[s], "trial_success_rate": rate(row[s])} for s in row}
+            for t, row in counts["targets"].items()
+        },
         "robots_in_split": robots_in,
         "bytes": total_bytes,
         "bytes_per_episode": round(total_bytes / n_ep, 1),
@@ -221,5 +269,8 @@ def _summary(values: list[float]) -> dict[str, float] | None:
     if not values:
         return None
     a = np.asarray(values, np.float64)
-    return {"mean": round(float(a.mean()), 4), "min": round(float(a.min()), 4),
-            "max": round(float(a.max()), 4)}
+    return {
+        "mean": round(float(a.mean()), 4),
+        "min": round(float(a.min()), 4),
+        "max": round(float(a.max()), 4),
+    }

@@ -16,22 +16,36 @@ from collections import Counter
 from pathlib import Path
 from typing import Any
 
-from momakitchen.version import __version__
 from momakitchen.errors import MomaError
 from momakitchen.fileio import atomic_write_text
 from momakitchen.robots.spec import DESCRIPTOR_NAMES, DESCRIPTOR_VERSION
+from momakitchen.version import __version__
 
 MANIFEST_NAME = "manifest.json"
 MANIFEST_FORMAT = "momakitchen-dataset"
 KITCHEN = "kitchen"  # the simulator-backed producer's name
 SPLITS = ("train", "test")
 # Keys of a shard entry (the writer's summary plus its split).
-SHARD_KEYS = ("scene_id", "configurations", "episodes_per_config", "robots", "targets",
-              "trials", "successes", "global_points", "floor_points", "file", "bytes",
-              "sha256", "split")
+SHARD_KEYS = (
+    "scene_id",
+    "configurations",
+    "episodes_per_config",
+    "robots",
+    "targets",
+    "trials",
+    "successes",
+    "global_points",
+    "floor_points",
+    "file",
+    "bytes",
+    "sha256",
+    "split",
+)
 SPLIT_BLOCK = 5
-SPLIT_RULE = (f"one scene in every block of {SPLIT_BLOCK} consecutive scene ids goes to test, "
-              "chosen by sha256('momakitchen-split:<block>')")
+SPLIT_RULE = (
+    f"one scene in every block of {SPLIT_BLOCK} consecutive scene ids goes to test, "
+    "chosen by sha256('momakitchen-split:<block>')"
+)
 
 
 def scene_split(scene_id: int) -> str:
@@ -83,8 +97,7 @@ def finalize(manifest: dict[str, Any], complete: bool) -> dict[str, Any]:
     """Recompute splits and counts from the shard entries (sorted by scene id)."""
     shards = dict(sorted(manifest["shards"].items(), key=lambda kv: int(kv[0])))
     manifest["shards"] = shards
-    manifest["splits"] = {s: [int(k) for k, v in shards.items() if v["split"] == s]
-                          for s in SPLITS}
+    manifest["splits"] = {s: [int(k) for k, v in shards.items() if v["split"] == s] for s in SPLITS}
     manifest["counts"] = compute_counts(shards.values())
     manifest["complete"] = bool(complete)
     return manifest
@@ -102,8 +115,12 @@ def compute_counts(shards: Any) -> dict[str, Any]:
         for key in ("total", split):
             counts[key]["scenes"] += 1
         for robot, target, n_ep, n_tr, n_ok in zip(
-            sh["robots"], sh["targets"], sh["episodes_per_config"], sh["trials"],
-            sh["successes"], strict=True,
+            sh["robots"],
+            sh["targets"],
+            sh["episodes_per_config"],
+            sh["trials"],
+            sh["successes"],
+            strict=True,
         ):
             category = target.split("/")[0]
             for key in ("total", split):
@@ -118,16 +135,17 @@ def compute_counts(shards: Any) -> dict[str, Any]:
                     row[key]["episodes"] += n_ep
                     row[key]["trials"] += n_tr
                     row[key]["successful_trials"] += n_ok
-    counts["robots"] = {r: {k: dict(v) for k, v in row.items()} for r, row in sorted(
-        by_robot.items())}
-    counts["targets"] = {t: {k: dict(v) for k, v in row.items()} for t, row in sorted(
-        by_target.items())}
+    counts["robots"] = {
+        r: {k: dict(v) for k, v in row.items()} for r, row in sorted(by_robot.items())
+    }
+    counts["targets"] = {
+        t: {k: dict(v) for k, v in row.items()} for t, row in sorted(by_target.items())
+    }
     return counts
 
 
 def _zero() -> dict[str, int]:
-    return {"scenes": 0, "configurations": 0, "episodes": 0, "trials": 0,
-            "successful_trials": 0}
+    return {"scenes": 0, "configurations": 0, "episodes": 0, "trials": 0, "successful_trials": 0}
 
 
 def manifest_path(root: str | os.PathLike) -> Path:
@@ -158,8 +176,10 @@ def load_manifest(root: str | os.PathLike) -> dict[str, Any]:
         if missing:
             raise MomaError(f"{path}: shard entry {key!r} lacks {missing[0]!r}")
     if data["schema_version"] != _schema_version():
-        raise MomaError(f"{path}: schema version {data['schema_version']}, this version of "
-                        f"momakitchen reads {_schema_version()}")
+        raise MomaError(
+            f"{path}: schema version {data['schema_version']}, this version of "
+            f"momakitchen reads {_schema_version()}"
+        )
     return _current_names(data)
 
 
@@ -171,13 +191,18 @@ def save_manifest(root: str | os.PathLike, manifest: dict[str, Any]) -> None:
 _CONFIG_CLASSES = {
     "momakitchen.data.config.GenerationConfig": ("momakitchen.data.config", "GenerationConfig"),
     "momakitchen.data.synthetic_scene.SyntheticSceneConfig": (
-        "momakitchen.data.synthetic_scene", "SyntheticSceneConfig"),
+        "momakitchen.data.synthetic_scene",
+        "SyntheticSceneConfig",
+    ),
 }
 # Names that manifests written by earlier versions use, and what they are called now.
 LEGACY_NAMES = {
     "producer": {"momakitchen.perception.episodes.scene_records": KITCHEN},
-    "config_class": {"momakitchen.perception.episodes.GenerationConfig":
-                     "momakitchen.data.config.GenerationConfig"},
+    "config_class": {
+        "momakitchen.perception.episodes.GenerationConfig": (
+            "momakitchen.data.config.GenerationConfig"
+        )
+    },
 }
 
 

@@ -10,13 +10,33 @@ import numpy as np
 from momakitchen.errors import MomaError
 
 _TYPES = {
-    "char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1",
-    "short": "i2", "int16": "i2", "ushort": "u2", "uint16": "u2",
-    "int": "i4", "int32": "i4", "uint": "u4", "uint32": "u4",
-    "float": "f4", "float32": "f4", "double": "f8", "float64": "f8",
+    "char": "i1",
+    "int8": "i1",
+    "uchar": "u1",
+    "uint8": "u1",
+    "short": "i2",
+    "int16": "i2",
+    "ushort": "u2",
+    "uint16": "u2",
+    "int": "i4",
+    "int32": "i4",
+    "uint": "u4",
+    "uint32": "u4",
+    "float": "f4",
+    "float32": "f4",
+    "double": "f8",
+    "float64": "f8",
 }
-_NAMES = {"i1": "char", "u1": "uchar", "i2": "short", "u2": "ushort", "i4": "int",
-          "u4": "uint", "f4": "float", "f8": "double"}
+_NAMES = {
+    "i1": "char",
+    "u1": "uchar",
+    "i2": "short",
+    "u2": "ushort",
+    "i4": "int",
+    "u4": "uint",
+    "f4": "float",
+    "f8": "double",
+}
 
 
 def write_ply(path: str | os.PathLike, columns: dict[str, np.ndarray]) -> None:
@@ -32,8 +52,12 @@ def write_ply(path: str | os.PathLike, columns: dict[str, np.ndarray]) -> None:
     rows = np.empty(count, dtype)
     for k, v in columns.items():
         rows[k] = v
-    header = ["ply", "format binary_little_endian 1.0", "comment momakitchen",
-              f"element vertex {count}"]
+    header = [
+        "ply",
+        "format binary_little_endian 1.0",
+        "comment momakitchen",
+        f"element vertex {count}",
+    ]
     for k in columns:
         header.append(f"property {_NAMES[dtype[k].str[1:]]} {k}")
     header.append("end_header")

@@ -84,12 +84,18 @@ def export_reference(root: str | os.PathLike, out: str | os.PathLike) -> dict[st
                 info_dir = out / "info" / detail
                 info_dir.mkdir(parents=True)
                 episodes = shard.episode_indices(c)
-                first = (shard.arrays(c, episodes[0], ["descriptor"])["descriptor"] if episodes
-                         else np.asarray(robot_descriptor(get_robot_spec(lab.robot))))
+                first = (
+                    shard.arrays(c, episodes[0], ["descriptor"])["descriptor"]
+                    if episodes
+                    else np.asarray(robot_descriptor(get_robot_spec(lab.robot)))
+                )
                 info = {
                     "robot_name": lab.robot,
-                    "scene_id": sid, "config_index": c, "target": lab.target,
-                    "anchor": list(lab.anchor), "descriptor": first.tolist(),
+                    "scene_id": sid,
+                    "config_index": c,
+                    "target": lab.target,
+                    "anchor": list(lab.anchor),
+                    "descriptor": first.tolist(),
                     "trial_positions": lab.trial_positions.tolist(),
                     "trial_yaws": lab.trial_yaws.tolist(),
                     "trial_stages": lab.trial_stages.tolist(),
@@ -114,9 +120,18 @@ def _export_episode(ep: Episode, folder: Path, image_module: Any) -> None:
     clouds = folder / CLOUD_DIR
     clouds.mkdir(parents=True)
     g, rgb = ep.global_xyz, ep.global_rgb
-    write_ply(clouds / GLOBAL_PLY, {"x": g[:, 0], "y": g[:, 1], "z": g[:, 2],
-                                    "red": rgb[:, 0], "green": rgb[:, 1], "blue": rgb[:, 2],
-                                    "align": ep.global_align.astype(np.int8)})
+    write_ply(
+        clouds / GLOBAL_PLY,
+        {
+            "x": g[:, 0],
+            "y": g[:, 1],
+            "z": g[:, 2],
+            "red": rgb[:, 0],
+            "green": rgb[:, 1],
+            "blue": rgb[:, 2],
+            "align": ep.global_align.astype(np.int8),
+        },
+    )
     f = ep.floor_xyz
     write_ply(clouds / FLOOR_PLY, {"x": f[:, 0], "y": f[:, 1], "z": f[:, 2]})
     for name, flag in ((TARGET_PLY, 1), (BARRIER_PLY.format(0), -1)):
@@ -129,10 +144,14 @@ def _export_episode(ep: Episode, folder: Path, image_module: Any) -> None:
         image_module.fromarray(ep.rgb).save(folder / "rgb.png")
         image_module.fromarray(ep.semantic).save(folder / "semantic.png")
     np.save(folder / "depth.npy", ep.depth)
-    camera = {"intrinsics": ep.intrinsics.tolist(), "camera_pose": ep.camera_pose.tolist(),
-              "camera_to_base": ep.camera_to_base.tolist(), "base_pose": list(ep.base_pose),
-              "frames": "camera_pose: camera-to-world (OpenCV axes); camera_to_base: camera "
-                        "to the viewpoint's robot base frame; clouds are in that base frame"}
+    camera = {
+        "intrinsics": ep.intrinsics.tolist(),
+        "camera_pose": ep.camera_pose.tolist(),
+        "camera_to_base": ep.camera_to_base.tolist(),
+        "base_pose": list(ep.base_pose),
+        "frames": "camera_pose: camera-to-world (OpenCV axes); camera_to_base: camera "
+        "to the viewpoint's robot base frame; clouds are in that base frame",
+    }
     (folder / "camera.json").write_text(json.dumps(camera) + "\n")
 
 
@@ -154,15 +173,19 @@ def _discover(src: Path) -> list[tuple[str, str | None]]:
         for split in mf.SPLITS:
             f = split_dir / f"kitchen_{split}.txt"
             if f.is_file():
-                pairs += [(line.strip(), split) for line in f.read_text().splitlines()
-                          if line.strip()]
+                pairs += [
+                    (line.strip(), split) for line in f.read_text().splitlines() if line.strip()
+                ]
     if not pairs:
         base = _rgbd_root(src)
-        pairs = sorted((str(p.parent.relative_to(base)), None)
-                       for p in base.glob(f"**/{CLOUD_DIR}"))
+        pairs = sorted(
+            (str(p.parent.relative_to(base)), None) for p in base.glob(f"**/{CLOUD_DIR}")
+        )
     if not pairs:
-        raise MomaError(f"{src}: no episodes in the reference layout (no data_split/*.txt "
-                        f"and no */{CLOUD_DIR} folders)")
+        raise MomaError(
+            f"{src}: no episodes in the reference layout (no data_split/*.txt "
+            f"and no */{CLOUD_DIR} folders)"
+        )
     return pairs
 
 
@@ -185,8 +208,10 @@ def _floor(folder: Path) -> tuple[np.ndarray, np.ndarray]:
     if rows.shape[0] == 0:
         rows = rows.reshape(0, 4)
     if rows.shape[1] != 4 or rows.shape[0] != xyz.shape[0]:
-        raise MomaError(f"{txt}: {rows.shape} rows for {xyz.shape[0]} floor points; "
-                        "expected x,y,z,value per floor point")
+        raise MomaError(
+            f"{txt}: {rows.shape} rows for {xyz.shape[0]} floor points; "
+            "expected x,y,z,value per floor point"
+        )
     return xyz, np.clip(rows[:, 3], 0.0, 1.0).astype(np.float32)
 
 
@@ -216,28 +241,47 @@ def _global(folder: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return xyz, rgb, align
 
 
-def _episode_from_folder(folder: Path, sid: int, c: int, e: int, robot: str,
-                         descriptor: np.ndarray) -> Episode:
+def _episode_from_folder(
+    folder: Path, sid: int, c: int, e: int, robot: str, descriptor: np.ndarray
+) -> Episode:
     from PIL import Image
 
     gxyz, grgb, align = _global(folder)
     fxyz, label = _floor(folder)
-    depth = np.load(folder / "depth.npy") if (folder / "depth.npy").is_file() else \
-        np.zeros((0, 0), np.float32)
+    depth = (
+        np.load(folder / "depth.npy")
+        if (folder / "depth.npy").is_file()
+        else np.zeros((0, 0), np.float32)
+    )
     h, w = depth.shape
-    rgb = np.asarray(Image.open(folder / "rgb.png").convert("RGB")) if \
-        (folder / "rgb.png").is_file() else np.zeros((h, w, 3), np.uint8)
-    sem = np.asarray(Image.open(folder / "semantic.png")) if \
-        (folder / "semantic.png").is_file() else np.zeros((h, w), np.uint8)
+    rgb = (
+        np.asarray(Image.open(folder / "rgb.png").convert("RGB"))
+        if (folder / "rgb.png").is_file()
+        else np.zeros((h, w, 3), np.uint8)
+    )
+    sem = (
+        np.asarray(Image.open(folder / "semantic.png"))
+        if (folder / "semantic.png").is_file()
+        else np.zeros((h, w), np.uint8)
+    )
     cam = _read_json(folder / "camera.json") if (folder / "camera.json").is_file() else {}
     return Episode(
-        scene_id=sid, config_index=c, episode_index=e, robot=robot, descriptor=descriptor,
-        rgb=rgb, depth=depth.astype(np.float32), semantic=sem.astype(np.uint8),
+        scene_id=sid,
+        config_index=c,
+        episode_index=e,
+        robot=robot,
+        descriptor=descriptor,
+        rgb=rgb,
+        depth=depth.astype(np.float32),
+        semantic=sem.astype(np.uint8),
         intrinsics=np.asarray(cam.get("intrinsics", np.zeros(4)), np.float64),
         camera_pose=np.asarray(cam.get("camera_pose", np.eye(4)), np.float64),
         base_pose=float3(cam.get("base_pose", (0.0, 0.0, 0.0))),
         camera_to_base=np.asarray(cam.get("camera_to_base", np.eye(4)), np.float64),
-        global_xyz=gxyz, global_rgb=grgb, global_align=align, floor_xyz=fxyz,
+        global_xyz=gxyz,
+        global_rgb=grgb,
+        global_align=align,
+        floor_xyz=fxyz,
         floor_label=label,
     )
 
@@ -274,31 +318,45 @@ def import_reference(src: str | os.PathLike, out: str | os.PathLike) -> dict[str
     scenes: dict[int, dict[int, str]] = {}
     for h, (sid, c) in ids.items():
         scenes.setdefault(sid, {})[c] = h
-    manifest = mf.new_manifest("momakitchen.data.reference.import_reference",
-                               {"source": str(src.resolve())})
+    manifest = mf.new_manifest(
+        "momakitchen.data.reference.import_reference", {"source": str(src.resolve())}
+    )
     (out / SCENES_DIR).mkdir(parents=True, exist_ok=True)
     for sid in sorted(scenes):
         records = []
         splits = set()
         for new_c, (_, head) in enumerate(sorted(scenes[sid].items())):
             detail = head[5:] if head.startswith("rgbd_") else head
-            info_path = next((p for p in (src / "info" / detail / TRIAL_INFO,
-                                          rgbd / head / TRIAL_INFO) if p.is_file()), None)
+            info_path = next(
+                (
+                    p
+                    for p in (src / "info" / detail / TRIAL_INFO, rgbd / head / TRIAL_INFO)
+                    if p.is_file()
+                ),
+                None,
+            )
             if info_path is None:
-                raise MomaError(f"{head}: no {TRIAL_INFO} (looked in info/{detail}/ and "
-                                f"rgbd/{head}/)")
+                raise MomaError(
+                    f"{head}: no {TRIAL_INFO} (looked in info/{detail}/ and rgbd/{head}/)"
+                )
             info = _read_json(info_path)
             if "robot_name" not in info:
                 raise MomaError(f"{info_path}: no robot_name")
             robot = ROBOT_ALIASES.get(info["robot_name"], info["robot_name"])
-            desc = np.asarray(info["descriptor"], np.float32) if "descriptor" in info else \
-                np.asarray(robot_descriptor(get_robot_spec(robot)), np.float32)
+            desc = (
+                np.asarray(info["descriptor"], np.float32)
+                if "descriptor" in info
+                else np.asarray(robot_descriptor(get_robot_spec(robot)), np.float32)
+            )
             labels = ConfigurationLabels(
-                scene_id=sid, config_index=new_c, robot=robot,
+                scene_id=sid,
+                config_index=new_c,
+                robot=robot,
                 target=str(info.get("target", "unknown")),
                 anchor=float3(info.get("anchor", (0.0, 0.0, 0.0))),
-                trial_positions=np.asarray(info.get("trial_positions", []),
-                                           np.float64).reshape(-1, 2),
+                trial_positions=np.asarray(info.get("trial_positions", []), np.float64).reshape(
+                    -1, 2
+                ),
                 trial_yaws=np.asarray(info.get("trial_yaws", []), np.float64),
                 trial_stages=np.asarray(info.get("trial_stages", []), np.uint8),
                 trial_moved=np.asarray(info.get("trial_moved", []), np.float32),
@@ -307,8 +365,7 @@ def import_reference(src: str | os.PathLike, out: str | os.PathLike) -> dict[str
             episodes = []
             for new_e, (item, split) in enumerate(items):
                 splits.add(split)
-                episodes.append(_episode_from_folder(rgbd / item, sid, new_c, new_e, robot,
-                                                     desc))
+                episodes.append(_episode_from_folder(rgbd / item, sid, new_c, new_e, robot, desc))
             records.append((labels, episodes))
         summary = write_shard(out / SCENES_DIR, sid, records)
         split = next(iter(splits)) if len(splits) == 1 and None not in splits else None

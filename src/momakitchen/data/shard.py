@@ -79,8 +79,16 @@ TRIAL_ARRAYS: tuple[tuple[str, str], ...] = (
     ("trial_moved", "float32"),
 )
 # Arrays large enough to be worth compressing (the rest are stored contiguous).
-_COMPRESSED = {"rgb", "depth", "semantic", "global_xyz", "global_rgb", "global_align",
-               "floor_xyz", "floor_label"}
+_COMPRESSED = {
+    "rgb",
+    "depth",
+    "semantic",
+    "global_xyz",
+    "global_rgb",
+    "global_align",
+    "floor_xyz",
+    "floor_label",
+}
 
 
 def shard_name(scene_id: int) -> str:
@@ -110,9 +118,15 @@ def _chunks(name: str, shape: tuple[int, ...]) -> tuple[int, ...]:
 def _put(group: h5py.Group, name: str, array: np.ndarray, dtype: str) -> None:
     arr = np.ascontiguousarray(np.asarray(array), dtype=dtype)
     if name in _COMPRESSED and arr.size > 0:
-        group.create_dataset(name, data=arr, chunks=_chunks(name, arr.shape),
-                             compression=COMPRESSION, compression_opts=COMPRESSION_LEVEL,
-                             shuffle=True, track_times=False)
+        group.create_dataset(
+            name,
+            data=arr,
+            chunks=_chunks(name, arr.shape),
+            compression=COMPRESSION,
+            compression_opts=COMPRESSION_LEVEL,
+            shuffle=True,
+            track_times=False,
+        )
     else:
         group.create_dataset(name, data=arr, track_times=False)
 
@@ -122,12 +136,16 @@ def _check_records(scene_id: int, records: SceneRecords) -> None:
         raise MomaError(f"scene {scene_id}: no configurations to write")
     for k, (labels, episodes) in enumerate(records):
         if labels.scene_id != scene_id or labels.config_index != k:
-            raise MomaError(f"scene {scene_id}: configuration #{k} is labelled "
-                            f"{labels.scene_id}/{labels.config_index}")
+            raise MomaError(
+                f"scene {scene_id}: configuration #{k} is labelled "
+                f"{labels.scene_id}/{labels.config_index}"
+            )
         for e, ep in enumerate(episodes):
             if (ep.scene_id, ep.config_index, ep.episode_index) != (scene_id, k, e):
-                raise MomaError(f"scene {scene_id} configuration {k}: episode #{e} is labelled "
-                                f"{ep.scene_id}/{ep.config_index}/{ep.episode_index}")
+                raise MomaError(
+                    f"scene {scene_id} configuration {k}: episode #{e} is labelled "
+                    f"{ep.scene_id}/{ep.config_index}/{ep.episode_index}"
+                )
             ep.validate()
 
 
@@ -170,8 +188,7 @@ def write_shard(directory: str | os.PathLike, scene_id: int, records: SceneRecor
     finally:
         tmp.unlink(missing_ok=True)
     summary = shard_summary(scene_id, records)
-    summary.update(file=f"{SCENES_DIR}/{final.name}", bytes=final.stat().st_size,
-                   sha256=digest)
+    summary.update(file=f"{SCENES_DIR}/{final.name}", bytes=final.stat().st_size, sha256=digest)
     return summary
 
 
@@ -293,8 +310,10 @@ class SceneShard:
         version = int(attrs.get("schema_version", -1))
         if version != SCHEMA_VERSION:
             self.close()
-            raise MomaError(f"shard {self.path}: schema version {version}, this reader "
-                            f"understands {SCHEMA_VERSION}")
+            raise MomaError(
+                f"shard {self.path}: schema version {version}, this reader "
+                f"understands {SCHEMA_VERSION}"
+            )
         self.scene_id = int(attrs["scene_id"])
         self.num_configurations = int(attrs["num_configurations"])
         self.num_episodes = int(attrs["num_episodes"])
@@ -330,9 +349,12 @@ class SceneShard:
         a = g.attrs
         arrays = {name: np.asarray(g[name][()], dtype=dtype) for name, dtype in TRIAL_ARRAYS}
         return ConfigurationLabels(
-            scene_id=int(a["scene_id"]), config_index=int(a["config_index"]),
-            robot=_text(a["robot"]), target=_text(a["target"]),
-            anchor=float3(a["anchor"]), **arrays,
+            scene_id=int(a["scene_id"]),
+            config_index=int(a["config_index"]),
+            robot=_text(a["robot"]),
+            target=_text(a["target"]),
+            anchor=float3(a["anchor"]),
+            **arrays,
         )
 
     def episode_attrs(self, config_index: int, episode_index: int) -> dict[str, Any]:
@@ -344,15 +366,18 @@ class SceneShard:
         e = self._group(config_key(config_index), episode_key(episode_index))
         return int(e["global_xyz"].shape[0]), int(e["floor_xyz"].shape[0])
 
-    def arrays(self, config_index: int, episode_index: int,
-               names: Sequence[str]) -> dict[str, np.ndarray]:
+    def arrays(
+        self, config_index: int, episode_index: int, names: Sequence[str]
+    ) -> dict[str, np.ndarray]:
         """Only the named per-episode arrays (e.g. the clouds, without the images)."""
         e = self._group(config_key(config_index), episode_key(episode_index))
         out = {}
         for name in names:
             if name not in e:
-                raise MomaError(f"shard {self.path}: episode {config_index}/{episode_index} "
-                                f"has no dataset {name!r}")
+                raise MomaError(
+                    f"shard {self.path}: episode {config_index}/{episode_index} "
+                    f"has no dataset {name!r}"
+                )
             out[name] = e[name][()]
         return out
 
@@ -361,9 +386,12 @@ class SceneShard:
         a = e.attrs
         arrays = self.arrays(config_index, episode_index, [n for n, _ in EPISODE_ARRAYS])
         return Episode(
-            scene_id=int(a["scene_id"]), config_index=int(a["config_index"]),
-            episode_index=int(a["episode_index"]), robot=_text(a["robot"]),
-            base_pose=float3(a["base_pose"]), **arrays,
+            scene_id=int(a["scene_id"]),
+            config_index=int(a["config_index"]),
+            episode_index=int(a["episode_index"]),
+            robot=_text(a["robot"]),
+            base_pose=float3(a["base_pose"]),
+            **arrays,
         )
 
     def records(self) -> SceneRecords:

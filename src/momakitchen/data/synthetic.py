@@ -194,9 +194,7 @@ def make_episode(config: SyntheticConfig, index: int) -> dict:
     for box in obstacles_arr:
         cx, cy, sx, sy, h = box
         m = n_obs_pts // n_obs
-        face = _uniform_box_face(
-            rng, m // 2, cx - sx / 2, (cy - sy / 2, cy + sy / 2), (0.0, h)
-        )
+        face = _uniform_box_face(rng, m // 2, cx - sx / 2, (cy - sy / 2, cy + sy / 2), (0.0, h))
         top = _uniform_box_face(
             rng, m - m // 2, (cx - sx / 2, cx + sx / 2), (cy - sy / 2, cy + sy / 2), h
         )

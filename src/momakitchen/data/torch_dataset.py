@@ -19,12 +19,19 @@ from momakitchen.robots.spec import DESCRIPTOR_DIM, DESCRIPTOR_VERSION
 
 SPLIT_CHOICES = ("train", "test", "all")
 # The stored arrays a model sample is made of.
-CLOUD_FIELDS = ("descriptor", "global_xyz", "global_rgb", "global_align", "floor_xyz",
-                "floor_label")
+CLOUD_FIELDS = (
+    "descriptor",
+    "global_xyz",
+    "global_rgb",
+    "global_align",
+    "floor_xyz",
+    "floor_label",
+)
 
 
-def episode_sample(arrays: dict[str, np.ndarray], scene_id: int, config_index: int,
-                   episode_index: int, robot: str) -> dict[str, Any]:
+def episode_sample(
+    arrays: dict[str, np.ndarray], scene_id: int, config_index: int, episode_index: int, robot: str
+) -> dict[str, Any]:
     """A model sample (see :class:`EpisodeDataset`) from an episode's stored arrays
     (``CLOUD_FIELDS``; ``floor_label`` may be left out)."""
     sample: dict[str, Any] = {
@@ -67,10 +74,17 @@ class EpisodeDataset(Dataset):
     :class:`~momakitchen.data.batch.EpisodeCollator`.
     """
 
-    def __init__(self, root: str | os.PathLike, split: str = "train", *,
-                 robots: Sequence[str] | None = None, scene_ids: Sequence[int] | None = None,
-                 transform: Callable[[dict[str, Any]], dict[str, Any]] | None = None,
-                 max_open_files: int = 8, skip_empty: bool = True) -> None:
+    def __init__(
+        self,
+        root: str | os.PathLike,
+        split: str = "train",
+        *,
+        robots: Sequence[str] | None = None,
+        scene_ids: Sequence[int] | None = None,
+        transform: Callable[[dict[str, Any]], dict[str, Any]] | None = None,
+        max_open_files: int = 8,
+        skip_empty: bool = True,
+    ) -> None:
         if split not in SPLIT_CHOICES:
             raise MomaError(f"split must be one of {SPLIT_CHOICES}, got {split!r}")
         if max_open_files < 1:
@@ -78,9 +92,11 @@ class EpisodeDataset(Dataset):
         self.root = Path(root)
         self.manifest = mf.load_manifest(self.root)
         if self.manifest.get("descriptor_version") != DESCRIPTOR_VERSION:
-            raise MomaError(f"{self.root}: robot descriptor version "
-                            f"{self.manifest.get('descriptor_version')}, this version of "
-                            f"momakitchen uses {DESCRIPTOR_VERSION}")
+            raise MomaError(
+                f"{self.root}: robot descriptor version "
+                f"{self.manifest.get('descriptor_version')}, this version of "
+                f"momakitchen uses {DESCRIPTOR_VERSION}"
+            )
         self.split = split
         self.transform = transform
         self.max_open_files = max_open_files
@@ -94,13 +110,15 @@ class EpisodeDataset(Dataset):
                 continue
             if wanted is not None and sid not in wanted:
                 continue
-            for c, (n, robot) in enumerate(zip(entry["episodes_per_config"], entry["robots"],
-                                               strict=True)):
+            for c, (n, robot) in enumerate(
+                zip(entry["episodes_per_config"], entry["robots"], strict=True)
+            ):
                 if robot_set is not None and robot not in robot_set:
                     continue
                 for e in range(n):
-                    if skip_empty and (entry["global_points"][c][e] == 0
-                                       or entry["floor_points"][c][e] == 0):
+                    if skip_empty and (
+                        entry["global_points"][c][e] == 0 or entry["floor_points"][c][e] == 0
+                    ):
                         continue
                     self.index.append((entry["file"], sid, c, e, robot))
         self._open: OrderedDict[str, SceneShard] = OrderedDict()

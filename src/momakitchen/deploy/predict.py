@@ -40,8 +40,9 @@ def load_depth(depth: np.ndarray | str | os.PathLike) -> np.ndarray:
         elif path.suffix.lower() == ".png":
             img = _load_png(path, "depth")
             if img.dtype != np.uint16:
-                raise MomaError(f"depth PNG {str(path)!r} must be 16-bit (millimetres), got "
-                                f"{img.dtype}")
+                raise MomaError(
+                    f"depth PNG {str(path)!r} must be 16-bit (millimetres), got {img.dtype}"
+                )
             depth = img.astype(np.float32) / 1000.0
         else:
             raise MomaError(f"depth file {str(path)!r}: use .npy (metres) or 16-bit .png (mm)")
@@ -106,18 +107,26 @@ def load_extrinsics(tf: np.ndarray | str | os.PathLike) -> np.ndarray:
         if not path.is_file():
             raise MomaError(f"extrinsics file {str(path)!r} does not exist")
         try:
-            tf = (_load_npy(path, "extrinsics") if path.suffix.lower() == ".npy"
-                  else np.loadtxt(path, dtype=np.float64))
+            tf = (
+                _load_npy(path, "extrinsics")
+                if path.suffix.lower() == ".npy"
+                else np.loadtxt(path, dtype=np.float64)
+            )
         except ValueError as exc:
             raise MomaError(f"extrinsics file {str(path)!r}: {exc}") from exc
     m = np.asarray(tf, dtype=np.float64)
     if m.shape != (4, 4) or not np.isfinite(m).all():
         raise MomaError(f"extrinsics must be a finite 4x4 matrix, got shape {m.shape}")
     r = m[:3, :3]
-    if (np.abs(r.T @ r - np.eye(3)).max() > 1e-3 or abs(np.linalg.det(r) - 1) > 1e-3
-            or np.abs(m[3] - [0, 0, 0, 1]).max() > 1e-9):
-        raise MomaError("extrinsics are not a rigid transform (rotation must be orthonormal "
-                        "with determinant 1, last row 0 0 0 1)")
+    if (
+        np.abs(r.T @ r - np.eye(3)).max() > 1e-3
+        or abs(np.linalg.det(r) - 1) > 1e-3
+        or np.abs(m[3] - [0, 0, 0, 1]).max() > 1e-9
+    ):
+        raise MomaError(
+            "extrinsics are not a rigid transform (rotation must be orthonormal "
+            "with determinant 1, last row 0 0 0 1)"
+        )
     return m
 
 
@@ -137,15 +146,26 @@ def robot_input(robot: str | Sequence[float] | Mapping[str, float]) -> tuple[str
         missing = {"reach", "mount_height"} - set(robot)
         if missing:
             raise MomaError(f"robot descriptor needs {sorted(missing)}")
-        vec = list(descriptor_values(robot["reach"], robot["mount_height"],
-                                     robot.get("dof", 6), robot.get("suction", False)))
+        vec = list(
+            descriptor_values(
+                robot["reach"],
+                robot["mount_height"],
+                robot.get("dof", 6),
+                robot.get("suction", False),
+            )
+        )
     else:
         vec = list(robot)
     d = np.asarray(vec, np.float32)
-    if d.shape != (DESCRIPTOR_DIM,) or not np.isfinite(d).all() or not (0.2 <= d[0] <= 3.0
-                                                                         and 0 <= d[1] <= 3.0):
-        raise MomaError(f"robot descriptor must be {DESCRIPTOR_DIM} finite numbers with reach "
-                        f"in [0.2, 3] m and mount height in [0, 3] m, got {vec}")
+    if (
+        d.shape != (DESCRIPTOR_DIM,)
+        or not np.isfinite(d).all()
+        or not (0.2 <= d[0] <= 3.0 and 0 <= d[1] <= 3.0)
+    ):
+        raise MomaError(
+            f"robot descriptor must be {DESCRIPTOR_DIM} finite numbers with reach "
+            f"in [0.2, 3] m and mount height in [0, 3] m, got {vec}"
+        )
     return "custom", d
 
 
@@ -210,8 +230,9 @@ def predict(
             raise MomaError(f"intrinsics must be fx, fy, cx, cy; got {k.size} numbers")
         intr = Intrinsics(float(k[0]), float(k[1]), float(k[2]), float(k[3]), w, h)
     if (intr.height, intr.width) != (h, w):
-        raise MomaError(f"intrinsics are for {intr.width}x{intr.height} images but the depth "
-                        f"image is {w}x{h}")
+        raise MomaError(
+            f"intrinsics are for {intr.width}x{intr.height} images but the depth image is {w}x{h}"
+        )
     tf = load_extrinsics(camera_to_base)
     masks = {"target mask": load_mask(target_mask, "target mask")}
     for i, m in enumerate(obstacle_masks):
@@ -227,19 +248,44 @@ def predict(
         raise MomaError("the target mask is empty (no target pixel with a valid depth)")
     name, descriptor = robot_input(robot)
 
-    run = checkpoint if isinstance(checkpoint, LoadedRun) else load_checkpoint(
-        checkpoint if checkpoint is not None else default_checkpoint())
+    run = (
+        checkpoint
+        if isinstance(checkpoint, LoadedRun)
+        else load_checkpoint(checkpoint if checkpoint is not None else default_checkpoint())
+    )
     # The clouds are built as for the model's training data.
-    clouds = frame_inputs(d, valid, image, masks["target mask"],
-                          [m for k, m in masks.items() if k != "target mask"], intr, tf,
-                          run.preprocessing.cloud, run.preprocessing.max_depth)
-    return predict_map(run, clouds, name, descriptor, top_k=top_k, min_spread=min_spread,
-                       mc_samples=mc_samples, episode_id=episode_id, threads=threads)
+    clouds = frame_inputs(
+        d,
+        valid,
+        image,
+        masks["target mask"],
+        [m for k, m in masks.items() if k != "target mask"],
+        intr,
+        tf,
+        run.preprocessing.cloud,
+        run.preprocessing.max_depth,
+    )
+    return predict_map(
+        run,
+        clouds,
+        name,
+        descriptor,
+        top_k=top_k,
+        min_spread=min_spread,
+        mc_samples=mc_samples,
+        episode_id=episode_id,
+        threads=threads,
+    )
 
 
-def write_outputs(pred: Prediction, out_dir: str | os.PathLike, rgb: np.ndarray | None = None,
-                  depth: np.ndarray | None = None, intrinsics: Any = None,
-                  camera_to_base: np.ndarray | None = None) -> dict[str, Path]:
+def write_outputs(
+    pred: Prediction,
+    out_dir: str | os.PathLike,
+    rgb: np.ndarray | None = None,
+    depth: np.ndarray | None = None,
+    intrinsics: Any = None,
+    camera_to_base: np.ndarray | None = None,
+) -> dict[str, Path]:
     """``prediction.json`` (poses and floor points) and ``prediction.png`` (overlay)."""
     from momakitchen.fileio import atomic_write_bytes, atomic_write_text
     from momakitchen.perception.figures import prediction_figure
@@ -248,6 +294,7 @@ def write_outputs(pred: Prediction, out_dir: str | os.PathLike, rgb: np.ndarray 
     out.mkdir(parents=True, exist_ok=True)
     paths = {"json": out / "prediction.json", "png": out / "prediction.png"}
     atomic_write_text(paths["json"], json.dumps(pred.to_dict(), indent=1) + "\n")
-    atomic_write_bytes(paths["png"], prediction_figure(pred, rgb, depth, intrinsics,
-                                                       camera_to_base))
+    atomic_write_bytes(
+        paths["png"], prediction_figure(pred, rgb, depth, intrinsics, camera_to_base)
+    )
     return paths

@@ -42,8 +42,11 @@ def evaluate(
         raise MomaError(f"batch_size must be >= 1, got {batch_size}")
     run = load_checkpoint(run_dir)
     root = getattr(dataset, "root", None)
-    check_preprocessing(run, dataset_preprocessing(dataset),
-                        f"dataset {str(root)!r}" if root is not None else "dataset")
+    check_preprocessing(
+        run,
+        dataset_preprocessing(dataset),
+        f"dataset {str(root)!r}" if root is not None else "dataset",
+    )
     collate = EpisodeCollator(run.config.num_global, None, run.config.seed)
     loader = DataLoader(
         dataset, batch_size=batch_size, shuffle=False, collate_fn=collate, num_workers=num_workers

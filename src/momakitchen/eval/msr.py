@@ -90,9 +90,15 @@ class _Checkpoint:
         return pred, std
 
 
-def _configuration(shard: SceneShard, scene: Any, ci: int, gen: Any,
-                   models: dict[str, _Checkpoint], names: Sequence[str], config: MsrConfig
-                   ) -> dict[str, Any] | None:
+def _configuration(
+    shard: SceneShard,
+    scene: Any,
+    ci: int,
+    gen: Any,
+    models: dict[str, _Checkpoint],
+    names: Sequence[str],
+    config: MsrConfig,
+) -> dict[str, Any] | None:
     """Rebuild configuration ``ci`` of ``scene``, let every method choose its points on one
     episode and run their trials; the configuration's record (None: no usable episode)."""
     from momakitchen.frames import world_to_base
@@ -107,9 +113,11 @@ def _configuration(shard: SceneShard, scene: Any, ci: int, gen: Any,
         return None
     cfg = scene.configurations[ci]
     if cfg.robot != labels.robot:
-        raise MomaError(f"{shard.path.name} configuration {ci}: stored robot {labels.robot!r} "
-                        f"but the rebuilt world has {cfg.robot!r} (another momakitchen "
-                        "version?)")
+        raise MomaError(
+            f"{shard.path.name} configuration {ci}: stored robot {labels.robot!r} "
+            f"but the rebuilt world has {cfg.robot!r} (another momakitchen "
+            "version?)"
+        )
     rng = np.random.default_rng([config.seed, sid, ci])
     ep = int(episodes[int(rng.integers(len(episodes)))])
     episode = shard.episode(ci, ep)
@@ -118,9 +126,15 @@ def _configuration(shard: SceneShard, scene: Any, ci: int, gen: Any,
     target_xy = world_to_base(np.asarray([cfg.target.anchor[:2]]), episode.base_pose)[0]
     dist = np.hypot(*(floor_xy - target_xy).T)
     reach = get_robot_spec(cfg.robot).reach
-    record: dict[str, Any] = {"scene_id": sid, "config_index": ci, "episode_index": ep,
-                              "robot": cfg.robot, "target": labels.target,
-                              "feasible": bool(labels.trial_outcomes.any()), "methods": {}}
+    record: dict[str, Any] = {
+        "scene_id": sid,
+        "config_index": ci,
+        "episode_index": ep,
+        "robot": cfg.robot,
+        "target": labels.target,
+        "feasible": bool(labels.trial_outcomes.any()),
+        "methods": {},
+    }
     with World(scene.layout) as world:
         world.load_configuration(cfg)
         runner = TrialRunner(world, cfg.robot, gen.trial)
@@ -152,10 +166,12 @@ def _configuration(shard: SceneShard, scene: Any, ci: int, gen: Any,
                     "stages": [int(trials[i].stage) for i in chosen],
                 }
                 if std is not None:  # what the model said at its chosen points
-                    record["methods"][name]["affordance"] = [round(float(scores[i]), 4)
-                                                             for i in chosen]
-                    record["methods"][name]["uncertainty"] = [round(float(std[i]), 5)
-                                                              for i in chosen]
+                    record["methods"][name]["affordance"] = [
+                        round(float(scores[i]), 4) for i in chosen
+                    ]
+                    record["methods"][name]["uncertainty"] = [
+                        round(float(std[i]), 5) for i in chosen
+                    ]
         finally:
             runner.close()
     return record
@@ -170,9 +186,11 @@ def _load_dataset(root: Path) -> dict[str, Any]:
         raise MomaError(f"dataset directory {str(root)!r} does not exist")
     manifest = mf.load_manifest(root)
     if manifest.get("producer") != mf.KITCHEN or "config" not in manifest:
-        raise MomaError(f"{root} was not made by the simulator-backed generator (producer "
-                        f"{manifest.get('producer')!r}): MSR needs the generation config to "
-                        "rebuild its worlds")
+        raise MomaError(
+            f"{root} was not made by the simulator-backed generator (producer "
+            f"{manifest.get('producer')!r}): MSR needs the generation config to "
+            "rebuild its worlds"
+        )
     return manifest
 
 
@@ -201,8 +219,10 @@ def run_msr(
     config = config or MsrConfig()
     unknown = [m for m in methods if m not in BASELINES]
     if unknown:
-        raise MomaError(f"unknown MSR method {unknown[0]!r}; methods: {', '.join(BASELINES)} "
-                        "(or --checkpoint RUN)")
+        raise MomaError(
+            f"unknown MSR method {unknown[0]!r}; methods: {', '.join(BASELINES)} "
+            "(or --checkpoint RUN)"
+        )
     if not checkpoints and not methods:  # the bundled model, as everywhere else
         from momakitchen.train.checkpoint import default_checkpoint
 
@@ -231,7 +251,7 @@ def run_msr(
             continue
         todo += [(int(key), c, entry["file"]) for c in range(len(entry["episodes_per_config"]))]
     if config.max_configs:
-        todo = todo[:config.max_configs]
+        todo = todo[: config.max_configs]
     if not todo:
         raise MomaError(f"dataset {str(root)!r} has no {config.split} configurations")
 
@@ -253,9 +273,13 @@ def run_msr(
 
     return {
         "dataset": str(root),
-        "config": {"top_k": config.top_k, "min_spread": config.min_spread,
-                   "seed": config.seed, "split": config.split,
-                   "max_configs": config.max_configs},
+        "config": {
+            "top_k": config.top_k,
+            "min_spread": config.min_spread,
+            "seed": config.seed,
+            "split": config.split,
+            "max_configs": config.max_configs,
+        },
         "configurations": len(records),
         "feasible_configurations": sum(r["feasible"] for r in records),
         "methods": {name: _summary(records, name) for name in names},
@@ -266,21 +290,29 @@ def run_msr(
 def _summary(records: list[dict[str, Any]], name: str) -> dict[str, Any]:
     """Rates of one method: overall, on feasible configurations (where some labelling trial
     succeeded), per robot and per target category."""
+
     def rates(recs: list[dict[str, Any]]) -> dict[str, Any]:
         outcomes = [r["methods"][name]["outcomes"] for r in recs]
-        return {"top1": _rate([float(o[0]) if o else 0.0 for o in outcomes]),
-                "topk": _rate([_rate(o) for o in outcomes]), "configurations": len(recs)}
+        return {
+            "top1": _rate([float(o[0]) if o else 0.0 for o in outcomes]),
+            "topk": _rate([_rate(o) for o in outcomes]),
+            "configurations": len(recs),
+        }
 
-    groups: dict[str, dict[str, list[dict[str, Any]]]] = {"per_robot": defaultdict(list),
-                                                          "per_category": defaultdict(list)}
+    groups: dict[str, dict[str, list[dict[str, Any]]]] = {
+        "per_robot": defaultdict(list),
+        "per_category": defaultdict(list),
+    }
     for r in records:
         groups["per_robot"][r["robot"]].append(r)
         groups["per_category"][r["target"].split("/")[0]].append(r)
     overall = rates(records)
     feasible = rates([r for r in records if r["feasible"]])
     return {
-        "top1": overall["top1"], "topk": overall["topk"],
-        "top1_feasible": feasible["top1"], "topk_feasible": feasible["topk"],
+        "top1": overall["top1"],
+        "topk": overall["topk"],
+        "top1_feasible": feasible["top1"],
+        "topk_feasible": feasible["topk"],
         "trials": sum(len(r["methods"][name]["outcomes"]) for r in records),
         **{g: {k: rates(v) for k, v in sorted(d.items())} for g, d in groups.items()},
     }
@@ -290,16 +322,23 @@ def format_msr_table(result: dict[str, Any]) -> str:
     """A plain-text table: method, Top-1 and Top-k MSR (all and feasible configurations),
     trials run."""
     k = result["config"]["top_k"]
-    rows = [("method", "Top-1 MSR", f"Top-{k} MSR", "Top-1 (feasible)", f"Top-{k} (feasible)",
-             "trials")]
+    rows = [
+        ("method", "Top-1 MSR", f"Top-{k} MSR", "Top-1 (feasible)", f"Top-{k} (feasible)", "trials")
+    ]
     for name, m in result["methods"].items():
-        rows.append((name, *(f"{100 * m[key]:.1f} %" for key in RATE_KEYS),
-                     str(m["trials"])))
+        rows.append((name, *(f"{100 * m[key]:.1f} %" for key in RATE_KEYS), str(m["trials"])))
     widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
-    lines = ["  ".join(c.ljust(w) if i == 0 else c.rjust(w)
-                       for i, (c, w) in enumerate(zip(r, widths, strict=True))) for r in rows]
+    lines = [
+        "  ".join(
+            c.ljust(w) if i == 0 else c.rjust(w)
+            for i, (c, w) in enumerate(zip(r, widths, strict=True))
+        )
+        for r in rows
+    ]
     lines.insert(1, "-" * len(lines[0]))
-    lines.append(f"({result['configurations']} configurations of the "
-                 f"{result['config']['split']} split, {result['feasible_configurations']} "
-                 "feasible: some labelling trial succeeded)")
+    lines.append(
+        f"({result['configurations']} configurations of the "
+        f"{result['config']['split']} split, {result['feasible_configurations']} "
+        "feasible: some labelling trial succeeded)"
+    )
     return "\n".join(lines)

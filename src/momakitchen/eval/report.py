@@ -32,8 +32,13 @@ from momakitchen.errors import MomaError
 from momakitchen.eval.msr import RATE_KEYS
 from momakitchen.fileio import atomic_write_bytes, atomic_write_text
 
-MAP_COLUMNS = (("rmse", "RMSE ↓"), ("logmse", "logMSE ↓"), ("pcc", "PCC ↑"), ("sim", "SIM ↑"),
-               ("ciou", "cIoU ↑"))
+MAP_COLUMNS = (
+    ("rmse", "RMSE ↓"),
+    ("logmse", "logMSE ↓"),
+    ("pcc", "PCC ↑"),
+    ("sim", "SIM ↑"),
+    ("ciou", "cIoU ↑"),
+)
 
 
 @dataclass(frozen=True)
@@ -96,12 +101,18 @@ def run_metrics(run: Path, data: Path, out_dir: Path, progress: bool) -> dict[st
             report = json.loads(cached.read_text())
         except json.JSONDecodeError:
             report = None
-        if report is not None and (report.get("split") != "test" or Path(
-                report.get("data", "")).resolve() != data.resolve()):
+        if report is not None and (
+            report.get("split") != "test"
+            or Path(report.get("data", "")).resolve() != data.resolve()
+        ):
             report = None
     if report is None:
-        report = {"data": str(data), "split": "test", "checkpoint": str(run),
-                  **evaluate(run, EpisodeDataset(data, "test"), progress=progress)}
+        report = {
+            "data": str(data),
+            "split": "test",
+            "checkpoint": str(run),
+            **evaluate(run, EpisodeDataset(data, "test"), progress=progress),
+        }
     text = json.dumps(report, indent=1, default=float) + "\n"
     out_dir.mkdir(parents=True, exist_ok=True)
     atomic_write_text(out_dir / f"{run.name}.json", text)
@@ -139,39 +150,65 @@ def run_benchmark(req: BenchmarkRequest, log: Callable[[str], None] = print) -> 
             raise MomaError(f"MSR file {str(req.msr)!r} lacks methods {missing}")
     else:
         log("MSR: models and baselines in closed loop")
-        msr = run_msr(data, [str(r) for r in req.runs], list(BASELINES),
-                      MsrConfig(max_configs=req.max_configs), progress=req.progress)
+        msr = run_msr(
+            data,
+            [str(r) for r in req.runs],
+            list(BASELINES),
+            MsrConfig(max_configs=req.max_configs),
+            progress=req.progress,
+        )
         atomic_write_text(out / "msr.json", json.dumps(msr, indent=1) + "\n")
 
     main_reports = [metrics[r] for r in req.runs]
     lines = ["## Methods", "", *main_table(main_reports, msr), "", *msr_breakdown(msr)]
     if req.ablations:
         full = metrics[req.runs[models.index("navaff")]]
-        lines += ["", "## Ablations", "",
-                  *ablation_table(full, [metrics[r] for r in req.ablations])]
+        lines += [
+            "",
+            "## Ablations",
+            "",
+            *ablation_table(full, [metrics[r] for r in req.ablations]),
+        ]
     lines += ["", "## Per scene", "", *per_scene_table(main_reports, msr)]
-    sweep = sorted(((configs[r].model_config.lambda_zero, metrics[r]) for r in req.sweep),
-                   key=lambda t: t[0])
+    sweep = sorted(
+        ((configs[r].model_config.lambda_zero, metrics[r]) for r in req.sweep), key=lambda t: t[0]
+    )
     if sweep:
         atomic_write_bytes(out / "lambda_sweep.png", sweep_figure(sweep))
-        lines += ["", "## Loss weight", "", *sweep_table(sweep, configs, req.sweep),
-                  "", "![PCC and RMSE against lambda](lambda_sweep.png)"]
-    confident = [name for name in msr["methods"]
-                 if any("uncertainty" in r["methods"][name] for r in msr["records"])]
+        lines += [
+            "",
+            "## Loss weight",
+            "",
+            *sweep_table(sweep, configs, req.sweep),
+            "",
+            "![PCC and RMSE against lambda](lambda_sweep.png)",
+        ]
+    confident = [
+        name
+        for name in msr["methods"]
+        if any("uncertainty" in r["methods"][name] for r in msr["records"])
+    ]
     if confident:
         lines += ["", "## Confidence"]
         for name in confident:
             lines += ["", *confidence_table(msr, name)]
     log("qualitative figure")
-    atomic_write_bytes(out / "qualitative.png",
-                       qualitative_figure(data, req.runs, req.examples))
-    lines += ["", "## Examples", "", "Ground truth and each model's map on the same test "
-              "episodes:", "", "![qualitative](qualitative.png)"]
+    atomic_write_bytes(out / "qualitative.png", qualitative_figure(data, req.runs, req.examples))
+    lines += [
+        "",
+        "## Examples",
+        "",
+        "Ground truth and each model's map on the same test episodes:",
+        "",
+        "![qualitative](qualitative.png)",
+    ]
     atomic_write_text(out / "RESULTS.md", "# Benchmark\n\n" + "\n".join(lines) + "\n")
     result = {
         "data": str(data),
-        "runs": {str(r): {k: metrics[r][k] for k in ("model", "metrics")}
-                 for r in (*req.runs, *req.ablations)},
+        "runs": {
+            str(r): {k: metrics[r][k] for k in ("model", "metrics")}
+            for r in (*req.runs, *req.ablations)
+        },
         "sweep": [{"lambda_zero": lam, "metrics": rep["metrics"]} for lam, rep in sweep],
         "msr": {name: {k: s[k] for k in RATE_KEYS} for name, s in msr["methods"].items()},
         "msr_configurations": msr["configurations"],
@@ -188,8 +225,14 @@ def _row(cells: Sequence[str]) -> str:
 def main_table(reports: Sequence[dict], msr: dict) -> list[str]:
     """Methods x map metrics and MSR; baselines without maps get dashes."""
     k = msr["config"]["top_k"]
-    head = ["method", *(c for _, c in MAP_COLUMNS), "Top-1 MSR ↑", f"Top-{k} MSR ↑",
-            "Top-1 (feasible)", f"Top-{k} (feasible)"]
+    head = [
+        "method",
+        *(c for _, c in MAP_COLUMNS),
+        "Top-1 MSR ↑",
+        f"Top-{k} MSR ↑",
+        "Top-1 (feasible)",
+        f"Top-{k} (feasible)",
+    ]
     lines = [_row(head), "|---" * len(head) + "|"]
 
     def rates(name: str) -> list[str]:
@@ -197,15 +240,26 @@ def main_table(reports: Sequence[dict], msr: dict) -> list[str]:
         return [f"{100 * s[key]:.1f} %" if s else "–" for key in RATE_KEYS]
 
     for rep in reports:
-        lines.append(_row([rep["model"], *(f"{rep['metrics'][key]:.4f}" for key, _ in
-                                           MAP_COLUMNS), *rates(rep["model"])]))
+        lines.append(
+            _row(
+                [
+                    rep["model"],
+                    *(f"{rep['metrics'][key]:.4f}" for key, _ in MAP_COLUMNS),
+                    *rates(rep["model"]),
+                ]
+            )
+        )
     for name in msr["methods"]:
         if name not in {r["model"] for r in reports}:
             lines.append(_row([name, *("–" for _ in MAP_COLUMNS), *rates(name)]))
-    return [*lines, "", f"Map metrics on {reports[0]['episodes']} test episodes. MSR on "
-                    f"{msr['configurations']} {msr['config']['split']} configurations "
-                    f"({msr['feasible_configurations']} with at least one successful grid "
-                    f"trial: 'feasible'), seed {msr['config']['seed']}."]
+    return [
+        *lines,
+        "",
+        f"Map metrics on {reports[0]['episodes']} test episodes. MSR on "
+        f"{msr['configurations']} {msr['config']['split']} configurations "
+        f"({msr['feasible_configurations']} with at least one successful grid "
+        f"trial: 'feasible'), seed {msr['config']['seed']}.",
+    ]
 
 
 def msr_breakdown(msr: dict) -> list[str]:
@@ -213,14 +267,36 @@ def msr_breakdown(msr: dict) -> list[str]:
     robots = sorted({r for s in msr["methods"].values() for r in s["per_robot"]})
     lines = [_row(["Top-1 MSR per robot", *robots]), "|---" * (len(robots) + 1) + "|"]
     for name, s in msr["methods"].items():
-        lines.append(_row([name, *(
-            f"{100 * s['per_robot'][r]['top1']:.0f} % ({s['per_robot'][r]['configurations']})"
-            if r in s["per_robot"] else "–" for r in robots)]))
+        lines.append(
+            _row(
+                [
+                    name,
+                    *(
+                        f"{100 * s['per_robot'][r]['top1']:.0f} % "
+                        f"({s['per_robot'][r]['configurations']})"
+                        if r in s["per_robot"]
+                        else "–"
+                        for r in robots
+                    ),
+                ]
+            )
+        )
     cats = sorted({c for s in msr["methods"].values() for c in s["per_category"]})
     lines += ["", _row(["Top-1 MSR per target", *cats]), "|---" * (len(cats) + 1) + "|"]
     for name, s in msr["methods"].items():
-        lines.append(_row([name, *(f"{100 * s['per_category'][c]['top1']:.0f} %"
-                                   if c in s["per_category"] else "–" for c in cats)]))
+        lines.append(
+            _row(
+                [
+                    name,
+                    *(
+                        f"{100 * s['per_category'][c]['top1']:.0f} %"
+                        if c in s["per_category"]
+                        else "–"
+                        for c in cats
+                    ),
+                ]
+            )
+        )
     return lines
 
 
@@ -232,9 +308,16 @@ def ablation_table(full: dict, ablations: Sequence[dict]) -> list[str]:
     lines = [_row(head), "|---" * len(head) + "|"]
     for rep in (full, *ablations):
         removed = "–" if rep is full else get_model_entry(rep["model"]).description
-        lines.append(_row([rep["model"], removed,
-                           *(f"{rep['metrics'][key]:.4f}" for key, _ in MAP_COLUMNS),
-                           f"{rep['metrics']['pcc'] - full['metrics']['pcc']:+.4f}"]))
+        lines.append(
+            _row(
+                [
+                    rep["model"],
+                    removed,
+                    *(f"{rep['metrics'][key]:.4f}" for key, _ in MAP_COLUMNS),
+                    f"{rep['metrics']['pcc'] - full['metrics']['pcc']:+.4f}",
+                ]
+            )
+        )
     return lines
 
 
@@ -246,29 +329,43 @@ def per_scene_table(reports: Sequence[dict], msr: dict) -> list[str]:
         for name in methods:
             o = r["methods"][name]["outcomes"]
             top1.setdefault(str(r["scene_id"]), {}).setdefault(name, []).append(o[0] if o else 0)
-    head = ["scene", "episodes", *(f"{r['model']} RMSE / PCC" for r in reports),
-            *(f"{m} Top-1" for m in methods)]
-    out = ["Map metrics over each scene's episodes; MSR over its configurations.", "",
-           _row(head), "|---" * len(head) + "|"]
+    head = [
+        "scene",
+        "episodes",
+        *(f"{r['model']} RMSE / PCC" for r in reports),
+        *(f"{m} Top-1" for m in methods),
+    ]
+    out = [
+        "Map metrics over each scene's episodes; MSR over its configurations.",
+        "",
+        _row(head),
+        "|---" * len(head) + "|",
+    ]
     for scene in sorted(reports[0]["per_scene"], key=int):
         cells = [scene, str(int(reports[0]["per_scene"][scene]["episodes"]))]
-        cells += [f"{r['per_scene'][scene]['rmse']:.3f} / {r['per_scene'][scene]['pcc']:.2f}"
-                  for r in reports]
+        cells += [
+            f"{r['per_scene'][scene]['rmse']:.3f} / {r['per_scene'][scene]['pcc']:.2f}"
+            for r in reports
+        ]
         cells += [f"{np.mean(top1[scene][m]):.0%}" if scene in top1 else "–" for m in methods]
         out.append(_row(cells))
     return out
 
 
-def sweep_table(sweep: Sequence[tuple[float, dict]], configs: dict, runs: Sequence[Path]
-                ) -> list[str]:
+def sweep_table(
+    sweep: Sequence[tuple[float, dict]], configs: dict, runs: Sequence[Path]
+) -> list[str]:
     steps = {configs[r].max_steps for r in runs}
-    lines = [f"Runs that differ only in λ, the loss weight on zero-valued labels (applied on a "
-             f"random half of the steps); optimiser steps: {', '.join(map(str, sorted(steps)))}"
-             " (0: the preset's epochs).", "",
-             _row(["λ", *(c for _, c in MAP_COLUMNS)]), "|---" * (len(MAP_COLUMNS) + 1) + "|"]
+    lines = [
+        f"Runs that differ only in λ, the loss weight on zero-valued labels (applied on a "
+        f"random half of the steps); optimiser steps: {', '.join(map(str, sorted(steps)))}"
+        " (0: the preset's epochs).",
+        "",
+        _row(["λ", *(c for _, c in MAP_COLUMNS)]),
+        "|---" * (len(MAP_COLUMNS) + 1) + "|",
+    ]
     for lam, rep in sweep:
-        lines.append(_row([f"{lam:g}", *(f"{rep['metrics'][key]:.4f}" for key, _ in
-                                         MAP_COLUMNS)]))
+        lines.append(_row([f"{lam:g}", *(f"{rep['metrics'][key]:.4f}" for key, _ in MAP_COLUMNS)]))
     return lines
 
 
@@ -303,12 +400,15 @@ def confidence_table(msr: dict, name: str) -> list[str]:
     ok = np.array([r["outcomes"][0] for r in rows])
     aff = np.array([r["affordance"][0] for r in rows])
     unc = np.array([r["uncertainty"][0] for r in rows])
-    out = [f"Confidence of {name} at its Top-1 point vs the trial outcome ({len(rows)} "
-           f"configurations, {ok.mean():.0%} succeeded). AUROC (0.5 = no signal): predicted "
-           f"affordance {auroc(aff, ok):.2f}; low uncertainty {auroc(-unc, ok):.2f}; low relative "
-           f"uncertainty (std / affordance) {auroc(-unc / np.maximum(aff, 1e-3), ok):.2f}.", "",
-           "| tercile | affordance range | success | uncertainty range | success |",
-           "|---|---|---|---|---|"]
+    out = [
+        f"Confidence of {name} at its Top-1 point vs the trial outcome ({len(rows)} "
+        f"configurations, {ok.mean():.0%} succeeded). AUROC (0.5 = no signal): predicted "
+        f"affordance {auroc(aff, ok):.2f}; low uncertainty {auroc(-unc, ok):.2f}; low relative "
+        f"uncertainty (std / affordance) {auroc(-unc / np.maximum(aff, 1e-3), ok):.2f}.",
+        "",
+        "| tercile | affordance range | success | uncertainty range | success |",
+        "|---|---|---|---|---|",
+    ]
     qs = [0, 1 / 3, 2 / 3, 1]
     a_edges, u_edges = np.quantile(aff, qs), np.quantile(unc, qs)
 
@@ -320,8 +420,10 @@ def confidence_table(msr: dict, name: str) -> list[str]:
 
     for t, label in enumerate(("low", "middle", "high")):
         a_in, u_in = inside(aff, a_edges, t), inside(unc, u_edges, t)
-        out.append(f"| {label} | {a_edges[t]:.2f}–{a_edges[t + 1]:.2f} | {success(a_in)} | "
-                   f"{u_edges[t]:.3f}–{u_edges[t + 1]:.3f} | {success(u_in)} |")
+        out.append(
+            f"| {label} | {a_edges[t]:.2f}–{a_edges[t + 1]:.2f} | {success(a_in)} | "
+            f"{u_edges[t]:.3f}–{u_edges[t + 1]:.3f} | {success(u_in)} |"
+        )
     return out
 
 
@@ -349,16 +451,29 @@ def qualitative_figure(data_dir: Path, runs: Sequence[Path], examples: int) -> b
         raise MomaError(f"no test configuration of {str(data_dir)!r} has a successful trial")
     loaded = [load_checkpoint(r) for r in runs]
     plt = pyplot()
-    fig, axes = plt.subplots(len(picked), 1 + len(loaded),
-                             figsize=(3.6 * (1 + len(loaded)), 3.2 * len(picked)),
-                             constrained_layout=True, squeeze=False)
+    fig, axes = plt.subplots(
+        len(picked),
+        1 + len(loaded),
+        figsize=(3.6 * (1 + len(loaded)), 3.2 * len(picked)),
+        constrained_layout=True,
+        squeeze=False,
+    )
     for row, sample in enumerate(picked):
         xyz = sample["floor_xyz"].numpy()
-        floor_map(axes[row, 0], xyz, sample["floor_label"].numpy(),
-                  f"ground truth: scene {sample['scene_id']}, {sample['robot_name']}")
+        floor_map(
+            axes[row, 0],
+            xyz,
+            sample["floor_label"].numpy(),
+            f"ground truth: scene {sample['scene_id']}, {sample['robot_name']}",
+        )
         for col, run in enumerate(loaded, start=1):
             batch = EpisodeCollator(run.config.num_global, None, run.config.seed)([sample])
             pred = predict_batch(run.model, batch)[0].numpy()
-            floor_map(axes[row, col], xyz, pred, f"{run.config.model} (max {pred.max():.2f})",
-                      vmax=max(float(pred.max()), 0.05))
+            floor_map(
+                axes[row, col],
+                xyz,
+                pred,
+                f"{run.config.model} (max {pred.max():.2f})",
+                vmax=max(float(pred.max()), 0.05),
+            )
     return png_bytes(fig)

@@ -16,14 +16,24 @@ from momakitchen.errors import MomaError
 
 DEMO_VIEWS = 4  # viewpoints sampled; the demo uses the farthest
 DEFAULT_SCENE_ID = 900_001  # far above the ids of generated datasets: a kitchen no model saw
-STEPS = ("build the kitchen", "render the first-person view", "predict the affordance map",
-         "drive there and run the trial", "label the ground truth (grid of trials)",
-         "write the report")
+STEPS = (
+    "build the kitchen",
+    "render the first-person view",
+    "predict the affordance map",
+    "drive there and run the trial",
+    "label the ground truth (grid of trials)",
+    "write the report",
+)
 
 
-def run_demo(out_dir: str | Path, scene_id: int = DEFAULT_SCENE_ID, robot: str | None = None,
-             checkpoint: str | Path | None = None, config_index: int = 0,
-             step: Callable[[str], None] | None = None) -> dict[str, Any]:
+def run_demo(
+    out_dir: str | Path,
+    scene_id: int = DEFAULT_SCENE_ID,
+    robot: str | None = None,
+    checkpoint: str | Path | None = None,
+    config_index: int = 0,
+    step: Callable[[str], None] | None = None,
+) -> dict[str, Any]:
     """Run the demo; writes ``report.png`` and ``result.json`` into ``out_dir``.
 
     ``step`` is called with the name of each stage as it starts (progress display).
@@ -59,8 +69,10 @@ def run_demo(out_dir: str | Path, scene_id: int = DEFAULT_SCENE_ID, robot: str |
     step(STEPS[0])
     scene = sample_scene(scene_id, config.scene)
     if not 0 <= config_index < len(scene.configurations):
-        raise MomaError(f"configuration index must be in [0, {len(scene.configurations) - 1}],"
-                        f" got {config_index}")
+        raise MomaError(
+            f"configuration index must be in [0, {len(scene.configurations) - 1}],"
+            f" got {config_index}"
+        )
     cfg = scene.configurations[config_index]
     if robot is not None:
         cfg = dataclasses.replace(cfg, robot=robot)
@@ -70,11 +82,18 @@ def run_demo(out_dir: str | Path, scene_id: int = DEFAULT_SCENE_ID, robot: str |
         step(STEPS[1])
         # Views come in order of increasing distance; the farthest of a few sees the most
         # floor around the target.
-        views = sample_views(world, scene.layout, cfg, dataclasses.replace(
-            config, views=dataclasses.replace(config.views, episodes=DEMO_VIEWS)))
+        views = sample_views(
+            world,
+            scene.layout,
+            cfg,
+            dataclasses.replace(
+                config, views=dataclasses.replace(config.views, episodes=DEMO_VIEWS)
+            ),
+        )
         if not views:
-            raise MomaError(f"scene {scene_id}: no viewpoint sees the target; try another "
-                            "--scene-id")
+            raise MomaError(
+                f"scene {scene_id}: no viewpoint sees the target; try another --scene-id"
+            )
         base, camera_to_world, (frame, sem) = views[-1]
         camera_to_base = np.linalg.inv(base_to_world(base)) @ camera_to_world
         intr = config.camera.intrinsics
@@ -83,12 +102,23 @@ def run_demo(out_dir: str | Path, scene_id: int = DEFAULT_SCENE_ID, robot: str |
         step(STEPS[2])
         # The frame goes through the same path as a real robot's (momakitchen.predict).
         depth = frame.depth.astype(np.float32)
-        clouds = frame_inputs(depth, np.isfinite(depth) & (depth > 0), frame.rgb,
-                              sem == SEMANTIC_CLASSES.index("target"),
-                              [sem == SEMANTIC_CLASSES.index("obstacle")], intr, camera_to_base,
-                              run.preprocessing.cloud, run.preprocessing.max_depth)
-        pred = predict_map(run, clouds, cfg.robot,
-                           np.asarray(robot_descriptor(get_robot_spec(cfg.robot)), np.float32))
+        clouds = frame_inputs(
+            depth,
+            np.isfinite(depth) & (depth > 0),
+            frame.rgb,
+            sem == SEMANTIC_CLASSES.index("target"),
+            [sem == SEMANTIC_CLASSES.index("obstacle")],
+            intr,
+            camera_to_base,
+            run.preprocessing.cloud,
+            run.preprocessing.max_depth,
+        )
+        pred = predict_map(
+            run,
+            clouds,
+            cfg.robot,
+            np.asarray(robot_descriptor(get_robot_spec(cfg.robot)), np.float32),
+        )
         timed("predict")
 
         step(STEPS[3])
@@ -101,28 +131,43 @@ def run_demo(out_dir: str | Path, scene_id: int = DEFAULT_SCENE_ID, robot: str |
         timed("trial")
 
         step(STEPS[4])
-        labels = label_configuration(world, cfg, trial_config=config.trial,
-                                     grid_spacing=config.scene.grid_spacing)
-        gt = dense_map(world_to_base(labels.positions, base), labels.outcomes,
-                       pred.floor_xyz[:, :2], config.dense)
+        labels = label_configuration(
+            world, cfg, trial_config=config.trial, grid_spacing=config.scene.grid_spacing
+        )
+        gt = dense_map(
+            world_to_base(labels.positions, base),
+            labels.outcomes,
+            pred.floor_xyz[:, :2],
+            config.dense,
+        )
         timed("labels")
 
     step(STEPS[5])
-    outcome = ("success" if trial.success
-               else f"failure ({Stage(trial.stage).name.lower().replace('_', ' ')})")
+    outcome = (
+        "success"
+        if trial.success
+        else f"failure ({Stage(trial.stage).name.lower().replace('_', ' ')})"
+    )
     result = {
-        "scene_id": scene_id, "config_index": config_index, "robot": cfg.robot,
-        "target": labels.target, "model": run.config.model,
+        "scene_id": scene_id,
+        "config_index": config_index,
+        "robot": cfg.robot,
+        "target": labels.target,
+        "model": run.config.model,
         "checkpoint": str(checkpoint) if checkpoint is not None else "bundled",
         "viewpoint_base_pose_world": [round(float(v), 4) for v in base],
         "chosen_pose_base_frame": [round(float(v), 4) for v in pred.poses[0]],
         "chosen_position_world": [round(float(v), 4) for v in world_xy[0]],
         "predicted_affordance": round(float(pred.pose_scores[0]), 4),
         "uncertainty": round(float(pred.pose_uncertainty[0]), 4),
-        "ground_truth_at_pose": round(float(gt[int(np.argmin(np.hypot(
-            *(pred.floor_xyz[:, :2] - pred.poses[0, :2]).T)))]), 4),
-        "trial": {"success": bool(trial.success), "stage": Stage(trial.stage).name.lower(),
-                  "moved": round(float(trial.moved), 4)},
+        "ground_truth_at_pose": round(
+            float(gt[int(np.argmin(np.hypot(*(pred.floor_xyz[:, :2] - pred.poses[0, :2]).T)))]), 4
+        ),
+        "trial": {
+            "success": bool(trial.success),
+            "stage": Stage(trial.stage).name.lower(),
+            "moved": round(float(trial.moved), 4),
+        },
         "grid": {"trials": len(labels.positions), "successes": int(labels.outcomes.sum())},
         "seconds": seconds,
     }
@@ -134,9 +179,16 @@ def run_demo(out_dir: str | Path, scene_id: int = DEFAULT_SCENE_ID, robot: str |
     return result
 
 
-def report_figure(rgb: np.ndarray, depth: np.ndarray, intrinsics: Any,
-                  camera_to_base: np.ndarray, pred: Any, gt: np.ndarray, outcome: str,
-                  result: dict[str, Any]) -> bytes:
+def report_figure(
+    rgb: np.ndarray,
+    depth: np.ndarray,
+    intrinsics: Any,
+    camera_to_base: np.ndarray,
+    pred: Any,
+    gt: np.ndarray,
+    outcome: str,
+    result: dict[str, Any],
+) -> bytes:
     """The demo's report: what the robot sees, what the model predicts, where the robot
     went, what happened, and the ground truth from the grid of trials."""
     from momakitchen.perception.figures import floor_map, image_overlay, png_bytes, pyplot
@@ -145,7 +197,9 @@ def report_figure(rgb: np.ndarray, depth: np.ndarray, intrinsics: Any,
     fig, axes = plt.subplots(2, 3, figsize=(16, 9.6), constrained_layout=True)
     fig.suptitle(
         f"Where should the {result['robot']} stop to manipulate the {result['target']}? "
-        f"(scene {result['scene_id']}, model {result['model']})", fontsize=13)
+        f"(scene {result['scene_id']}, model {result['model']})",
+        fontsize=13,
+    )
     axes[0, 0].imshow(rgb)
     axes[0, 0].set_title(f"1. first-person RGB (target: {result['target']})", fontsize=10)
     axes[0, 0].axis("off")
@@ -153,17 +207,36 @@ def report_figure(rgb: np.ndarray, depth: np.ndarray, intrinsics: Any,
     axes[0, 1].set_title("2. depth (m), back-projected to a point cloud", fontsize=10)
     axes[0, 1].axis("off")
     fig.colorbar(im, ax=axes[0, 1], shrink=0.75)
-    image_overlay(axes[0, 2], rgb, pred.floor_xyz, pred.affordance / max(
-        float(pred.affordance.max()), 1e-6), intrinsics, camera_to_base,
-        "3. predicted affordance on the floor (circle 1: the stop)", pred.poses)
-    sc = floor_map(axes[1, 0], pred.floor_xyz, pred.affordance,
-                   "4. predicted map, top-down (arrows: Top-5 poses)", pred.target_xyz,
-                   pred.poses, vmax=max(float(pred.affordance.max()), 0.05))
+    image_overlay(
+        axes[0, 2],
+        rgb,
+        pred.floor_xyz,
+        pred.affordance / max(float(pred.affordance.max()), 1e-6),
+        intrinsics,
+        camera_to_base,
+        "3. predicted affordance on the floor (circle 1: the stop)",
+        pred.poses,
+    )
+    sc = floor_map(
+        axes[1, 0],
+        pred.floor_xyz,
+        pred.affordance,
+        "4. predicted map, top-down (arrows: Top-5 poses)",
+        pred.target_xyz,
+        pred.poses,
+        vmax=max(float(pred.affordance.max()), 0.05),
+    )
     fig.colorbar(sc, ax=axes[1, 0], shrink=0.8, label="affordance")
-    sc = floor_map(axes[1, 1], pred.floor_xyz, gt,
-                   f"5. ground truth from {result['grid']['trials']} physics trials "
-                   f"({result['grid']['successes']} succeeded)", pred.target_xyz,
-                   pred.poses[:1], outcome=f"chosen pose: {outcome}")
+    sc = floor_map(
+        axes[1, 1],
+        pred.floor_xyz,
+        gt,
+        f"5. ground truth from {result['grid']['trials']} physics trials "
+        f"({result['grid']['successes']} succeeded)",
+        pred.target_xyz,
+        pred.poses[:1],
+        outcome=f"chosen pose: {outcome}",
+    )
     fig.colorbar(sc, ax=axes[1, 1], shrink=0.8, label="success (interpolated)")
     ax = axes[1, 2]
     ax.axis("off")
@@ -188,8 +261,18 @@ def report_figure(rgb: np.ndarray, depth: np.ndarray, intrinsics: Any,
         "comes from really trying from every point",
         "of a 10 cm grid in simulation.",
     ]
-    ax.text(0.0, 1.0, "\n".join(lines), va="top", ha="left", fontsize=10,
-            transform=ax.transAxes,
-            bbox={"facecolor": "#e8f5e9" if result["trial"]["success"] else "#ffebee",
-                  "edgecolor": "none", "pad": 10})
+    ax.text(
+        0.0,
+        1.0,
+        "\n".join(lines),
+        va="top",
+        ha="left",
+        fontsize=10,
+        transform=ax.transAxes,
+        bbox={
+            "facecolor": "#e8f5e9" if result["trial"]["success"] else "#ffebee",
+            "edgecolor": "none",
+            "pad": 10,
+        },
+    )
     return png_bytes(fig)

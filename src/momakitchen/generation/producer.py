@@ -40,8 +40,12 @@ def semantic_map(world: World, body: np.ndarray, link: np.ndarray) -> np.ndarray
     of the opened joint and the links attached below it, e.g. its handle).
     """
     out = np.zeros(body.shape, np.uint8)
-    kind_class = {"furniture": "furniture", "appliance": "furniture", "rigid": "object",
-                  "obstacle": "obstacle"}
+    kind_class = {
+        "furniture": "furniture",
+        "appliance": "furniture",
+        "rigid": "object",
+        "obstacle": "obstacle",
+    }
     for info in world.bodies.values():
         sel = body == info.body_id
         if not sel.any():
@@ -64,8 +68,10 @@ def target_links(world: World) -> list[int]:
     descendants)."""
     t = world.target
     c = world.client
-    parents = {j: p.getJointInfo(t.body_id, j, physicsClientId=c)[16]
-               for j in range(p.getNumJoints(t.body_id, physicsClientId=c))}
+    parents = {
+        j: p.getJointInfo(t.body_id, j, physicsClientId=c)[16]
+        for j in range(p.getNumJoints(t.body_id, physicsClientId=c))
+    }
     links = []
     for j in parents:
         k = j
@@ -76,8 +82,9 @@ def target_links(world: World) -> list[int]:
     return links
 
 
-def _view_candidates(rng: np.random.Generator, anchor: np.ndarray, k: int, n: int,
-                     views: ViewConfig) -> tuple[float, float]:
+def _view_candidates(
+    rng: np.random.Generator, anchor: np.ndarray, k: int, n: int, views: ViewConfig
+) -> tuple[float, float]:
     """(lateral, forward) offsets for view ``k`` of ``n``: alternating sides, forward
     distance stratified so that it increases with ``k``."""
     lo, hi = views.forward
@@ -114,9 +121,12 @@ def sample_views(
             x, y = anchor[0] + lateral, anchor[1] + forward
             yaw = float(np.arctan2(anchor[1] - y, anchor[0] - x))
             fp = box_corners(x, y, yaw, *spec.footprint)
-            if (fp.min() < 0.02 or fp[..., 0].max() > room.width - 0.02
-                    or fp[..., 1].max() > room.depth - 0.02
-                    or overlap_matrix(fp, blocked).any()):
+            if (
+                fp.min() < 0.02
+                or fp[..., 0].max() > room.width - 0.02
+                or fp[..., 1].max() > room.depth - 0.02
+                or overlap_matrix(fp, blocked).any()
+            ):
                 continue
             base = (float(x), float(y), yaw)
             eye = np.array([x, y, height])
@@ -129,59 +139,88 @@ def sample_views(
     return out
 
 
-def make_episode(cfg: Configuration, labels: Labels, index: int, base, camera_to_world,
-                 frame, sem: np.ndarray, config: GenerationConfig) -> Episode:
+def make_episode(
+    cfg: Configuration,
+    labels: Labels,
+    index: int,
+    base,
+    camera_to_world,
+    frame,
+    sem: np.ndarray,
+    config: GenerationConfig,
+) -> Episode:
     """Build the episode record of one view (clouds in the viewpoint's base frame)."""
     intr = config.camera.intrinsics
     camera_to_base = np.linalg.inv(base_to_world(base)) @ camera_to_world
-    align_px = np.where(sem == _CLASS["target"], 1,
-                        np.where(sem == _CLASS["obstacle"], -1, 0)).astype(np.int8)
-    g_xyz, g_rgb, align, f_pts = frame_clouds(frame.depth, frame.rgb, align_px, intr,
-                                              camera_to_base, config.cloud,
-                                              config.camera.max_depth)
+    align_px = np.where(
+        sem == _CLASS["target"], 1, np.where(sem == _CLASS["obstacle"], -1, 0)
+    ).astype(np.int8)
+    g_xyz, g_rgb, align, f_pts = frame_clouds(
+        frame.depth,
+        frame.rgb,
+        align_px,
+        intr,
+        camera_to_base,
+        config.cloud,
+        config.camera.max_depth,
+    )
     # Dense labels in the viewpoint's base frame: trial positions moved into it.
     trials = world_to_base(labels.positions, base)
     f_label = dense_map(trials, labels.outcomes, f_pts[:, :2], config.dense)
     spec = get_robot_spec(cfg.robot)
     return Episode(
-        scene_id=cfg.scene_id, config_index=cfg.index, episode_index=index, robot=cfg.robot,
+        scene_id=cfg.scene_id,
+        config_index=cfg.index,
+        episode_index=index,
+        robot=cfg.robot,
         descriptor=np.asarray(robot_descriptor(spec), np.float32),
-        rgb=frame.rgb, depth=frame.depth, semantic=sem, intrinsics=intr.as_array(),
-        camera_pose=camera_to_world, base_pose=float3(base),
+        rgb=frame.rgb,
+        depth=frame.depth,
+        semantic=sem,
+        intrinsics=intr.as_array(),
+        camera_pose=camera_to_world,
+        base_pose=float3(base),
         camera_to_base=camera_to_base,
         global_xyz=g_xyz.astype(np.float32),
         global_rgb=g_rgb,
         global_align=align,
-        floor_xyz=f_pts.astype(np.float32), floor_label=f_label,
+        floor_xyz=f_pts.astype(np.float32),
+        floor_label=f_label,
     )
 
 
 def configuration_labels(labels: Labels) -> ConfigurationLabels:
     return ConfigurationLabels(
-        scene_id=labels.scene_id, config_index=labels.config_index, robot=labels.robot,
-        target=labels.target, anchor=float3(labels.anchor),
-        trial_positions=labels.positions, trial_yaws=labels.yaws,
-        trial_stages=labels.stages, trial_moved=labels.moved,
+        scene_id=labels.scene_id,
+        config_index=labels.config_index,
+        robot=labels.robot,
+        target=labels.target,
+        anchor=float3(labels.anchor),
+        trial_positions=labels.positions,
+        trial_yaws=labels.yaws,
+        trial_stages=labels.stages,
+        trial_moved=labels.moved,
     )
 
 
-def configuration_episodes(world: World, layout: Layout, cfg: Configuration,
-                           config: GenerationConfig
-                           ) -> tuple[ConfigurationLabels, list[Episode]]:
+def configuration_episodes(
+    world: World, layout: Layout, cfg: Configuration, config: GenerationConfig
+) -> tuple[ConfigurationLabels, list[Episode]]:
     """Trials, then the first-person episodes of one configuration."""
-    labels = label_configuration(world, cfg, trial_config=config.trial,
-                                 grid_spacing=config.scene.grid_spacing)
+    labels = label_configuration(
+        world, cfg, trial_config=config.trial, grid_spacing=config.scene.grid_spacing
+    )
     world.load_configuration(cfg)  # undo whatever the trials moved
     episodes = [
         make_episode(cfg, labels, i, base, camera, frame, sem, config)
-        for i, (base, camera, (frame, sem)) in enumerate(sample_views(world, layout, cfg,
-                                                                       config))
+        for i, (base, camera, (frame, sem)) in enumerate(sample_views(world, layout, cfg, config))
     ]
     return configuration_labels(labels), episodes
 
 
-def scene_records(scene_id: int, config: GenerationConfig | None = None
-                  ) -> list[tuple[ConfigurationLabels, list[Episode]]]:
+def scene_records(
+    scene_id: int, config: GenerationConfig | None = None
+) -> list[tuple[ConfigurationLabels, list[Episode]]]:
     """All configurations of scene ``scene_id`` with their episodes (deterministic)."""
     config = config or GenerationConfig()
     scene = sample_scene(scene_id, config.scene)

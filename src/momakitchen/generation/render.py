@@ -26,24 +26,38 @@ class Render:
     link: np.ndarray
 
 
-def render(client: int, camera_to_world: np.ndarray, intrinsics: Intrinsics,
-           near: float = 0.05, far: float = 10.0, shadows: bool = False) -> Render:
+def render(
+    client: int,
+    camera_to_world: np.ndarray,
+    intrinsics: Intrinsics,
+    near: float = 0.05,
+    far: float = 10.0,
+    shadows: bool = False,
+) -> Render:
     """Render RGB, metric depth and segmentation from a camera pose (OpenCV axes).
 
     Shadows look nicer but double TinyRenderer's time; datasets render without them.
     """
     w, h = intrinsics.width, intrinsics.height
     if intrinsics != Intrinsics.for_renderer(w, h, intrinsics.fov_y_deg):
-        raise MomaError("render() needs Intrinsics.for_renderer(...) (square pixels, the "
-                        f"renderer's principal point), got {intrinsics}")
+        raise MomaError(
+            "render() needs Intrinsics.for_renderer(...) (square pixels, the "
+            f"renderer's principal point), got {intrinsics}"
+        )
     eye = camera_to_world[:3, 3]
     forward, down = camera_to_world[:3, 2], camera_to_world[:3, 1]
     view = p.computeViewMatrix(eye.tolist(), (eye + forward).tolist(), (-down).tolist())
     proj = p.computeProjectionMatrixFOV(intrinsics.fov_y_deg, w / h, near, far)
     _, _, rgba, zbuf, seg = p.getCameraImage(
-        w, h, view, proj, renderer=p.ER_TINY_RENDERER, shadow=int(shadows),
+        w,
+        h,
+        view,
+        proj,
+        renderer=p.ER_TINY_RENDERER,
+        shadow=int(shadows),
         lightDirection=[0.4, 0.8, 2.0],
-        flags=p.ER_SEGMENTATION_MASK_OBJECT_AND_LINKINDEX, physicsClientId=client,
+        flags=p.ER_SEGMENTATION_MASK_OBJECT_AND_LINKINDEX,
+        physicsClientId=client,
     )
     rgba = np.asarray(rgba, dtype=np.uint8).reshape(h, w, 4)
     zbuf = np.asarray(zbuf, dtype=np.float64).reshape(h, w)

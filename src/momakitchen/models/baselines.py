@@ -78,15 +78,24 @@ class _Encoder(nn.Module):
         ch, ns = cfg.ch, cfg.ns
         g1, g2 = cfg.global_npoints
         self.sa1 = SetAbstractionMSG(
-            g1, (0.1, 0.2, 0.4), (ns(16), ns(32), ns(64)), union_channels(cfg.pos_freqs),
+            g1,
+            (0.1, 0.2, 0.4),
+            (ns(16), ns(32), ns(64)),
+            union_channels(cfg.pos_freqs),
             [[ch(32), ch(32), ch(64)], [ch(64), ch(64), ch(128)], [ch(64), ch(96), ch(128)]],
         )
         self.sa2 = SetAbstractionMSG(
-            g2, (0.2, 0.4, 0.8), (ns(16), ns(32), ns(64)), self.sa1.out_channels,
+            g2,
+            (0.2, 0.4, 0.8),
+            (ns(16), ns(32), ns(64)),
+            self.sa1.out_channels,
             [[ch(128), ch(128), ch(256)], [ch(128), ch(196), ch(256)], [ch(128), ch(196), ch(256)]],
         )
         self.sa3 = SetAbstractionMSG(
-            cfg.num_tokens, (0.4, 0.8), (ns(16), ns(32)), self.sa2.out_channels,
+            cfg.num_tokens,
+            (0.4, 0.8),
+            (ns(16), ns(32)),
+            self.sa2.out_channels,
             [[ch(256), ch(256), ch(512)], [ch(256), ch(256), ch(512)]],
         )
 
@@ -214,7 +223,10 @@ class H3DNetBackbone(Backbone):
         self.aggregate = nn.ModuleDict(
             {
                 k: SetAbstractionMSG(
-                    t if k == "center" else max(t // 2, 4), (0.3,), (ns(16),), c,
+                    t if k == "center" else max(t // 2, 4),
+                    (0.3,),
+                    (ns(16),),
+                    c,
                     [[ch(128), ch(128), ch(128)]],
                 )
                 for k in self.kinds

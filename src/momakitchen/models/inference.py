@@ -57,17 +57,24 @@ class Prediction:
             "model": self.model,
             "target_xyz": [round(float(v), 4) for v in self.target_xyz],
             "poses": [
-                {"x": round(float(x), 4), "y": round(float(y), 4), "yaw": round(float(t), 4),
-                 "affordance": round(float(s), 4), "uncertainty": round(float(u), 4)}
-                for (x, y, t), s, u in zip(self.poses, self.pose_scores,
-                                           self.pose_uncertainty, strict=True)
+                {
+                    "x": round(float(x), 4),
+                    "y": round(float(y), 4),
+                    "yaw": round(float(t), 4),
+                    "affordance": round(float(s), 4),
+                    "uncertainty": round(float(u), 4),
+                }
+                for (x, y, t), s, u in zip(
+                    self.poses, self.pose_scores, self.pose_uncertainty, strict=True
+                )
             ],
         }
         if floor_points:
             out["floor_points"] = {
                 "columns": ["x", "y", "z", "affordance", "uncertainty"],
-                "rows": np.round(np.column_stack([self.floor_xyz, self.affordance,
-                                                  self.uncertainty]), 4).tolist(),
+                "rows": np.round(
+                    np.column_stack([self.floor_xyz, self.affordance, self.uncertainty]), 4
+                ).tolist(),
             }
         return out
 
@@ -104,8 +111,9 @@ def torch_threads(n: int | None) -> Iterator[None]:
             torch.set_num_threads(before)
 
 
-def run_model(run: Any, sample: dict[str, Any], mc_samples: int
-              ) -> tuple[dict[str, Any], np.ndarray, np.ndarray]:
+def run_model(
+    run: Any, sample: dict[str, Any], mc_samples: int
+) -> tuple[dict[str, Any], np.ndarray, np.ndarray]:
     """A loaded run on one sample, collated as ``evaluate`` does (every floor point): the
     batch, the map (Nf,) and its MC-dropout standard deviation (Nf,; zeros if
     ``mc_samples`` is 0)."""
@@ -125,8 +133,13 @@ def mc_dropout_std(model: Any, batch: dict[str, Any], samples: int) -> np.ndarra
     return preds.std(0).numpy().astype(np.float64)
 
 
-def select_points(xy: np.ndarray, scores: np.ndarray, k: int, min_spread: float,
-                  accept: Callable[[int], bool] | None = None) -> list[int]:
+def select_points(
+    xy: np.ndarray,
+    scores: np.ndarray,
+    k: int,
+    min_spread: float,
+    accept: Callable[[int], bool] | None = None,
+) -> list[int]:
     """Greedy Top-k: points in order of decreasing score (ties: lower index first), each
     kept if it is at least ``min_spread`` from those kept and ``accept(index)`` holds.
 
@@ -148,11 +161,17 @@ def select_points(xy: np.ndarray, scores: np.ndarray, k: int, min_spread: float,
     return kept
 
 
-def frame_inputs(depth: np.ndarray, valid: np.ndarray, rgb: np.ndarray,
-                 target_mask: np.ndarray, obstacle_masks: Sequence[np.ndarray],
-                 intrinsics: Intrinsics, camera_to_base: np.ndarray,
-                 cloud: CloudConfig | None = None, max_depth: float | None = None
-                 ) -> dict[str, np.ndarray]:
+def frame_inputs(
+    depth: np.ndarray,
+    valid: np.ndarray,
+    rgb: np.ndarray,
+    target_mask: np.ndarray,
+    obstacle_masks: Sequence[np.ndarray],
+    intrinsics: Intrinsics,
+    camera_to_base: np.ndarray,
+    cloud: CloudConfig | None = None,
+    max_depth: float | None = None,
+) -> dict[str, np.ndarray]:
     """The model's clouds of one RGB-D frame, with the visual-alignment channel from the
     masks (+1 target, -1 obstacle, 0 else); MomaError if no floor or no target is seen.
 
@@ -169,15 +188,17 @@ def frame_inputs(depth: np.ndarray, valid: np.ndarray, rgb: np.ndarray,
     for m in obstacle_masks:
         align[m] = -1
     align[target_mask] = 1
-    g_xyz, g_rgb, g_align, f_xyz = frame_clouds(np.where(valid, depth, 0.0), rgb, align,
-                                                intrinsics, camera_to_base, cloud, max_depth)
+    g_xyz, g_rgb, g_align, f_xyz = frame_clouds(
+        np.where(valid, depth, 0.0), rgb, align, intrinsics, camera_to_base, cloud, max_depth
+    )
     if len(f_xyz) == 0:
-        raise MomaError(f"no floor is visible (no point below {_length(cloud.floor_z)} in the "
-                        "base frame); check the extrinsics")
+        raise MomaError(
+            f"no floor is visible (no point below {_length(cloud.floor_z)} in the "
+            "base frame); check the extrinsics"
+        )
     if not (g_align > 0).any():
         raise MomaError(f"the target is beyond the depth range used ({_length(max_depth)})")
-    return {"global_xyz": g_xyz, "global_rgb": g_rgb, "global_align": g_align,
-            "floor_xyz": f_xyz}
+    return {"global_xyz": g_xyz, "global_rgb": g_rgb, "global_align": g_align, "floor_xyz": f_xyz}
 
 
 def _length(metres: float) -> str:
@@ -187,10 +208,18 @@ def _length(metres: float) -> str:
     return f"{metres:g} m"
 
 
-def predict_map(run: Any, clouds: dict[str, np.ndarray], robot: str, descriptor: np.ndarray,
-                *, top_k: int = 5, min_spread: float = 0.2, mc_samples: int = MC_SAMPLES,
-                episode_id: tuple[int, int, int] | None = None,
-                threads: int | None = 1) -> Prediction:
+def predict_map(
+    run: Any,
+    clouds: dict[str, np.ndarray],
+    robot: str,
+    descriptor: np.ndarray,
+    *,
+    top_k: int = 5,
+    min_spread: float = 0.2,
+    mc_samples: int = MC_SAMPLES,
+    episode_id: tuple[int, int, int] | None = None,
+    threads: int | None = 1,
+) -> Prediction:
     """The map of a loaded run (:func:`momakitchen.train.load_checkpoint`) over the floor
     points of ``clouds`` (:func:`frame_inputs`) and the Top-k base poses facing the target.
 
@@ -202,15 +231,27 @@ def predict_map(run: Any, clouds: dict[str, np.ndarray], robot: str, descriptor:
     sample = episode_sample({**clouds, "descriptor": descriptor}, *ids, robot)
     with torch_threads(threads):
         batch, affordance, uncertainty = run_model(run, sample, mc_samples)
-    target = target_centroid(batch["global_xyz"], batch["global_align"],
-                             batch["global_mask"])[0].numpy().astype(np.float64)
+    target = (
+        target_centroid(batch["global_xyz"], batch["global_align"], batch["global_mask"])[0]
+        .numpy()
+        .astype(np.float64)
+    )
 
     chosen = select_points(f_xyz[:, :2], affordance, top_k, min_spread)
-    poses = np.array([[f_xyz[i, 0], f_xyz[i, 1],
-                       math.atan2(target[1] - f_xyz[i, 1], target[0] - f_xyz[i, 0])]
-                      for i in chosen]).reshape(-1, 3)
+    poses = np.array(
+        [
+            [f_xyz[i, 0], f_xyz[i, 1], math.atan2(target[1] - f_xyz[i, 1], target[0] - f_xyz[i, 0])]
+            for i in chosen
+        ]
+    ).reshape(-1, 3)
     return Prediction(
-        floor_xyz=f_xyz, affordance=affordance, uncertainty=uncertainty, poses=poses,
-        pose_scores=affordance[chosen], pose_uncertainty=uncertainty[chosen],
-        target_xyz=target, robot=robot, model=run.config.model,
+        floor_xyz=f_xyz,
+        affordance=affordance,
+        uncertainty=uncertainty,
+        poses=poses,
+        pose_scores=affordance[chosen],
+        pose_uncertainty=uncertainty[chosen],
+        target_xyz=target,
+        robot=robot,
+        model=run.config.model,
     )

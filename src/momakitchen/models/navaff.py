@@ -47,8 +47,7 @@ def target_centroid(xyz: torch.Tensor, align: torch.Tensor, mask: torch.Tensor) 
     return (xyz * w.unsqueeze(-1)).sum(1) / w.sum(1, keepdim=True).clamp_min(1.0)
 
 
-def floor_features(fxyz: torch.Tensor, target: torch.Tensor | None, pos_freqs: int
-                   ) -> torch.Tensor:
+def floor_features(fxyz: torch.Tensor, target: torch.Tensor | None, pos_freqs: int) -> torch.Tensor:
     """Encoded floor positions, plus the encoded offset to the target and its horizontal
     distance when ``target`` is given.
 
@@ -124,15 +123,24 @@ class GlobalEncoder(nn.Module):
         ch, ns = cfg.ch, cfg.ns
         g1, g2 = cfg.global_npoints
         self.sa1 = SetAbstractionMSG(
-            g1, (0.1, 0.2, 0.4), (ns(16), ns(32), ns(64)), in_channels,
+            g1,
+            (0.1, 0.2, 0.4),
+            (ns(16), ns(32), ns(64)),
+            in_channels,
             [[ch(32), ch(32), ch(64)], [ch(64), ch(64), ch(128)], [ch(64), ch(96), ch(128)]],
         )
         self.sa2 = SetAbstractionMSG(
-            g2, (0.2, 0.4, 0.8), (ns(16), ns(32), ns(64)), self.sa1.out_channels,
+            g2,
+            (0.2, 0.4, 0.8),
+            (ns(16), ns(32), ns(64)),
+            self.sa1.out_channels,
             [[ch(128), ch(128), ch(256)], [ch(128), ch(196), ch(256)], [ch(128), ch(196), ch(256)]],
         )
         self.sa3 = SetAbstractionMSG(
-            cfg.num_tokens, (0.4, 0.8), (ns(16), ns(32)), self.sa2.out_channels,
+            cfg.num_tokens,
+            (0.4, 0.8),
+            (ns(16), ns(32)),
+            self.sa2.out_channels,
             [[ch(256), ch(256), ch(512)], [ch(256), ch(256), ch(512)]],
         )
         self.tokenizer = Tokenizer(self.sa3.out_channels, cfg.embed_dim, cfg.pos_freqs)
@@ -199,11 +207,17 @@ class NavAffBackbone(Backbone):
         self.relative = use_global and use_alignment
         pos_ch = floor_channels(cfg.pos_freqs, self.relative)
         self.floor_sa1 = SetAbstractionMSG(
-            cfg.floor_npoints, (0.1, 0.2), (ns(16), ns(32)), pos_ch,
+            cfg.floor_npoints,
+            (0.1, 0.2),
+            (ns(16), ns(32)),
+            pos_ch,
             [[ch(32), ch(32), ch(64)], [ch(64), ch(64), ch(128)]],
         )
         self.floor_sa2 = SetAbstractionMSG(
-            cfg.num_tokens, (0.2, 0.4), (ns(16), ns(32)), self.floor_sa1.out_channels,
+            cfg.num_tokens,
+            (0.2, 0.4),
+            (ns(16), ns(32)),
+            self.floor_sa1.out_channels,
             [[ch(128), ch(128), ch(256)], [ch(128), ch(128), ch(256)]],
         )
         self.floor_tokenizer = Tokenizer(self.floor_sa2.out_channels, dim, cfg.pos_freqs)
@@ -211,9 +225,7 @@ class NavAffBackbone(Backbone):
             CrossAttentionBlock(dim, cfg.num_heads, cfg.dropout)
             for _ in range(cfg.attention_layers)
         )
-        self.fp2 = FeaturePropagation(
-            self.floor_sa1.out_channels + dim, [ch(256), ch(256)]
-        )
+        self.fp2 = FeaturePropagation(self.floor_sa1.out_channels + dim, [ch(256), ch(256)])
         self.fp1 = FeaturePropagation(pos_ch + self.fp2.out_channels, [ch(128), ch(128)])
         self.out_channels = self.fp1.out_channels
 
@@ -227,8 +239,9 @@ class NavAffBackbone(Backbone):
             parts = [fourier_features(batch["global_xyz"], self.pos_freqs), batch["global_rgb"]]
             if self.use_alignment:
                 parts.append(batch["global_align"].unsqueeze(-1))
-            gtok, _, gm = self.global_encoder(batch["global_xyz"], torch.cat(parts, -1),
-                                              batch["global_mask"])
+            gtok, _, gm = self.global_encoder(
+                batch["global_xyz"], torch.cat(parts, -1), batch["global_mask"]
+            )
             keys.append(gtok)
             pads.append(~gm)
         if self.use_robot:
@@ -239,24 +252,40 @@ class NavAffBackbone(Backbone):
 
         target = None
         if self.relative:
-            target = target_centroid(batch["global_xyz"], batch["global_align"],
-                                     batch["global_mask"])
+            target = target_centroid(
+                batch["global_xyz"], batch["global_align"], batch["global_mask"]
+            )
         fpos = floor_features(fxyz, target, self.pos_freqs)
         x1, f1, m1 = self.floor_sa1(fxyz, fpos, fmask)
         x2, f2, m2 = self.floor_sa2(x1, f1, m1)
         # Feature propagation's neighbours depend on the geometry only: found here, once.
         nn2 = three_nn_weights(x1, x2, m2)
         nn1 = three_nn_weights(fxyz, x1, m1)
-        return {"q": self.floor_tokenizer(f2, x2), "kv": kv, "kv_pad": kv_pad, "fxyz": fxyz,
-                "fpos": fpos, "x1": x1, "f1": f1, "m1": m1, "x2": x2, "m2": m2,
-                "nn2_idx": nn2[0], "nn2_w": nn2[1], "nn1_idx": nn1[0], "nn1_w": nn1[1]}
+        return {
+            "q": self.floor_tokenizer(f2, x2),
+            "kv": kv,
+            "kv_pad": kv_pad,
+            "fxyz": fxyz,
+            "fpos": fpos,
+            "x1": x1,
+            "f1": f1,
+            "m1": m1,
+            "x2": x2,
+            "m2": m2,
+            "nn2_idx": nn2[0],
+            "nn2_w": nn2[1],
+            "nn1_idx": nn1[0],
+            "nn1_w": nn1[1],
+        }
 
     def decode(self, ctx: dict[str, torch.Tensor]) -> torch.Tensor:
         """Cross-attention (where the dropout is) and feature propagation."""
         q = ctx["q"]
         for block in self.blocks:
             q = block(q, ctx["kv"], ctx["kv_pad"])
-        up1 = self.fp2(ctx["x1"], ctx["x2"], ctx["f1"], q, ctx["m2"],
-                       (ctx["nn2_idx"], ctx["nn2_w"]))
-        return self.fp1(ctx["fxyz"], ctx["x1"], ctx["fpos"], up1, ctx["m1"],
-                        (ctx["nn1_idx"], ctx["nn1_w"]))
+        up1 = self.fp2(
+            ctx["x1"], ctx["x2"], ctx["f1"], q, ctx["m2"], (ctx["nn2_idx"], ctx["nn2_w"])
+        )
+        return self.fp1(
+            ctx["fxyz"], ctx["x1"], ctx["fpos"], up1, ctx["m1"], (ctx["nn1_idx"], ctx["nn1_w"])
+        )

@@ -29,10 +29,13 @@ class Intrinsics:
     def __post_init__(self) -> None:
         if not (self.width > 0 and self.height > 0):
             raise MomaError(f"image size must be positive, got {self.width} x {self.height}")
-        if not (self.fx > 0 and self.fy > 0 and np.isfinite([self.fx, self.fy, self.cx,
-                                                              self.cy]).all()):
-            raise MomaError(f"focal lengths must be positive and finite, got fx={self.fx}, "
-                            f"fy={self.fy}, cx={self.cx}, cy={self.cy}")
+        if not (
+            self.fx > 0 and self.fy > 0 and np.isfinite([self.fx, self.fy, self.cx, self.cy]).all()
+        ):
+            raise MomaError(
+                f"focal lengths must be positive and finite, got fx={self.fx}, "
+                f"fy={self.fy}, cx={self.cx}, cy={self.cy}"
+            )
 
     @classmethod
     def from_fov(cls, width: int, height: int, fov_y_deg: float) -> Intrinsics:
@@ -99,12 +102,15 @@ def backproject(depth: np.ndarray, intrinsics: Intrinsics) -> tuple[np.ndarray, 
 def check_depth_shape(depth: np.ndarray, intrinsics: Intrinsics) -> None:
     """Raise MomaError unless ``depth`` is (height, width) of ``intrinsics``."""
     if depth.shape != (intrinsics.height, intrinsics.width):
-        raise MomaError(f"depth shape {depth.shape} does not match the intrinsics "
-                        f"({intrinsics.height}, {intrinsics.width})")
+        raise MomaError(
+            f"depth shape {depth.shape} does not match the intrinsics "
+            f"({intrinsics.height}, {intrinsics.width})"
+        )
 
 
-def backproject_into(flat_depth: np.ndarray, idx: np.ndarray, intrinsics: Intrinsics,
-                     out: np.ndarray) -> None:
+def backproject_into(
+    flat_depth: np.ndarray, idx: np.ndarray, intrinsics: Intrinsics, out: np.ndarray
+) -> None:
     """Camera-frame coordinates of the pixels ``idx`` of a flattened depth image, written
     into ``out`` (3, n) as rows x, y, z: ``x = (u - cx) * z / fx``, likewise y.
 
@@ -124,8 +130,13 @@ def backproject_into(flat_depth: np.ndarray, idx: np.ndarray, intrinsics: Intrin
 def project(points_cam: np.ndarray, intrinsics: Intrinsics) -> np.ndarray:
     """Pixel coordinates ``(u, v)`` of camera-frame points. Shapes: (N, 3) -> (N, 2)."""
     pts = np.asarray(points_cam, float)
-    return np.stack([intrinsics.fx * pts[:, 0] / pts[:, 2] + intrinsics.cx,
-                     intrinsics.fy * pts[:, 1] / pts[:, 2] + intrinsics.cy], axis=1)
+    return np.stack(
+        [
+            intrinsics.fx * pts[:, 0] / pts[:, 2] + intrinsics.cx,
+            intrinsics.fy * pts[:, 1] / pts[:, 2] + intrinsics.cy,
+        ],
+        axis=1,
+    )
 
 
 @dataclass(frozen=True)
@@ -153,8 +164,10 @@ class CameraConfig:
         if not 10 <= self.fov_y_deg <= 120:
             raise MomaError(f"camera fov_y_deg must be in [10, 120], got {self.fov_y_deg}")
         if not 0 < self.near < self.max_depth <= self.far:
-            raise MomaError(f"camera needs 0 < near < max_depth <= far, got near={self.near}, "
-                            f"max_depth={self.max_depth}, far={self.far}")
+            raise MomaError(
+                f"camera needs 0 < near < max_depth <= far, got near={self.near}, "
+                f"max_depth={self.max_depth}, far={self.far}"
+            )
 
     @property
     def intrinsics(self) -> Intrinsics:

@@ -58,8 +58,9 @@ def voxel_downsample(points: np.ndarray, voxel: float) -> np.ndarray:
     return runs[np.sort(np.minimum.reduceat(order, starts))]
 
 
-def cloud_in_base(depth: np.ndarray, intrinsics: Intrinsics, camera_to_base: np.ndarray,
-                  max_depth: float) -> tuple[np.ndarray, np.ndarray]:
+def cloud_in_base(
+    depth: np.ndarray, intrinsics: Intrinsics, camera_to_base: np.ndarray, max_depth: float
+) -> tuple[np.ndarray, np.ndarray]:
     """Back-project valid pixels (0 < depth <= max_depth; NaN and inf are invalid) into the
     robot base frame: :func:`~momakitchen.perception.camera.backproject` then
     :func:`~momakitchen.perception.camera.transform`, the same arithmetic, each half of
@@ -102,13 +103,20 @@ class CloudConfig:
     def __post_init__(self) -> None:
         for name in ("voxel", "floor_voxel", "floor_z"):
             if not 0 < getattr(self, name) <= 0.5:
-                raise MomaError(f"CloudConfig.{name} must be in (0, 0.5] m, got "
-                                f"{getattr(self, name)}")
+                raise MomaError(
+                    f"CloudConfig.{name} must be in (0, 0.5] m, got {getattr(self, name)}"
+                )
 
 
-def frame_clouds(depth: np.ndarray, rgb: np.ndarray, align: np.ndarray, intrinsics: Intrinsics,
-                 camera_to_base: np.ndarray, cloud: CloudConfig, max_depth: float
-                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def frame_clouds(
+    depth: np.ndarray,
+    rgb: np.ndarray,
+    align: np.ndarray,
+    intrinsics: Intrinsics,
+    camera_to_base: np.ndarray,
+    cloud: CloudConfig,
+    max_depth: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The global and floor clouds of one RGB-D frame, in the robot base frame.
 
     Used for generated views and for live frames (:func:`momakitchen.predict`) alike, so

@@ -25,9 +25,16 @@ def png_bytes(fig: Any) -> bytes:
     return buf.getvalue()
 
 
-def image_overlay(ax: Any, rgb: np.ndarray, xyz: np.ndarray, values: np.ndarray,
-                  intrinsics: Any, camera_to_base: np.ndarray, title: str,
-                  poses: np.ndarray | None = None) -> None:
+def image_overlay(
+    ax: Any,
+    rgb: np.ndarray,
+    xyz: np.ndarray,
+    values: np.ndarray,
+    intrinsics: Any,
+    camera_to_base: np.ndarray,
+    title: str,
+    poses: np.ndarray | None = None,
+) -> None:
     """The camera image with floor points coloured by ``values`` (viridis, 0..1) and the
     chosen base positions (numbered, best first). Shapes: ``xyz`` (N, 3), ``values`` (N,)."""
     from momakitchen.frames import transform
@@ -37,30 +44,54 @@ def image_overlay(ax: Any, rgb: np.ndarray, xyz: np.ndarray, values: np.ndarray,
     to_cam = np.linalg.inv(camera_to_base)
     cam = transform(to_cam, xyz)
     uv = project(cam, intrinsics)
-    ax.scatter(uv[:, 0], uv[:, 1], c=values, cmap="viridis", vmin=0, vmax=1, s=4,
-               alpha=0.55, linewidths=0)
+    ax.scatter(
+        uv[:, 0], uv[:, 1], c=values, cmap="viridis", vmin=0, vmax=1, s=4, alpha=0.55, linewidths=0
+    )
     if poses is not None and len(poses):
         pts = np.column_stack([poses[:, :2], np.zeros(len(poses))])
         puv = project(transform(to_cam, pts), intrinsics)
         for i, (u, v) in enumerate(puv):
-            ax.plot(u, v, marker="o", ms=11 if i == 0 else 7, mfc="none",
-                    mec="red" if i == 0 else "orange", mew=2)
-            ax.annotate(str(i + 1), (u, v), xytext=(6, -6), textcoords="offset points",
-                        color="white", fontsize=8, weight="bold")
+            ax.plot(
+                u,
+                v,
+                marker="o",
+                ms=11 if i == 0 else 7,
+                mfc="none",
+                mec="red" if i == 0 else "orange",
+                mew=2,
+            )
+            ax.annotate(
+                str(i + 1),
+                (u, v),
+                xytext=(6, -6),
+                textcoords="offset points",
+                color="white",
+                fontsize=8,
+                weight="bold",
+            )
     ax.set_xlim(0, rgb.shape[1])
     ax.set_ylim(rgb.shape[0], 0)
     ax.set_title(title, fontsize=10)
     ax.axis("off")
 
 
-def floor_map(ax: Any, xyz: np.ndarray, values: np.ndarray, title: str,
-              target: np.ndarray | None = None, poses: np.ndarray | None = None,
-              cmap: str = "viridis", vmax: float = 1.0, outcome: str | None = None) -> Any:
+def floor_map(
+    ax: Any,
+    xyz: np.ndarray,
+    values: np.ndarray,
+    title: str,
+    target: np.ndarray | None = None,
+    poses: np.ndarray | None = None,
+    cmap: str = "viridis",
+    vmax: float = 1.0,
+    outcome: str | None = None,
+) -> Any:
     """Top-down view of the floor in the robot base frame (forward up, left to the left):
     points coloured by ``values``, the robot at the origin, the target (star) and the
     chosen poses as arrows facing the target. Returns the scatter (for a colour bar)."""
-    sc = ax.scatter(-xyz[:, 1], xyz[:, 0], c=values, cmap=cmap, vmin=0, vmax=vmax, s=6,
-                    linewidths=0)
+    sc = ax.scatter(
+        -xyz[:, 1], xyz[:, 0], c=values, cmap=cmap, vmin=0, vmax=vmax, s=6, linewidths=0
+    )
     ax.plot(0, 0, marker="^", color="black", ms=9)
     ax.annotate("camera", (0, 0), xytext=(6, -10), textcoords="offset points", fontsize=7)
     if target is not None:
@@ -68,14 +99,40 @@ def floor_map(ax: Any, xyz: np.ndarray, values: np.ndarray, title: str,
     if poses is not None:
         for i, (x, y, yaw) in enumerate(poses):
             color = "red" if i == 0 else "orange"
-            ax.arrow(-y, x, -0.18 * np.sin(yaw), 0.18 * np.cos(yaw), width=0.025 if i == 0
-                     else 0.015, color=color, length_includes_head=True, zorder=5)
-            ax.annotate(str(i + 1), (-y, x), xytext=(-10, 4), textcoords="offset points",
-                        fontsize=8, color=color, weight="bold")
+            ax.arrow(
+                -y,
+                x,
+                -0.18 * np.sin(yaw),
+                0.18 * np.cos(yaw),
+                width=0.025 if i == 0 else 0.015,
+                color=color,
+                length_includes_head=True,
+                zorder=5,
+            )
+            ax.annotate(
+                str(i + 1),
+                (-y, x),
+                xytext=(-10, 4),
+                textcoords="offset points",
+                fontsize=8,
+                color=color,
+                weight="bold",
+            )
     if outcome:
-        ax.text(0.02, 0.02, outcome, transform=ax.transAxes, fontsize=9, weight="bold",
-                color="white", bbox={"facecolor": "red" if "fail" in outcome else "green",
-                                     "alpha": 0.85, "edgecolor": "none"})
+        ax.text(
+            0.02,
+            0.02,
+            outcome,
+            transform=ax.transAxes,
+            fontsize=9,
+            weight="bold",
+            color="white",
+            bbox={
+                "facecolor": "red" if "fail" in outcome else "green",
+                "alpha": 0.85,
+                "edgecolor": "none",
+            },
+        )
     ax.set_aspect("equal")
     ax.set_xlabel("y (m), positive to the left", fontsize=8)
     ax.set_ylabel("x, forward (m)", fontsize=8)
@@ -86,8 +143,13 @@ def floor_map(ax: Any, xyz: np.ndarray, values: np.ndarray, title: str,
     return sc
 
 
-def prediction_figure(pred: Any, rgb: np.ndarray | None, depth: np.ndarray | None,
-                      intrinsics: Any, camera_to_base: np.ndarray | None) -> bytes:
+def prediction_figure(
+    pred: Any,
+    rgb: np.ndarray | None,
+    depth: np.ndarray | None,
+    intrinsics: Any,
+    camera_to_base: np.ndarray | None,
+) -> bytes:
     """PNG: the map over the image (when an image is given), top-down map, uncertainty."""
     plt = pyplot()
     with_image = rgb is not None and intrinsics is not None and camera_to_base is not None
@@ -96,16 +158,37 @@ def prediction_figure(pred: Any, rgb: np.ndarray | None, depth: np.ndarray | Non
     i = 0
     if with_image:
         assert rgb is not None and camera_to_base is not None  # implied by with_image
-        image_overlay(axes[0], rgb, pred.floor_xyz, pred.affordance, intrinsics,
-                      camera_to_base, "affordance over the image (1 = best pose)", pred.poses)
+        image_overlay(
+            axes[0],
+            rgb,
+            pred.floor_xyz,
+            pred.affordance,
+            intrinsics,
+            camera_to_base,
+            "affordance over the image (1 = best pose)",
+            pred.poses,
+        )
         i = 1
-    sc = floor_map(axes[i], pred.floor_xyz, pred.affordance,
-                   f"affordance ({pred.model}, robot {pred.robot})", pred.target_xyz,
-                   pred.poses, vmax=max(float(pred.affordance.max()), 0.05))
+    sc = floor_map(
+        axes[i],
+        pred.floor_xyz,
+        pred.affordance,
+        f"affordance ({pred.model}, robot {pred.robot})",
+        pred.target_xyz,
+        pred.poses,
+        vmax=max(float(pred.affordance.max()), 0.05),
+    )
     fig.colorbar(sc, ax=axes[i], shrink=0.8, label="affordance")
     vmax = max(float(pred.uncertainty.max()), 1e-3)
-    sc = floor_map(axes[i + 1], pred.floor_xyz, pred.uncertainty,
-                   "uncertainty (MC-dropout std)", pred.target_xyz, pred.poses[:1],
-                   cmap="magma", vmax=vmax)
+    sc = floor_map(
+        axes[i + 1],
+        pred.floor_xyz,
+        pred.uncertainty,
+        "uncertainty (MC-dropout std)",
+        pred.target_xyz,
+        pred.poses[:1],
+        cmap="magma",
+        vmax=vmax,
+    )
     fig.colorbar(sc, ax=axes[i + 1], shrink=0.8, label="std")
     return png_bytes(fig)

@@ -66,10 +66,16 @@ def ik_round_trip(robot: Robot, n: int = 200, seed: int = 0) -> IKStats:
     good_p = [e for e, s in zip(perr, ok, strict=True) if s] or [float("nan")]
     good_o = [e for e, s in zip(oerr, ok, strict=True) if s] or [float("nan")]
     return IKStats(
-        robot.name, n, float(np.mean(ok)), float(np.median(times)),
-        float(np.percentile(times, 90)), float(np.median(cpu)), float(np.median(perr)),
+        robot.name,
+        n,
+        float(np.mean(ok)),
+        float(np.median(times)),
+        float(np.percentile(times, 90)),
+        float(np.median(cpu)),
+        float(np.median(perr)),
         float(np.median(oerr)),
-        max(good_p), max(good_o),
+        max(good_p),
+        max(good_o),
     )
 
 
@@ -83,8 +89,9 @@ def label_sweep(robot: Robot, grid: float = 0.1) -> tuple[int, int, float, float
     reach = ROBOTS[robot.name].reach
     target = np.array([0.0, 0.0, ROBOTS[robot.name].mount_height - 0.1])
     ticks = np.arange(-reach, reach + 1e-9, grid)
-    points = [(x, y) for x in ticks for y in ticks
-              if x < -0.3 and math.hypot(x, y) <= reach]  # in front of the counter
+    points = [
+        (x, y) for x in ticks for y in ticks if x < -0.3 and math.hypot(x, y) <= reach
+    ]  # in front of the counter
     t0 = time.perf_counter()
     c0 = time.process_time()
     ok = 0
@@ -102,10 +109,12 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--robots", nargs="*", default=list(BUILTIN))
     args = parser.parse_args(argv)
     client = p.connect(p.DIRECT)
-    print(f"machine: {platform.machine()}, {os.cpu_count()} CPUs, Python "
-          f"{platform.python_version()}")
-    print("\n| robot | manufacturer reach (m) | measured flange reach (m) | ratio "
-          "| TCP reach (m) |")
+    print(
+        f"machine: {platform.machine()}, {os.cpu_count()} CPUs, Python {platform.python_version()}"
+    )
+    print(
+        "\n| robot | manufacturer reach (m) | measured flange reach (m) | ratio | TCP reach (m) |"
+    )
     print("| --- | --- | --- | --- | --- |")
     robots = {}
     for name in args.robots:
@@ -115,8 +124,10 @@ def main(argv: list[str] | None = None) -> None:
         reach = ROBOTS[name].reach
         print(f"| {name} | {reach:.3f} | {flange:.3f} | {flange / reach:.3f} | {tcp:.3f} |")
     print(f"\nIK round trip: {args.poses} random poses per run, {args.runs} runs, medians")
-    print("\n| robot | success rate | median solve (ms) | p90 solve (ms) | median CPU (ms) "
-          "| median pos. err (mm) | median ori. err (deg) |")
+    print(
+        "\n| robot | success rate | median solve (ms) | p90 solve (ms) | median CPU (ms) "
+        "| median pos. err (mm) | median ori. err (deg) |"
+    )
     print("| --- | --- | --- | --- | --- | --- | --- |")
     for name, robot in robots.items():
         runs = [ik_round_trip(robot, args.poses, seed=run) for run in range(args.runs)]
@@ -124,14 +135,20 @@ def main(argv: list[str] | None = None) -> None:
         def med(attr: str, runs=runs) -> float:
             return statistics.median(getattr(r, attr) for r in runs)
 
-        print(f"| {name} | {med('success_rate'):.3f} | {med('median_ms'):.2f} | "
-              f"{med('p90_ms'):.2f} | {med('median_cpu_ms'):.2f} | "
-              f"{med('median_position_mm'):.3f} | "
-              f"{med('median_orientation_deg'):.3f} |")
-    print("\nLabelling-like sweep: base on a 10 cm grid within reach of one target, facing "
-          "it; top-down IK from home at each point (median of runs)")
-    print("\n| robot | grid points | IK successes | seconds per sweep | CPU seconds | "
-          "ms per point (wall) |")
+        print(
+            f"| {name} | {med('success_rate'):.3f} | {med('median_ms'):.2f} | "
+            f"{med('p90_ms'):.2f} | {med('median_cpu_ms'):.2f} | "
+            f"{med('median_position_mm'):.3f} | "
+            f"{med('median_orientation_deg'):.3f} |"
+        )
+    print(
+        "\nLabelling-like sweep: base on a 10 cm grid within reach of one target, facing "
+        "it; top-down IK from home at each point (median of runs)"
+    )
+    print(
+        "\n| robot | grid points | IK successes | seconds per sweep | CPU seconds | "
+        "ms per point (wall) |"
+    )
     print("| --- | --- | --- | --- | --- | --- |")
     for name, robot in robots.items():
         sweeps = [label_sweep(robot) for _ in range(args.runs)]

@@ -58,13 +58,19 @@ def _origin(parent: ET.Element, xyz=(0, 0, 0), rpy=(0, 0, 0)) -> None:
 
 def _geometry(parent: ET.Element, kind: str, **attrs) -> None:
     geom = ET.SubElement(parent, "geometry")
-    ET.SubElement(geom, kind, **{k: (_fmt(v) if isinstance(v, tuple) else f"{v:.9g}"
-                                    if isinstance(v, float) else str(v))
-                                 for k, v in attrs.items()})
+    ET.SubElement(
+        geom,
+        kind,
+        **{
+            k: (_fmt(v) if isinstance(v, tuple) else f"{v:.9g}" if isinstance(v, float) else str(v))
+            for k, v in attrs.items()
+        },
+    )
 
 
-def _shape(link: ET.Element, kind: str, xyz, rpy, material: str | None, *, collide: bool = True,
-           **attrs) -> None:
+def _shape(
+    link: ET.Element, kind: str, xyz, rpy, material: str | None, *, collide: bool = True, **attrs
+) -> None:
     """Add the same primitive as visual (with ``material``) and, if ``collide``, collision."""
     vis = ET.SubElement(link, "visual")
     _origin(vis, xyz, rpy)
@@ -82,12 +88,22 @@ def _inertial(link: ET.Element, mass: float, com=(0, 0, 0), inertia: float | Non
     _origin(inert, com)
     ET.SubElement(inert, "mass", value=f"{mass:.6g}")
     i = inertia if inertia is not None else max(1e-6, 0.002 * mass)
-    ET.SubElement(inert, "inertia", ixx=f"{i:.6g}", iyy=f"{i:.6g}", izz=f"{i:.6g}",
-                  ixy="0", ixz="0", iyz="0")
+    ET.SubElement(
+        inert, "inertia", ixx=f"{i:.6g}", iyy=f"{i:.6g}", izz=f"{i:.6g}", ixy="0", ixz="0", iyz="0"
+    )
 
 
-def _joint(robot: ET.Element, name: str, kind: str, parent: str, child: str, xyz=(0, 0, 0),
-           rpy=(0, 0, 0), axis=None, limit=None) -> ET.Element:
+def _joint(
+    robot: ET.Element,
+    name: str,
+    kind: str,
+    parent: str,
+    child: str,
+    xyz=(0, 0, 0),
+    rpy=(0, 0, 0),
+    axis=None,
+    limit=None,
+) -> ET.Element:
     joint = ET.SubElement(robot, "joint", name=name, type=kind)
     ET.SubElement(joint, "parent", link=parent)
     ET.SubElement(joint, "child", link=child)
@@ -96,8 +112,14 @@ def _joint(robot: ET.Element, name: str, kind: str, parent: str, child: str, xyz
         ET.SubElement(joint, "axis", xyz=_fmt(axis))
     if limit is not None:
         lower, upper, effort, velocity = limit
-        ET.SubElement(joint, "limit", lower=f"{lower:.9g}", upper=f"{upper:.9g}",
-                      effort=f"{effort:.6g}", velocity=f"{velocity:.6g}")
+        ET.SubElement(
+            joint,
+            "limit",
+            lower=f"{lower:.9g}",
+            upper=f"{upper:.9g}",
+            effort=f"{effort:.6g}",
+            velocity=f"{velocity:.6g}",
+        )
     return joint
 
 
@@ -121,16 +143,37 @@ def _base(robot: ET.Element, spec: RobotSpec) -> None:
     link = ET.SubElement(robot, "link", name=BASE_LINK)
     # Inertial frame at the link frame: PyBullet places a base by its centre of mass.
     _inertial(link, 40.0, (0, 0, 0), inertia=1.0)
-    _shape(link, "box", (0, 0, (top + bottom) / 2), (0, 0, 0), "mk_base",
-           size=(length, width, top - bottom))
+    _shape(
+        link,
+        "box",
+        (0, 0, (top + bottom) / 2),
+        (0, 0, 0),
+        "mk_base",
+        size=(length, width, top - bottom),
+    )
     pillar = spec.mount_height - top
     if pillar > 0.005:
-        _shape(link, "cylinder", (spec.mount_offset_x, 0, top + pillar / 2), (0, 0, 0),
-               "mk_pillar", radius=PILLAR_RADIUS, length=pillar)
+        _shape(
+            link,
+            "cylinder",
+            (spec.mount_offset_x, 0, top + pillar / 2),
+            (0, 0, 0),
+            "mk_pillar",
+            radius=PILLAR_RADIUS,
+            length=pillar,
+        )
     for sx in (-1, 1):
         for sy in (-1, 1):
-            _shape(link, "cylinder", (sx * length * 0.32, sy * (width / 2 - 0.03), 0.05),
-                   (math.pi / 2, 0, 0), "mk_tool", collide=False, radius=0.05, length=0.04)
+            _shape(
+                link,
+                "cylinder",
+                (sx * length * 0.32, sy * (width / 2 - 0.03), 0.05),
+                (math.pi / 2, 0, 0),
+                "mk_tool",
+                collide=False,
+                radius=0.05,
+                length=0.04,
+            )
 
 
 # --------------------------------------------------------------------------------------
@@ -142,8 +185,15 @@ def _built_arm(robot: ET.Element, arm: BuiltArm, mount_parent: str, mount_xyz) -
     root = "arm_base"
     link = ET.SubElement(robot, "link", name=root)
     _inertial(link, 2.0, (0, 0, arm.base_height / 2))
-    _shape(link, "cylinder", (0, 0, arm.base_height / 2), (0, 0, 0), "mk_joint",
-           radius=arm.base_radius, length=arm.base_height)
+    _shape(
+        link,
+        "cylinder",
+        (0, 0, arm.base_height / 2),
+        (0, 0, 0),
+        "mk_joint",
+        radius=arm.base_radius,
+        length=arm.base_height,
+    )
     _joint(robot, "mount_joint", "fixed", mount_parent, root, mount_xyz, (0, 0, arm.mount_yaw))
     parent = root
     n = len(arm.joints)
@@ -154,15 +204,38 @@ def _built_arm(robot: ET.Element, arm: BuiltArm, mount_parent: str, mount_xyz) -
         mass = arm.link_masses[i] if arm.link_masses else 1.0
         _inertial(link, mass, tuple(nxt / 2))
         # Joint housing: a cylinder around the joint axis.
-        _shape(link, "cylinder", (0, 0, 0), _z_to(np.array(jd.axis)), "mk_joint",
-               radius=jd.radius, length=2.2 * jd.radius)
+        _shape(
+            link,
+            "cylinder",
+            (0, 0, 0),
+            _z_to(np.array(jd.axis)),
+            "mk_joint",
+            radius=jd.radius,
+            length=2.2 * jd.radius,
+        )
         # Link body: a capsule from this joint to the next one.
         seg = float(np.linalg.norm(nxt))
         if seg > 1e-3:
-            _shape(link, "capsule", tuple(nxt / 2), _z_to(nxt), "mk_arm",
-                   radius=0.8 * jd.radius, length=seg)
-        _joint(robot, jd.name, "revolute", parent, child, jd.xyz, jd.rpy, jd.axis,
-               (jd.lower, jd.upper, jd.effort, jd.velocity))
+            _shape(
+                link,
+                "capsule",
+                tuple(nxt / 2),
+                _z_to(nxt),
+                "mk_arm",
+                radius=0.8 * jd.radius,
+                length=seg,
+            )
+        _joint(
+            robot,
+            jd.name,
+            "revolute",
+            parent,
+            child,
+            jd.xyz,
+            jd.rpy,
+            jd.axis,
+            (jd.lower, jd.upper, jd.effort, jd.velocity),
+        )
         parent = child
     flange = "flange"
     link = ET.SubElement(robot, "link", name=flange)
@@ -178,10 +251,10 @@ def _resolve_mesh(filename: str, urdf_dir: Path) -> str:
     and its ancestors (how ROS description packages sit next to their URDFs).
     """
     if filename.startswith("package://"):
-        rest = filename[len("package://"):]
+        rest = filename[len("package://") :]
         candidates = [rest, rest.split("/", 1)[1] if "/" in rest else rest]
     elif filename.startswith("file://"):
-        candidates = [filename[len("file://"):]]
+        candidates = [filename[len("file://") :]]
     else:
         candidates = [filename]
     for cand in candidates:
@@ -223,7 +296,8 @@ def _subtree(root: ET.Element, start: str) -> set[str]:
     children: dict[str, list[str]] = {}
     for joint in root.findall("joint"):
         children.setdefault(joint.find("parent").get("link"), []).append(
-            joint.find("child").get("link"))
+            joint.find("child").get("link")
+        )
     keep, stack = set(), [start]
     while stack:
         name = stack.pop()
@@ -232,9 +306,18 @@ def _subtree(root: ET.Element, start: str) -> set[str]:
     return keep
 
 
-def embed_urdf(robot: ET.Element, src: ET.Element, urdf_dir: Path, root_link: str,
-               mount_parent: str, mount_xyz, *, keep_links=None, limits=(),
-               drop_mimic: bool = True) -> None:
+def embed_urdf(
+    robot: ET.Element,
+    src: ET.Element,
+    urdf_dir: Path,
+    root_link: str,
+    mount_parent: str,
+    mount_xyz,
+    *,
+    keep_links=None,
+    limits=(),
+    drop_mimic: bool = True,
+) -> None:
     """Copy the links and joints of ``src`` under ``root_link`` into ``robot``.
 
     Mesh paths become absolute, ``<mimic>`` tags are dropped (PyBullet ignores them; the
@@ -265,8 +348,10 @@ def embed_urdf(robot: ET.Element, src: ET.Element, urdf_dir: Path, root_link: st
         robot.append(link)
     overrides = {name: (lo, hi) for name, lo, hi in limits}
     for joint in src.findall("joint"):
-        if joint.find("parent").get("link") not in keep or \
-                joint.find("child").get("link") not in keep:
+        if (
+            joint.find("parent").get("link") not in keep
+            or joint.find("child").get("link") not in keep
+        ):
             continue
         if drop_mimic:
             for mimic in joint.findall("mimic"):
@@ -281,8 +366,17 @@ def embed_urdf(robot: ET.Element, src: ET.Element, urdf_dir: Path, root_link: st
 
 def _shipped_arm(robot: ET.Element, arm: ShippedArm, mount_parent: str, mount_xyz) -> str:
     src = parse_urdf(arm.urdf)
-    embed_urdf(robot, src, arm.urdf.parent, arm.root_link, mount_parent, mount_xyz,
-               keep_links=arm.keep_links, limits=arm.limits, drop_mimic=arm.drop_mimic)
+    embed_urdf(
+        robot,
+        src,
+        arm.urdf.parent,
+        arm.root_link,
+        mount_parent,
+        mount_xyz,
+        keep_links=arm.keep_links,
+        limits=arm.limits,
+        drop_mimic=arm.drop_mimic,
+    )
     return arm.flange_link
 
 
@@ -314,21 +408,43 @@ def _gripper(robot: ET.Element, g: ParallelGripper, flange: str) -> None:
         # Fingers of this gripper sit beyond its palm mesh: a carrier block joins them.
         gap_lo = 0.09
         if finger_base > gap_lo + 0.005:
-            _shape(link, "box", (0, 0, (gap_lo + finger_base) / 2), (0, 0, 0), "mk_tool",
-                   size=(g.palm_size[0] * 0.6, g.max_opening + 2 * fy, finger_base - gap_lo))
+            _shape(
+                link,
+                "box",
+                (0, 0, (gap_lo + finger_base) / 2),
+                (0, 0, 0),
+                "mk_tool",
+                size=(g.palm_size[0] * 0.6, g.max_opening + 2 * fy, finger_base - gap_lo),
+            )
     else:
         px, py, _ = g.palm_size
-        _shape(link, "box", (0, 0, finger_base / 2), (0, 0, 0), "mk_tool",
-               size=(px, max(py, g.max_opening + 2 * fy + 0.01), finger_base))
+        _shape(
+            link,
+            "box",
+            (0, 0, finger_base / 2),
+            (0, 0, 0),
+            "mk_tool",
+            size=(px, max(py, g.max_opening + 2 * fy + 0.01), finger_base),
+        )
     _joint(robot, "gripper_mount_joint", "fixed", flange, palm, (0, 0, 0), (0, 0, g.yaw))
     half = g.max_opening / 2
     for name, jname, sign in zip(FINGER_LINKS, FINGER_JOINTS, (1, -1), strict=True):
         link = ET.SubElement(robot, "link", name=name)
         _inertial(link, 0.05, (0, sign * fy / 2, flen / 2), inertia=1e-5)
-        _shape(link, "box", (0, sign * fy / 2, flen / 2), (0, 0, 0), "mk_joint",
-               size=(fx, fy, flen))
-        _joint(robot, jname, "prismatic", palm, name, (0, 0, finger_base), (0, 0, 0),
-               (0, sign, 0), (0.0, half, g.finger_force, 0.2))
+        _shape(
+            link, "box", (0, sign * fy / 2, flen / 2), (0, 0, 0), "mk_joint", size=(fx, fy, flen)
+        )
+        _joint(
+            robot,
+            jname,
+            "prismatic",
+            palm,
+            name,
+            (0, 0, finger_base),
+            (0, 0, 0),
+            (0, sign, 0),
+            (0.0, half, g.finger_force, 0.2),
+        )
     link = ET.SubElement(robot, "link", name=TCP_LINK)
     _inertial(link, 0.001, inertia=1e-6)
     _joint(robot, "tcp_joint", "fixed", palm, TCP_LINK, (0, 0, g.tcp_offset))
@@ -341,13 +457,27 @@ def _suction(robot: ET.Element, s: SuctionCup, flange: str) -> None:
     stem_len = s.tcp_offset - CUP_HEIGHT
     link = ET.SubElement(robot, "link", name="suction_stem")
     _inertial(link, 0.3, (0, 0, stem_len / 2))
-    _shape(link, "cylinder", (0, 0, stem_len / 2), (0, 0, 0), "mk_tool",
-           radius=s.stem_radius, length=stem_len)
+    _shape(
+        link,
+        "cylinder",
+        (0, 0, stem_len / 2),
+        (0, 0, 0),
+        "mk_tool",
+        radius=s.stem_radius,
+        length=stem_len,
+    )
     _joint(robot, "suction_mount_joint", "fixed", flange, "suction_stem")
     link = ET.SubElement(robot, "link", name=SUCTION_LINK)
     _inertial(link, 0.05, (0, 0, CUP_HEIGHT / 2), inertia=1e-5)
-    _shape(link, "cylinder", (0, 0, CUP_HEIGHT / 2), (0, 0, 0), "mk_joint",
-           radius=s.cup_radius, length=CUP_HEIGHT)
+    _shape(
+        link,
+        "cylinder",
+        (0, 0, CUP_HEIGHT / 2),
+        (0, 0, 0),
+        "mk_joint",
+        radius=s.cup_radius,
+        length=CUP_HEIGHT,
+    )
     _joint(robot, "suction_cup_joint", "fixed", "suction_stem", SUCTION_LINK, (0, 0, stem_len))
     link = ET.SubElement(robot, "link", name=TCP_LINK)
     _inertial(link, 0.001, inertia=1e-6)

@@ -71,8 +71,10 @@ class SceneConfig:
         if not 0.0 <= self.rigid_target_prob <= 1.0:
             raise MomaError(f"rigid_target_prob must be in [0, 1], got {self.rigid_target_prob}")
         if self.min_free_positions < 0 or self.min_target_bases < 0:
-            raise MomaError("min_free_positions and min_target_bases must be >= 0, got "
-                            f"{self.min_free_positions}, {self.min_target_bases}")
+            raise MomaError(
+                "min_free_positions and min_target_bases must be >= 0, got "
+                f"{self.min_free_positions}, {self.min_target_bases}"
+            )
         if not 0.02 <= self.grid_spacing <= 0.5:
             raise MomaError(f"grid_spacing must be in [0.02, 0.5] m, got {self.grid_spacing}")
         for name in self.robots:
@@ -181,8 +183,10 @@ def _place_objects(layout: Layout, rng: np.random.Generator, count: int) -> list
             # Objects stand towards the front edge, where people put things down.
             y_lo = max(area.y0 + radius, area.y1 - 0.30)
             y = rng.uniform(y_lo, max(y_lo, area.y1 - radius - 0.03))
-            if any(np.hypot(x - q.x, y - q.y) < radius + 0.5 * np.hypot(*q.model.size[:2]) + 0.02
-                   for q in placed):
+            if any(
+                np.hypot(x - q.x, y - q.y) < radius + 0.5 * np.hypot(*q.model.size[:2]) + 0.02
+                for q in placed
+            ):
                 continue
             yaw = rng.uniform(-np.pi, np.pi)
             placed.append(Placed(f"r{i}", cat, params, _r(x), _r(y), _r(area.z + 0.001), _r(yaw)))
@@ -190,8 +194,14 @@ def _place_objects(layout: Layout, rng: np.random.Generator, count: int) -> list
     return placed
 
 
-def _candidate_bases(center: np.ndarray, reach: float, furniture: np.ndarray,
-                     footprint: tuple[float, float], spacing: float, room: Any) -> np.ndarray:
+def _candidate_bases(
+    center: np.ndarray,
+    reach: float,
+    furniture: np.ndarray,
+    footprint: tuple[float, float],
+    spacing: float,
+    room: Any,
+) -> np.ndarray:
     """Corners (N, 4, 2) of base footprints (facing the target) on the sampling grid
     that fit in the room and clear the furniture."""
     grid = semicircle_grid((center[0], center[1]), reach, spacing)
@@ -203,13 +213,21 @@ def _candidate_bases(center: np.ndarray, reach: float, furniture: np.ndarray,
 
 def _inside_room(corners: np.ndarray, room: Any, margin: float) -> np.ndarray:
     """(N,) bool: rectangles (N, 4, 2) at least ``margin`` inside the walls."""
-    return ((corners.min(axis=(1, 2)) >= margin) & (corners[..., 0].max(1) <= room.width - margin)
-            & (corners[..., 1].max(1) <= room.depth - margin))
+    return (
+        (corners.min(axis=(1, 2)) >= margin)
+        & (corners[..., 0].max(1) <= room.width - margin)
+        & (corners[..., 1].max(1) <= room.depth - margin)
+    )
 
 
-def _place_obstacles(layout: Layout, rng: np.random.Generator, cfg: SceneConfig,
-                     anchor: np.ndarray, reach: float, footprint: tuple[float, float]
-                     ) -> tuple[Placed, ...]:
+def _place_obstacles(
+    layout: Layout,
+    rng: np.random.Generator,
+    cfg: SceneConfig,
+    anchor: np.ndarray,
+    reach: float,
+    footprint: tuple[float, float],
+) -> tuple[Placed, ...]:
     """1-3 obstacles in the semicircle that leave enough base positions free.
 
     Each obstacle takes, among random poses that fit, the first that keeps ``needed``
@@ -217,8 +235,9 @@ def _place_obstacles(layout: Layout, rng: np.random.Generator, cfg: SceneConfig,
     redrawn up to 10 times.
     """
     furniture = corners_of(layout.footprints(margin=0.02))
-    bases = _candidate_bases(anchor, reach, corners_of(layout.footprints()), footprint,
-                             cfg.grid_spacing, layout.room)
+    bases = _candidate_bases(
+        anchor, reach, corners_of(layout.footprints()), footprint, cfg.grid_spacing, layout.room
+    )
     kinds = categories_of_kind("obstacle")
     # Where few positions exist at all (a tight corner), keep a good part of them.
     needed = min(cfg.min_free_positions, int(0.5 * len(bases)))
@@ -246,8 +265,9 @@ def _place_obstacles(layout: Layout, rng: np.random.Generator, cfg: SceneConfig,
                     left = np.where(ok, len(free_bases) - hits.sum(0), -1)
                     good = ok & (left >= needed)
                     k = int(np.argmax(good)) if good.any() else int(np.argmax(left))
-                    ob = Placed(f"o{i}", cat, params, float(x[k]), float(y[k]), 0.001,
-                                float(yaw[k]))
+                    ob = Placed(
+                        f"o{i}", cat, params, float(x[k]), float(y[k]), 0.001, float(yaw[k])
+                    )
                     placed.append(ob)
                     blocked = np.concatenate([blocked, ob.footprint(0.02).corners()[None]])
                     free_bases = free_bases[~hits[:, k]]
@@ -275,9 +295,13 @@ def sample_configuration(
     names = cfg.robot_names
     robot = get_robot_spec(names[(layout.scene_id * 7 + index) % len(names)])
     objects = _place_objects(layout, rng, int(rng.integers(cfg.objects[0], cfg.objects[1] + 1)))
-    parts = [(uid, art) for uid, art in articulated_targets(layout)
-             if within_height_band(handle_anchor(layout.unit(uid), art)[2], robot.mount_height,
-                                   robot.reach)]
+    parts = [
+        (uid, art)
+        for uid, art in articulated_targets(layout)
+        if within_height_band(
+            handle_anchor(layout.unit(uid), art)[2], robot.mount_height, robot.reach
+        )
+    ]
     furniture = corners_of(layout.footprints())
     best: tuple[int, Target] | None = None
     for _attempt in range(8):
@@ -288,19 +312,29 @@ def sample_configuration(
             target = Target(obj.uid, obj.category, None, anchor)
         else:
             uid, art = parts[int(rng.integers(len(parts)))]
-            target = Target(uid, layout.unit(uid).category, art,
-                            handle_anchor(layout.unit(uid), art))
+            target = Target(
+                uid, layout.unit(uid).category, art, handle_anchor(layout.unit(uid), art)
+            )
         # Targets in a corner leave the base almost nowhere to stand: prefer others.
-        room_for_base = len(_candidate_bases(np.asarray(target.anchor), robot.reach, furniture,
-                                             robot.footprint, cfg.grid_spacing, layout.room))
+        room_for_base = len(
+            _candidate_bases(
+                np.asarray(target.anchor),
+                robot.reach,
+                furniture,
+                robot.footprint,
+                cfg.grid_spacing,
+                layout.room,
+            )
+        )
         if best is None or room_for_base > best[0]:
             best = (room_for_base, target)
         if room_for_base >= cfg.min_target_bases:
             break
     assert best is not None  # the loop runs at least once
     target = best[1]
-    obstacles = _place_obstacles(layout, rng, cfg, np.asarray(target.anchor), robot.reach,
-                                 robot.footprint)
+    obstacles = _place_obstacles(
+        layout, rng, cfg, np.asarray(target.anchor), robot.reach, robot.footprint
+    )
     return Configuration(layout.scene_id, index, robot.name, tuple(objects), target, obstacles)
 
 
@@ -323,9 +357,7 @@ class Scene:
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> Scene:
         raw = data["scene_config"]
-        values: dict[str, Any] = {
-            k: tuple(v) if isinstance(v, list) else v for k, v in raw.items()
-        }
+        values: dict[str, Any] = {k: tuple(v) if isinstance(v, list) else v for k, v in raw.items()}
         config = SceneConfig(**values)
         return cls(
             Layout.from_dict(data["layout"]),

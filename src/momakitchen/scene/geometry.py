@@ -36,8 +36,9 @@ def box_corners(x, y, yaw, length, width) -> np.ndarray:
 
     Shapes: scalars or (N,) arrays in; (N, 4, 2) out.
     """
-    x, y, yaw, length, width = np.broadcast_arrays(*(np.atleast_1d(np.asarray(v, float))
-                                                     for v in (x, y, yaw, length, width)))
+    x, y, yaw, length, width = np.broadcast_arrays(
+        *(np.atleast_1d(np.asarray(v, float)) for v in (x, y, yaw, length, width))
+    )
     c, s = np.cos(yaw)[:, None], np.sin(yaw)[:, None]
     lx = np.stack([length, -length, -length, length], axis=1) / 2  # (N, 4)
     ly = np.stack([width, width, -width, -width], axis=1) / 2
@@ -65,8 +66,13 @@ def overlap_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
         return np.stack([-e[..., 1], e[..., 0]], axis=-1)
 
     n, m = len(a), len(b)
-    ax = np.concatenate([np.broadcast_to(axes(a)[:, None], (n, m, 2, 2)),
-                         np.broadcast_to(axes(b)[None], (n, m, 2, 2))], axis=2)  # (N, M, 4, 2)
+    ax = np.concatenate(
+        [
+            np.broadcast_to(axes(a)[:, None], (n, m, 2, 2)),
+            np.broadcast_to(axes(b)[None], (n, m, 2, 2)),
+        ],
+        axis=2,
+    )  # (N, M, 4, 2)
     pa = np.einsum("nmkd,ncd->nmkc", ax, a)  # projections of a's corners on each axis
     pb = np.einsum("nmkd,mcd->nmkc", ax, b)
     separated = (pa.max(-1) <= pb.min(-1)) | (pb.max(-1) <= pa.min(-1))

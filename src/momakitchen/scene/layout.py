@@ -83,7 +83,9 @@ class Placed:
 
     def to_dict(self) -> dict[str, Any]:
         return {
-            "uid": self.uid, "category": self.category, "params": dataclasses.asdict(self.params),
+            "uid": self.uid,
+            "category": self.category,
+            "params": dataclasses.asdict(self.params),
             "pose": [self.x, self.y, self.z, self.yaw],
         }
 
@@ -113,7 +115,8 @@ class Layout:
     def footprints(self, margin: float = 0.0) -> list[Footprint]:
         """Floor footprints of floor-standing furniture (appliances stand on counters)."""
         return [
-            p.footprint(margin) for p in self.furniture
+            p.footprint(margin)
+            for p in self.furniture
             if get_category(p.category).kind == "furniture"
         ]
 
@@ -123,8 +126,9 @@ class Layout:
         areas: list[Rect] = []
         for p in self.furniture:
             for a in p.model.placement_areas:
-                rect = Rect(_r(p.x + a.x0), _r(p.x + a.x1), _r(p.y + a.y0), _r(p.y + a.y1),
-                            _r(p.z + a.z))
+                rect = Rect(
+                    _r(p.x + a.x0), _r(p.x + a.x1), _r(p.y + a.y0), _r(p.y + a.y1), _r(p.z + a.z)
+                )
                 areas.extend(_subtract_appliances(rect, appliances))
         return [a for a in areas if a.x1 - a.x0 > 0.12 and a.y1 - a.y0 > 0.12]
 
@@ -229,6 +233,13 @@ def _add_microwave(layout: Layout, rng: np.random.Generator) -> Layout:
     params = get_category("microwave").sample(rng, env)
     size = get_category("microwave").build(params).size
     cx = _r(rng.uniform(area.x0 + size[0] / 2 + 0.01, area.x1 - size[0] / 2 - 0.01))
-    app = Placed(f"a{len(layout.furniture)}", "microwave", params, cx, _r(area.y0 + 0.02),
-                 _r(area.z + 0.001), 0.0)
+    app = Placed(
+        f"a{len(layout.furniture)}",
+        "microwave",
+        params,
+        cx,
+        _r(area.y0 + 0.02),
+        _r(area.z + 0.001),
+        0.0,
+    )
     return dataclasses.replace(layout, furniture=(*layout.furniture, app))

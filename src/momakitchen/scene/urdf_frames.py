@@ -17,13 +17,21 @@ from momakitchen.errors import MomaError
 
 def rpy_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
     """URDF fixed-axis roll-pitch-yaw to a rotation matrix: Rz(yaw) Ry(pitch) Rx(roll)."""
-    cr, sr, cp, sp, cy, sy = (np.cos(roll), np.sin(roll), np.cos(pitch), np.sin(pitch),
-                              np.cos(yaw), np.sin(yaw))
-    return np.array([
-        [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-        [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-        [-sp, cp * sr, cp * cr],
-    ])
+    cr, sr, cp, sp, cy, sy = (
+        np.cos(roll),
+        np.sin(roll),
+        np.cos(pitch),
+        np.sin(pitch),
+        np.cos(yaw),
+        np.sin(yaw),
+    )
+    return np.array(
+        [
+            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+            [-sp, cp * sr, cp * cr],
+        ]
+    )
 
 
 def _required_child(elem: ET.Element, tag: str, what: str) -> ET.Element:
@@ -68,8 +76,7 @@ def link_rest_poses(urdf: str) -> dict[str, np.ndarray]:
     for joint in root.findall("joint"):
         what = f"<joint name={joint.get('name')!r}>"
         child = _required_attr(_required_child(joint, "child", what), "link", f"{what} <child>")
-        parent = _required_attr(_required_child(joint, "parent", what), "link",
-                                f"{what} <parent>")
+        parent = _required_attr(_required_child(joint, "parent", what), "link", f"{what} <parent>")
         parent_of[child] = (parent, _origin(joint.find("origin")))
     poses: dict[str, np.ndarray] = {}
 

@@ -62,24 +62,35 @@ class TrialConfig:
     solver_iterations: int = 30
 
     def __post_init__(self) -> None:
-        positive = ("pregrasp_offset", "lift_height", "min_lift", "open_angle_deg",
-                    "open_distance", "pull_angle_deg", "pull_distance")
+        positive = (
+            "pregrasp_offset",
+            "lift_height",
+            "min_lift",
+            "open_angle_deg",
+            "open_distance",
+            "pull_angle_deg",
+            "pull_distance",
+        )
         for name in positive:
             if not getattr(self, name) > 0:
                 raise MomaError(f"TrialConfig.{name} must be > 0, got {getattr(self, name)}")
         if self.min_lift > self.lift_height:
-            raise MomaError(f"TrialConfig.min_lift ({self.min_lift}) exceeds lift_height "
-                            f"({self.lift_height})")
+            raise MomaError(
+                f"TrialConfig.min_lift ({self.min_lift}) exceeds lift_height ({self.lift_height})"
+            )
         if self.pull_angle_deg < self.open_angle_deg or self.pull_distance < self.open_distance:
             raise MomaError("TrialConfig: the commanded pull must exceed the success threshold")
         if not 0 <= self.hold_seconds <= 10:
             raise MomaError(f"TrialConfig.hold_seconds must be in [0, 10], got {self.hold_seconds}")
         if not 5 <= self.solver_iterations <= 500:
-            raise MomaError("TrialConfig.solver_iterations must be in [5, 500], got "
-                            f"{self.solver_iterations}")
+            raise MomaError(
+                f"TrialConfig.solver_iterations must be in [5, 500], got {self.solver_iterations}"
+            )
         if not 1 <= self.max_grasp_candidates <= 10:
-            raise MomaError("TrialConfig.max_grasp_candidates must be in [1, 10], got "
-                            f"{self.max_grasp_candidates}")
+            raise MomaError(
+                "TrialConfig.max_grasp_candidates must be in [1, 10], got "
+                f"{self.max_grasp_candidates}"
+            )
 
 
 @dataclass(frozen=True)

@@ -17,14 +17,18 @@ from momakitchen.sim.config import STAGE_NAMES, DenseMapConfig, Stage
 from momakitchen.sim.labels import Labels, dense_map
 
 STAGE_COLOURS = {
-    Stage.SUCCESS: "#16a34a", Stage.BASE_COLLISION: "#6b7280", Stage.OUT_OF_REACH: "#d1d5db",
-    Stage.IK_FAILED: "#f59e0b", Stage.ARM_COLLISION: "#9333ea",
+    Stage.SUCCESS: "#16a34a",
+    Stage.BASE_COLLISION: "#6b7280",
+    Stage.OUT_OF_REACH: "#d1d5db",
+    Stage.IK_FAILED: "#f59e0b",
+    Stage.ARM_COLLISION: "#9333ea",
     Stage.EXECUTION_FAILED: "#dc2626",
 }
 
 
-def floor_raster(layout: Layout, cfg: Configuration, xlim, ylim, step: float = 0.02
-                 ) -> tuple[np.ndarray, np.ndarray]:
+def floor_raster(
+    layout: Layout, cfg: Configuration, xlim, ylim, step: float = 0.02
+) -> tuple[np.ndarray, np.ndarray]:
     """Free floor points on a raster: (H, W, 2) coordinates and (H, W) bool mask of points
     not under furniture or obstacles."""
     xs = np.arange(xlim[0], xlim[1], step) + step / 2
@@ -40,8 +44,13 @@ def floor_raster(layout: Layout, cfg: Configuration, xlim, ylim, step: float = 0
     return pts, free.reshape(gx.shape)
 
 
-def save_label_figure(layout: Layout, cfg: Configuration, labels: Labels, path: Path,
-                      dense: DenseMapConfig | None = None) -> None:
+def save_label_figure(
+    layout: Layout,
+    cfg: Configuration,
+    labels: Labels,
+    path: Path,
+    dense: DenseMapConfig | None = None,
+) -> None:
     """Write a two-panel PNG: outcome/stage per grid position, and the dense map."""
     reach = get_robot_spec(labels.robot).reach
     ax_, ay_ = labels.anchor[:2]
@@ -54,29 +63,59 @@ def save_label_figure(layout: Layout, cfg: Configuration, labels: Labels, path: 
     for stage in Stage:
         sel = labels.stages == stage
         if sel.any():
-            ax1.scatter(labels.positions[sel, 0], labels.positions[sel, 1], s=22,
-                        color=STAGE_COLOURS[stage], edgecolors="k", linewidths=0.3, zorder=4)
+            ax1.scatter(
+                labels.positions[sel, 0],
+                labels.positions[sel, 1],
+                s=22,
+                color=STAGE_COLOURS[stage],
+                edgecolors="k",
+                linewidths=0.3,
+                zorder=4,
+            )
     draw_target(ax1, cfg)
     frame_plan(ax1, xlim, ylim)
-    ax1.legend(handles=[
-        Line2D([], [], marker="o", ls="", color=STAGE_COLOURS[s], markeredgecolor="k",
-               label=f"{name.replace('_', ' ')} ({counts[name]})")
-        for s, name in zip(Stage, STAGE_NAMES, strict=True)
-    ], loc="lower left", fontsize=7, framealpha=0.9)
-    ax1.set_title(f"trials: {labels.robot}, target {labels.target}, "
-                  f"{int(labels.outcomes.sum())}/{len(labels.stages)} succeeded")
+    ax1.legend(
+        handles=[
+            Line2D(
+                [],
+                [],
+                marker="o",
+                ls="",
+                color=STAGE_COLOURS[s],
+                markeredgecolor="k",
+                label=f"{name.replace('_', ' ')} ({counts[name]})",
+            )
+            for s, name in zip(Stage, STAGE_NAMES, strict=True)
+        ],
+        loc="lower left",
+        fontsize=7,
+        framealpha=0.9,
+    )
+    ax1.set_title(
+        f"trials: {labels.robot}, target {labels.target}, "
+        f"{int(labels.outcomes.sum())}/{len(labels.stages)} succeeded"
+    )
 
     pts, free = floor_raster(layout, cfg, xlim, ylim)
     values = dense_map(labels.positions, labels.outcomes, pts.reshape(-1, 2), dense)
     image = np.where(free, values.reshape(free.shape), np.nan)
     draw_kitchen(ax2, layout, cfg, handles=False, alpha=0.5)
-    im = ax2.imshow(image, origin="lower", extent=(*xlim, *ylim), cmap="viridis", vmin=0,
-                    vmax=1, interpolation="nearest", zorder=3)
+    im = ax2.imshow(
+        image,
+        origin="lower",
+        extent=(*xlim, *ylim),
+        cmap="viridis",
+        vmin=0,
+        vmax=1,
+        interpolation="nearest",
+        zorder=3,
+    )
     draw_target(ax2, cfg)
     frame_plan(ax2, xlim, ylim)
     cfg_d = dense or DenseMapConfig()
-    ax2.set_title(f"dense affordance map (theta={cfg_d.theta} m, k={cfg_d.k}, "
-                  f"sigma={cfg_d.sigma} m)")
+    ax2.set_title(
+        f"dense affordance map (theta={cfg_d.theta} m, k={cfg_d.k}, sigma={cfg_d.sigma} m)"
+    )
     fig.colorbar(im, ax=ax2, fraction=0.046, pad=0.04, label="affordance")
     fig.tight_layout()
     fig.savefig(path, dpi=110)

@@ -28,8 +28,12 @@ from momakitchen.sim.trials import TrialRunner
 from momakitchen.sim.world import World
 
 
-def dense_map(positions: np.ndarray, outcomes: np.ndarray, query: np.ndarray,
-              config: DenseMapConfig | None = None) -> np.ndarray:
+def dense_map(
+    positions: np.ndarray,
+    outcomes: np.ndarray,
+    query: np.ndarray,
+    config: DenseMapConfig | None = None,
+) -> np.ndarray:
     """Interpolate trial outcomes onto floor points.
 
     Shapes: ``positions`` (P, 2) trial positions, ``outcomes`` (P,) in {0, 1} (or [0, 1]),
@@ -84,19 +88,27 @@ class Labels:
         return (self.stages == Stage.SUCCESS).astype(np.uint8)
 
     def stage_counts(self) -> dict[str, int]:
-        return {name: int((self.stages == s).sum()) for s, name in zip(Stage, STAGE_NAMES,
-                                                                        strict=True)}
+        return {
+            name: int((self.stages == s).sum()) for s, name in zip(Stage, STAGE_NAMES, strict=True)
+        }
 
     def summary(self) -> dict:
         n = len(self.stages)
-        physics = int(((self.stages == Stage.SUCCESS) | (self.stages == Stage.EXECUTION_FAILED))
-                      .sum())
+        physics = int(
+            ((self.stages == Stage.SUCCESS) | (self.stages == Stage.EXECUTION_FAILED)).sum()
+        )
         return {
-            "scene_id": self.scene_id, "config_index": self.config_index, "robot": self.robot,
-            "target": self.target, "anchor": list(self.anchor), "positions": n,
-            "grid_spacing": self.grid_spacing, "successes": int(self.outcomes.sum()),
+            "scene_id": self.scene_id,
+            "config_index": self.config_index,
+            "robot": self.robot,
+            "target": self.target,
+            "anchor": list(self.anchor),
+            "positions": n,
+            "grid_spacing": self.grid_spacing,
+            "successes": int(self.outcomes.sum()),
             "success_rate": float(self.outcomes.mean()) if n else 0.0,
-            "physics_trials": physics, "stages": self.stage_counts(),
+            "physics_trials": physics,
+            "stages": self.stage_counts(),
             "seconds": {k: round(v, 4) for k, v in self.seconds.items()},
         }
 
@@ -107,8 +119,9 @@ def target_name(world: World) -> str:
     return t.category if t.part == "object" else f"{t.category}/{t.part}"
 
 
-def set_target_dynamics(world: World, mass: float | None = None,
-                        friction: float | None = None) -> None:
+def set_target_dynamics(
+    world: World, mass: float | None = None, friction: float | None = None
+) -> None:
     """Change the target's mass (kg) and/or lateral friction coefficient (what-if studies:
     a 50 kg bottle cannot be lifted, a frictionless one slips out of the fingers)."""
     t = world.target
@@ -156,12 +169,18 @@ def label_configuration(
         runner.close()
     ax, ay = cfg.target.anchor[:2]
     seconds = {
-        "check": sum(r.t_check for r in results), "ik": sum(r.t_ik for r in results),
-        "physics": sum(r.t_physics for r in results), "total": time.perf_counter() - t0,
+        "check": sum(r.t_check for r in results),
+        "ik": sum(r.t_ik for r in results),
+        "physics": sum(r.t_physics for r in results),
+        "total": time.perf_counter() - t0,
     }
     return Labels(
-        scene_id=cfg.scene_id, config_index=cfg.index, robot=cfg.robot,
-        target=target_name(world), anchor=float3(cfg.target.anchor), grid_spacing=grid_spacing,
+        scene_id=cfg.scene_id,
+        config_index=cfg.index,
+        robot=cfg.robot,
+        target=target_name(world),
+        anchor=float3(cfg.target.anchor),
+        grid_spacing=grid_spacing,
         positions=grid.astype(np.float64),
         yaws=np.arctan2(ay - grid[:, 1], ax - grid[:, 0]),
         stages=np.array([int(r.stage) for r in results], dtype=np.uint8),

@@ -31,8 +31,10 @@ def settle_check(world: World, seconds: float = 1.0) -> StabilityReport:
     """
     c = world.client
     free = [b for b in world.bodies.values() if b.kind in ("rigid", "obstacle")]
-    start = {b.uid: np.array(p.getBasePositionAndOrientation(b.body_id, physicsClientId=c)[0])
-             for b in free}
+    start = {
+        b.uid: np.array(p.getBasePositionAndOrientation(b.body_id, physicsClientId=c)[0])
+        for b in free
+    }
     state = world.save_state()
     world.step(round(seconds * 240))
     worst, worst_uid, min_z = 0.0, "", np.inf
@@ -47,8 +49,9 @@ def settle_check(world: World, seconds: float = 1.0) -> StabilityReport:
     return StabilityReport(worst, min_z if free else 0.0, worst_uid)
 
 
-def opening_direction(world: World, body_id: int, joint: int, handle: np.ndarray,
-                      open_direction: int) -> np.ndarray:
+def opening_direction(
+    world: World, body_id: int, joint: int, handle: np.ndarray, open_direction: int
+) -> np.ndarray:
     """Unit world direction in which the handle point moves when the joint opens.
 
     From the joint axis (given in the child link's URDF frame, whose origin is the joint):
@@ -63,8 +66,9 @@ def opening_direction(world: World, body_id: int, joint: int, handle: np.ndarray
     return move / max(float(np.linalg.norm(move)), 1e-12)
 
 
-def pull_test(world: World, uid: str, articulation: int, force: float = 40.0,
-              seconds: float = 0.6) -> float:
+def pull_test(
+    world: World, uid: str, articulation: int, force: float = 40.0, seconds: float = 0.6
+) -> float:
     """Pull the handle of ``uid``'s part ``articulation`` with ``force`` newtons along its
     opening direction for ``seconds``; return how far the joint opened (rad or m, signed so
     that positive = opening). The world state is restored afterwards."""
@@ -80,10 +84,15 @@ def pull_test(world: World, uid: str, articulation: int, force: float = 40.0,
     for _ in range(round(seconds * 240)):
         pos, rot = world.link_pose(info.body_id, link)
         handle = rot @ np.asarray(art.handle.position) + pos
-        direction = opening_direction(world, info.body_id, joint, handle,
-                                      art.open_direction)
-        p.applyExternalForce(info.body_id, link, (force * direction).tolist(), handle.tolist(),
-                             p.WORLD_FRAME, physicsClientId=c)
+        direction = opening_direction(world, info.body_id, joint, handle, art.open_direction)
+        p.applyExternalForce(
+            info.body_id,
+            link,
+            (force * direction).tolist(),
+            handle.tolist(),
+            p.WORLD_FRAME,
+            physicsClientId=c,
+        )
         world.step()
     q1 = p.getJointState(info.body_id, joint, physicsClientId=c)[0]
     world.restore_state(state)

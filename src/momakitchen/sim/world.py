@@ -90,8 +90,9 @@ class World:
             p.setGravity(0, 0, -9.81, physicsClientId=self.client)
             p.setTimeStep(TIME_STEP, physicsClientId=self.client)
             # Sorted contact pairs: results must not depend on memory layout.
-            p.setPhysicsEngineParameter(deterministicOverlappingPairs=1,
-                                        physicsClientId=self.client)
+            p.setPhysicsEngineParameter(
+                deterministicOverlappingPairs=1, physicsClientId=self.client
+            )
             for placed in layout.furniture:
                 self._load(placed)
             # The room last: TinyRenderer draws bodies in load order and shades every
@@ -110,11 +111,19 @@ class World:
         # Collision: a 200 m slab (as pybullet_data's plane.urdf). Visual: a 5 mm slab the
         # size of the room; the renderer's cost grows with the screen area a triangle spans,
         # and plane.urdf's 100 m visual made the floor cost a quarter of every frame.
-        col = p.createCollisionShape(p.GEOM_BOX, halfExtents=[100, 100, 5],
-                                     collisionFramePosition=[0, 0, -5], physicsClientId=c)
-        vis = p.createVisualShape(p.GEOM_BOX, halfExtents=[room.width / 2, room.depth / 2, 0.0025],
-                                  visualFramePosition=[room.width / 2, room.depth / 2, -0.0025],
-                                  rgbaColor=[tone, tone * 0.92, tone * 0.8, 1], physicsClientId=c)
+        col = p.createCollisionShape(
+            p.GEOM_BOX,
+            halfExtents=[100, 100, 5],
+            collisionFramePosition=[0, 0, -5],
+            physicsClientId=c,
+        )
+        vis = p.createVisualShape(
+            p.GEOM_BOX,
+            halfExtents=[room.width / 2, room.depth / 2, 0.0025],
+            visualFramePosition=[room.width / 2, room.depth / 2, -0.0025],
+            rgbaColor=[tone, tone * 0.92, tone * 0.8, 1],
+            physicsClientId=c,
+        )
         floor = p.createMultiBody(0, col, vis, physicsClientId=c)
         p.changeDynamics(floor, -1, lateralFriction=1.0, physicsClientId=c)
         self.bodies["floor"] = BodyInfo("floor", "floor", "structure", floor)
@@ -128,8 +137,9 @@ class World:
         }
         for name, ((x, y), (hx, hy)) in walls.items():
             col = p.createCollisionShape(p.GEOM_BOX, halfExtents=[hx, hy, h / 2], physicsClientId=c)
-            vis = p.createVisualShape(p.GEOM_BOX, halfExtents=[hx, hy, h / 2],
-                                      rgbaColor=wall_rgba, physicsClientId=c)
+            vis = p.createVisualShape(
+                p.GEOM_BOX, halfExtents=[hx, hy, h / 2], rgbaColor=wall_rgba, physicsClientId=c
+            )
             body = p.createMultiBody(0, col, vis, basePosition=[x, y, h / 2], physicsClientId=c)
             self.bodies[name] = BodyInfo(name, "wall", "structure", body)
 
@@ -141,10 +151,13 @@ class World:
         fixed = kind in ("furniture", "appliance")
         try:
             body = p.loadURDF(
-                path, basePosition=[placed.x, placed.y, placed.z],
-                baseOrientation=_quat_z(placed.yaw), useFixedBase=fixed,
+                path,
+                basePosition=[placed.x, placed.y, placed.z],
+                baseOrientation=_quat_z(placed.yaw),
+                useFixedBase=fixed,
                 globalScaling=float(model.scale),
-                flags=p.URDF_USE_INERTIA_FROM_FILE, physicsClientId=self.client,
+                flags=p.URDF_USE_INERTIA_FROM_FILE,
+                physicsClientId=self.client,
             )
         except p.error as exc:
             raise MomaError(f"cannot load {placed.category} asset {path!r}: {exc}") from None
@@ -158,8 +171,14 @@ class World:
                 # PyBullet drives joints with a velocity motor by default: turn it into the
                 # joint's dry friction so that parts move when pulled but do not swing freely.
                 friction = max(float(ji[7]), 0.05)
-                p.setJointMotorControl2(body, j, p.VELOCITY_CONTROL, targetVelocity=0,
-                                        force=friction, physicsClientId=self.client)
+                p.setJointMotorControl2(
+                    body,
+                    j,
+                    p.VELOCITY_CONTROL,
+                    targetVelocity=0,
+                    force=friction,
+                    physicsClientId=self.client,
+                )
         self.bodies[placed.uid] = info
         return info
 
@@ -194,12 +213,24 @@ class World:
         assert model is not None  # configuration targets are placed assets, not structure
         if t.articulation is None:
             grasp = model.grasps[0]
-            return TargetInfo(info.body_id, info.links[grasp.link] if grasp.link in info.links
-                              else -1, t.category, "object", grasp)
+            return TargetInfo(
+                info.body_id,
+                info.links[grasp.link] if grasp.link in info.links else -1,
+                t.category,
+                "object",
+                grasp,
+            )
         art = model.articulations[t.articulation]
         return TargetInfo(
-            info.body_id, info.links[art.handle.link], t.category, art.part, art.handle,
-            info.joints[art.joint], art.joint_type, art.open_direction, art.limit,
+            info.body_id,
+            info.links[art.handle.link],
+            t.category,
+            art.part,
+            art.handle,
+            info.joints[art.joint],
+            art.joint_type,
+            art.open_direction,
+            art.limit,
         )
 
     def link_pose(self, body_id: int, link_index: int) -> tuple[np.ndarray, np.ndarray]:
@@ -212,8 +243,9 @@ class World:
             inv_pos, inv_orn = p.invertTransform(dyn[3], dyn[4])
             pos, orn = p.multiplyTransforms(pos, orn, inv_pos, inv_orn)
         else:
-            state = p.getLinkState(body_id, link_index, computeForwardKinematics=True,
-                                   physicsClientId=c)
+            state = p.getLinkState(
+                body_id, link_index, computeForwardKinematics=True, physicsClientId=c
+            )
             pos, orn = state[4], state[5]
         rot = np.array(p.getMatrixFromQuaternion(orn)).reshape(3, 3)
         return np.array(pos), rot
@@ -223,16 +255,20 @@ class World:
         target = target or self.target
         pos, rot = self.link_pose(target.body_id, target.link_index)
         g = target.grasp
-        return (rot @ np.asarray(g.position) + pos, rot @ np.asarray(g.normal),
-                rot @ np.asarray(g.closing_axis))
+        return (
+            rot @ np.asarray(g.position) + pos,
+            rot @ np.asarray(g.normal),
+            rot @ np.asarray(g.closing_axis),
+        )
 
     def joint_position(self, target: TargetInfo | None = None) -> float:
         """Current position of the target's joint (articulated targets only)."""
         target = target or self.target
         if target.joint_index is None:
             raise MomaError("the target is a rigid object: it has no joint")
-        return float(p.getJointState(target.body_id, target.joint_index,
-                                     physicsClientId=self.client)[0])
+        return float(
+            p.getJointState(target.body_id, target.joint_index, physicsClientId=self.client)[0]
+        )
 
     # -- physics --------------------------------------------------------------------------
     def step(self, n: int = 1) -> None:
@@ -252,8 +288,10 @@ class World:
     def aabb(self, body_id: int) -> np.ndarray:
         """Axis-aligned bounding box of a whole body (all links). Shape (2, 3): min, max."""
         c = self.client
-        boxes = [p.getAABB(body_id, link, physicsClientId=c)
-                 for link in range(-1, p.getNumJoints(body_id, physicsClientId=c))]
+        boxes = [
+            p.getAABB(body_id, link, physicsClientId=c)
+            for link in range(-1, p.getNumJoints(body_id, physicsClientId=c))
+        ]
         lo = np.min([b[0] for b in boxes], axis=0)
         hi = np.max([b[1] for b in boxes], axis=0)
         return np.stack([lo, hi])
@@ -267,9 +305,10 @@ class World:
         infos = list(self.bodies.values())
         found = []
         for i, a in enumerate(infos):
-            for b in infos[i + 1:]:
-                pts = p.getClosestPoints(a.body_id, b.body_id, distance=0.0,
-                                         physicsClientId=self.client)
+            for b in infos[i + 1 :]:
+                pts = p.getClosestPoints(
+                    a.body_id, b.body_id, distance=0.0, physicsClientId=self.client
+                )
                 depth = min((pt[8] for pt in pts), default=0.0)
                 if depth < -tolerance:
                     found.append((a.uid, b.uid, float(depth)))

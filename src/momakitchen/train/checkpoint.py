@@ -45,13 +45,16 @@ DEFAULT_CHECKPOINT = Path(__file__).resolve().parent.parent / "checkpoints" / "n
 def default_checkpoint() -> Path:
     """The bundled NavAff run directory."""
     if not (DEFAULT_CHECKPOINT / "model.safetensors").is_file():
-        raise MomaError(f"the bundled checkpoint is missing from {DEFAULT_CHECKPOINT}; "
-                        "pass a run directory from `momakitchen train`")
+        raise MomaError(
+            f"the bundled checkpoint is missing from {DEFAULT_CHECKPOINT}; "
+            "pass a run directory from `momakitchen train`"
+        )
     return DEFAULT_CHECKPOINT
 
 
-def write_run_config(run_dir: Path, config: TrainConfig,
-                     preprocessing: Preprocessing | None = None) -> None:
+def write_run_config(
+    run_dir: Path, config: TrainConfig, preprocessing: Preprocessing | None = None
+) -> None:
     """Write ``config.json`` (``preprocessing``: that of the training data; None: the
     defaults)."""
     info = {
@@ -115,8 +118,10 @@ def dataset_preprocessing(dataset: Any) -> Preprocessing | None:
     if isinstance(dataset, ConcatDataset):
         found = {dataset_preprocessing(d) for d in dataset.datasets} - {None}
         if len(found) > 1:
-            raise MomaError("the datasets combined were built with different preprocessing: "
-                            + "; ".join(sorted(p.describe() for p in found if p)))
+            raise MomaError(
+                "the datasets combined were built with different preprocessing: "
+                + "; ".join(sorted(p.describe() for p in found if p))
+            )
         return found.pop() if found else None
     manifest = getattr(dataset, "manifest", None)
     if not isinstance(manifest, dict):
@@ -128,8 +133,7 @@ def dataset_preprocessing(dataset: Any) -> Preprocessing | None:
         raise MomaError(f"{root}: {exc}") from None
 
 
-def check_preprocessing(run: LoadedRun, data: Preprocessing | None,
-                        what: str = "dataset") -> None:
+def check_preprocessing(run: LoadedRun, data: Preprocessing | None, what: str = "dataset") -> None:
     """MomaError unless data built with preprocessing ``data`` suits ``run`` (trained on
     the same preprocessing); data that records none (None) passes."""
     if data is not None and data != run.preprocessing:
@@ -225,9 +229,7 @@ def load_checkpoint(run_dir: str | Path, model: str | None = None) -> LoadedRun:
     config, info = read_run_config(run_dir)
     preprocessing = run_preprocessing(info, run_dir)
     if model is not None and model != config.model:
-        raise MomaError(
-            f"checkpoint {str(run_dir)!r} holds model {config.model!r}, not {model!r}"
-        )
+        raise MomaError(f"checkpoint {str(run_dir)!r} holds model {config.model!r}, not {model!r}")
     net = build_model(config.model, config.model_config)
     load_weights(run_dir / WEIGHTS_FILE, net)
     net.eval()

@@ -52,9 +52,7 @@ def main(argv: list[str] | None = None) -> int:
     data = SyntheticEpisodes(
         SyntheticConfig(num_episodes=args.episodes, num_global=256, num_floor=128, seed=1)
     )
-    val = SyntheticEpisodes(
-        SyntheticConfig(num_episodes=4, num_global=256, num_floor=128, seed=2)
-    )
+    val = SyntheticEpisodes(SyntheticConfig(num_episodes=4, num_global=256, num_floor=128, seed=2))
     result = train(smoke_config(args.model, args.epochs, args.batch_size), data, val, args.out)
     if rank == 0:
         last = result.history[-1]

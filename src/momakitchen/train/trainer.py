@@ -98,8 +98,9 @@ def _barrier(world: int) -> None:
         dist.barrier()
 
 
-def _check_resume(config: TrainConfig, run_dir: Path, resume: bool,
-                  preprocessing: Preprocessing) -> bool:
+def _check_resume(
+    config: TrainConfig, run_dir: Path, resume: bool, preprocessing: Preprocessing
+) -> bool:
     """Whether to resume; raises MomaError on a mismatching or unexpected checkpoint."""
     if not has_checkpoint(run_dir):
         return False
@@ -279,7 +280,10 @@ def _train(
     val_loader = None
     if val_set is not None and len(val_set) > 0 and rank == 0:
         val_loader = DataLoader(
-            val_set, batch_size=config.batch_size, shuffle=False, collate_fn=collate,
+            val_set,
+            batch_size=config.batch_size,
+            shuffle=False,
+            collate_fn=collate,
             num_workers=config.num_workers,
         )
     total_steps = config.epochs * len(loader)
@@ -302,8 +306,7 @@ def _train(
         net.train()
         t0 = time.perf_counter()
         loss_sum = torch.zeros(3, dtype=torch.float64)  # loss*B, mse*B, samples
-        bar = tqdm(loader, desc=f"epoch {epoch + 1}/{config.epochs}", leave=False,
-                   disable=not show)
+        bar = tqdm(loader, desc=f"epoch {epoch + 1}/{config.epochs}", leave=False, disable=not show)
         for batch in bar:
             if step >= total_steps:
                 break
@@ -324,8 +327,14 @@ def _train(
                 bar.set_postfix(loss=f"{loss_val:.4f}")
             if rank == 0 and (step % config.log_every == 0 or step == 1):
                 rows.append(
-                    {"kind": "train", "epoch": epoch + 1, "step": step, "lr": f"{lr:.6g}",
-                     "loss": f"{loss_val:.6g}", "mse": f"{out['mse'].item():.6g}"}
+                    {
+                        "kind": "train",
+                        "epoch": epoch + 1,
+                        "step": step,
+                        "lr": f"{lr:.6g}",
+                        "loss": f"{loss_val:.6g}",
+                        "mse": f"{out['mse'].item():.6g}",
+                    }
                 )
                 # Keep the CSV current during long epochs (resume trims rows past the
                 # checkpoint's step).
@@ -363,9 +372,7 @@ def _train(
                     rows, run_dir / CURVE_FILE, title=f"{config.model} ({config.preset})"
                 )
             if show:
-                msg = ", ".join(
-                    f"{k} {v:.4g}" for k, v in record.items() if isinstance(v, float)
-                )
+                msg = ", ".join(f"{k} {v:.4g}" for k, v in record.items() if isinstance(v, float))
                 tqdm.write(f"epoch {epoch + 1}: {msg}")
         _barrier(world)
     model.eval()
