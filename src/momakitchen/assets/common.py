@@ -242,9 +242,9 @@ def box_at(
     if min(size) <= 0:
         raise MomaError(f"degenerate box {lo} .. {hi}")
     return Shape(
-        Box(size),
-        centre,
+        Box((size[0], size[1], size[2])),
+        (centre[0], centre[1], centre[2]),
         material=material,
-        density=density,  # type: ignore[arg-type]
+        density=density,
         collision=collision,
     )

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import os
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -265,7 +265,7 @@ def dataset_stats(root: str | os.PathLike) -> dict[str, Any]:
     }
 
 
-def _summary(values: list[float]) -> dict[str, float] | None:
+def _summary(values: Sequence[float]) -> dict[str, float] | None:
     if not values:
         return None
     a = np.asarray(values, np.float64)

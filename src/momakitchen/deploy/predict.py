@@ -150,8 +150,8 @@ def robot_input(robot: str | Sequence[float] | Mapping[str, float]) -> tuple[str
             descriptor_values(
                 robot["reach"],
                 robot["mount_height"],
-                robot.get("dof", 6),
-                robot.get("suction", False),
+                float(robot.get("dof", 6)),
+                bool(robot.get("suction", False)),
             )
         )
     else:
@@ -251,7 +251,7 @@ def predict(
     run = (
         checkpoint
         if isinstance(checkpoint, LoadedRun)
-        else load_checkpoint(checkpoint if checkpoint is not None else default_checkpoint())
+        else load_checkpoint(Path(checkpoint) if checkpoint is not None else default_checkpoint())
     )
     # The clouds are built as for the model's training data.
     clouds = frame_inputs(

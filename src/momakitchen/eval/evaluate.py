@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
+from collections.abc import Sized
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 from torch.utils.data import DataLoader, Dataset
 from tqdm.auto import tqdm
@@ -36,7 +37,7 @@ def evaluate(
     or scene id to metrics plus an ``episodes`` count. A dataset whose manifest records
     other cloud preprocessing than the run was trained with is refused (MomaError).
     """
-    if len(dataset) == 0:
+    if len(cast(Sized, dataset)) == 0:  # map-style datasets have a length
         raise MomaError("the evaluation dataset is empty")
     if batch_size < 1:
         raise MomaError(f"batch_size must be >= 1, got {batch_size}")

@@ -264,6 +264,7 @@ def run_msr(
                 if shard is not None:
                     shard.close()
                 shard = SceneShard(root / file)
+            assert shard is not None  # opened with the scene above
             record = _configuration(shard, scene, ci, gen, models, names, config)
             if record is not None:
                 records.append(record)

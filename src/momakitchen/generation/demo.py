@@ -173,8 +173,8 @@ def run_demo(
     }
     png = report_figure(frame.rgb, frame.depth, intr, camera_to_base, pred, gt, outcome, result)
     atomic_write_bytes(out / "report.png", png)
-    result["seconds"]["report"] = round(time.perf_counter() - t0 - sum(seconds.values()), 2)
-    result["seconds"]["total"] = round(time.perf_counter() - t0, 2)
+    seconds["report"] = round(time.perf_counter() - t0 - sum(seconds.values()), 2)
+    seconds["total"] = round(time.perf_counter() - t0, 2)
     atomic_write_text(out / "result.json", json.dumps(result, indent=1) + "\n")
     return result
 

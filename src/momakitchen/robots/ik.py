@@ -11,10 +11,10 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from momakitchen.bullet import p
 from momakitchen.errors import MomaError
@@ -63,10 +63,10 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 def solve_ik(
     robot: RobotBody,
-    position: Sequence[float],
-    orientation: Sequence[float] | None = None,
+    position: ArrayLike,
+    orientation: ArrayLike | None = None,
     *,
-    seed: Sequence[float] | None = None,
+    seed: ArrayLike | None = None,
     pos_tol: float = 0.005,
     ori_tol: float = math.radians(2.0),
     iterations: int = 40,
@@ -129,6 +129,7 @@ def solve_ik(
             best = (perr, oerr, q)
         if perr <= pos_tol and oerr <= ori_tol:
             break
+    assert best is not None  # at least one attempt ran
     perr, oerr, q = best
     robot._reset_arm(q)
     return IKResult(
@@ -259,7 +260,7 @@ def _lm(
 
 
 def plan_line(
-    robot: RobotBody, position: Sequence[float], orientation: Sequence[float] | None, n: int = 10
+    robot: RobotBody, position: ArrayLike, orientation: ArrayLike | None, n: int = 10
 ) -> list[np.ndarray] | None:
     """IK waypoints moving the TCP on a straight line to a pose, or None if any fails.
 

@@ -9,9 +9,8 @@ distance from that axis, so the pre-check never rejects a reachable pose.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-
 import numpy as np
+from numpy.typing import ArrayLike
 
 from momakitchen.bullet import p
 from momakitchen.robots.body import RobotBody
@@ -34,8 +33,8 @@ def workspace(robot: RobotBody) -> tuple[float, float]:
 
 def could_reach(
     robot: RobotBody,
-    position: Sequence[float],
-    orientation: Sequence[float] | None = None,
+    position: ArrayLike,
+    orientation: ArrayLike | None = None,
     margin: float = 0.0,
 ) -> bool:
     """Cheap necessary condition for a TCP pose to be reachable.
@@ -47,7 +46,7 @@ def could_reach(
     """
     rot = None
     if orientation is not None:
-        quat = [float(v) for v in orientation]
+        quat = np.asarray(orientation, float).tolist()
         rot = np.array(p.getMatrixFromQuaternion(quat)).reshape(3, 3)
     return within_reach(robot, np.asarray(position, float), rot, margin)
 

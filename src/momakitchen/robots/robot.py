@@ -19,6 +19,7 @@ import math
 from collections.abc import Iterable, Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from momakitchen.bullet import connect_direct, p
 from momakitchen.errors import MomaError
@@ -66,7 +67,7 @@ def forget_caches(name: str) -> None:
     ik.SEED_LIBRARY.pop(name, None)
 
 
-def quaternion_angle(q1: Sequence[float], q2: Sequence[float]) -> float:
+def quaternion_angle(q1: ArrayLike, q2: ArrayLike) -> float:
     """Angle in radians of the rotation between two unit quaternions ``(x, y, z, w)``."""
     dot = abs(float(np.dot(np.asarray(q1, float), np.asarray(q2, float))))
     return 2.0 * math.acos(min(1.0, dot))
@@ -102,10 +103,10 @@ class Robot(RobotBody):
     # ---------------------------------------------------------------- IK (ik.py)
     def solve_ik(
         self,
-        position: Sequence[float],
-        orientation: Sequence[float] | None = None,
+        position: ArrayLike,
+        orientation: ArrayLike | None = None,
         *,
-        seed: Sequence[float] | None = None,
+        seed: ArrayLike | None = None,
         pos_tol: float = 0.005,
         ori_tol: float = math.radians(2.0),
         iterations: int = 40,
@@ -127,7 +128,7 @@ class Robot(RobotBody):
         )
 
     def plan_line(
-        self, position: Sequence[float], orientation: Sequence[float] | None, n: int = 10
+        self, position: ArrayLike, orientation: ArrayLike | None, n: int = 10
     ) -> list[np.ndarray] | None:
         """IK waypoints (each ``(dof,)``) moving the TCP on a straight line to a pose, or
         None if any fails; the joint state is left untouched."""
@@ -141,8 +142,8 @@ class Robot(RobotBody):
 
     def could_reach(
         self,
-        position: Sequence[float],
-        orientation: Sequence[float] | None = None,
+        position: ArrayLike,
+        orientation: ArrayLike | None = None,
         margin: float = 0.0,
     ) -> bool:
         """Cheap necessary condition for a TCP pose to be reachable (workspace spheres)."""
@@ -233,31 +234,31 @@ class Robot(RobotBody):
         self._suction().off()
 
     # ---------------------------------------------------------------- motion in physics
-    def drive_to(self, q: Sequence[float], steps: int = 240, *, tol: float = 1e-3) -> bool:
+    def drive_to(self, q: ArrayLike, steps: int = 240, *, tol: float = 1e-3) -> bool:
         """Drive the arm to ``q`` with position control, stepping physics.
 
         Steps the simulation (at most ``steps`` times, fewer once the joints are within
         ``tol`` rad of the target). Returns whether the target was reached.
         """
-        q = np.clip(np.asarray(q, float), self.lower, self.upper)
+        target = np.clip(np.asarray(q, float), self.lower, self.upper)
         p.setJointMotorControlArray(
             self.body,
             self.arm_joints,
             p.POSITION_CONTROL,
-            targetPositions=q.tolist(),
+            targetPositions=target.tolist(),
             forces=self.max_force.tolist(),
             physicsClientId=self.client,
         )
         for i in range(steps):
             p.stepSimulation(physicsClientId=self.client)
-            if i % 10 == 9 and np.max(np.abs(self.joint_positions() - q)) < tol:
+            if i % 10 == 9 and np.max(np.abs(self.joint_positions() - target)) < tol:
                 return True
-        return bool(np.max(np.abs(self.joint_positions() - q)) < tol)
+        return bool(np.max(np.abs(self.joint_positions() - target)) < tol)
 
     def move_tcp(
         self,
-        position: Sequence[float],
-        orientation: Sequence[float] | None,
+        position: ArrayLike,
+        orientation: ArrayLike | None,
         n: int = 10,
         steps_per_waypoint: int = 40,
     ) -> bool:

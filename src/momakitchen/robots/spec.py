@@ -261,7 +261,7 @@ def robot_descriptor(spec: RobotSpec) -> tuple[float, ...]:
 
 
 def descriptor_values(
-    reach: float, mount_height: float, dof: int, suction: bool
+    reach: float, mount_height: float, dof: float, suction: bool
 ) -> tuple[float, ...]:
     """The descriptor of a robot given by its numbers (one not in the registry)."""
     return (float(reach), float(mount_height), dof / 7.0, 1.0 if suction else 0.0)

@@ -58,14 +58,11 @@ def _origin(parent: ET.Element, xyz=(0, 0, 0), rpy=(0, 0, 0)) -> None:
 
 def _geometry(parent: ET.Element, kind: str, **attrs) -> None:
     geom = ET.SubElement(parent, "geometry")
-    ET.SubElement(
-        geom,
-        kind,
-        **{
-            k: (_fmt(v) if isinstance(v, tuple) else f"{v:.9g}" if isinstance(v, float) else str(v))
-            for k, v in attrs.items()
-        },
-    )
+    values = {
+        k: (_fmt(v) if isinstance(v, tuple) else f"{v:.9g}" if isinstance(v, float) else str(v))
+        for k, v in attrs.items()
+    }
+    ET.SubElement(geom, kind, values)
 
 
 def _shape(
@@ -267,6 +264,16 @@ def _resolve_mesh(filename: str, urdf_dir: Path) -> str:
     raise MomaError(f"mesh {filename!r} referenced by a URDF in {str(urdf_dir)!r} not found")
 
 
+def link_of(joint: ET.Element, end: str) -> str:
+    """The link named by a joint's ``<parent>`` or ``<child>`` (``end``); MomaError if the
+    joint does not name one."""
+    node = joint.find(end)
+    link = None if node is None else node.get("link")
+    if link is None:
+        raise MomaError(f"URDF joint {joint.get('name')!r} has no <{end} link=...>")
+    return link
+
+
 def parse_urdf(path: Path) -> ET.Element:
     """Parse a URDF file; MomaError naming the file on a missing file or malformed XML."""
     path = Path(path)
@@ -295,9 +302,7 @@ def parse_urdf(path: Path) -> ET.Element:
 def _subtree(root: ET.Element, start: str) -> set[str]:
     children: dict[str, list[str]] = {}
     for joint in root.findall("joint"):
-        children.setdefault(joint.find("parent").get("link"), []).append(
-            joint.find("child").get("link")
-        )
+        children.setdefault(link_of(joint, "parent"), []).append(link_of(joint, "child"))
     keep, stack = set(), [start]
     while stack:
         name = stack.pop()
@@ -348,18 +353,16 @@ def embed_urdf(
         robot.append(link)
     overrides = {name: (lo, hi) for name, lo, hi in limits}
     for joint in src.findall("joint"):
-        if (
-            joint.find("parent").get("link") not in keep
-            or joint.find("child").get("link") not in keep
-        ):
+        if link_of(joint, "parent") not in keep or link_of(joint, "child") not in keep:
             continue
         if drop_mimic:
             for mimic in joint.findall("mimic"):
                 joint.remove(mimic)
-        if joint.get("name") in overrides:
-            lim = joint.find("limit")
-            lim.set("lower", f"{overrides[joint.get('name')][0]:.9g}")
-            lim.set("upper", f"{overrides[joint.get('name')][1]:.9g}")
+        lim = joint.find("limit")
+        if joint.get("name") in overrides and lim is not None:
+            lo, hi = overrides[joint.get("name", "")]
+            lim.set("lower", f"{lo:.9g}")
+            lim.set("upper", f"{hi:.9g}")
         robot.append(joint)
     _joint(robot, "mount_joint", "fixed", mount_parent, root_link, mount_xyz)
 
@@ -391,7 +394,7 @@ def _gripper(robot: ET.Element, g: ParallelGripper, flange: str) -> None:
         missing = [f for f in g.existing_fingers if f not in joints]
         if missing:
             raise MomaError(f"gripper finger joints {missing} not in the URDF")
-        hand = joints[g.existing_fingers[0]].find("parent").get("link")
+        hand = link_of(joints[g.existing_fingers[0]], "parent")
         link = ET.SubElement(robot, "link", name=TCP_LINK)
         _inertial(link, 0.001, inertia=1e-6)
         _joint(robot, "tcp_joint", "fixed", hand, TCP_LINK, (0, 0, g.tcp_offset))

@@ -31,7 +31,7 @@ import yaml
 from momakitchen.errors import MomaError
 from momakitchen.robots.arms import RobotModel, ShippedArm, UserTool
 from momakitchen.robots.spec import ROBOTS, RobotSpec, register_robot
-from momakitchen.robots.urdf import BASE_LINK, TCP_LINK, parse_urdf
+from momakitchen.robots.urdf import BASE_LINK, TCP_LINK, link_of, parse_urdf
 
 ENV_VAR = "MOMAKITCHEN_ROBOT_YAML"
 
@@ -156,7 +156,7 @@ def _model(cfg: UserRobotConfig) -> tuple[RobotModel, int]:
     """Robot model of a user config and its arm DoF; checks the URDF's structure."""
     root = parse_urdf(cfg.urdf)
     where = str(cfg.urdf)
-    links = [link.get("name") for link in root.findall("link")]
+    links = [link.get("name", "") for link in root.findall("link")]
     for reserved in (BASE_LINK, TCP_LINK):
         if reserved in links:
             raise MomaError(f"URDF file {where!r}: link name {reserved!r} is reserved")
@@ -166,14 +166,14 @@ def _model(cfg: UserRobotConfig) -> tuple[RobotModel, int]:
             f"(end_effector_link in {cfg.source})"
         )
     joints = root.findall("joint")
-    children = {j.find("child").get("link"): j for j in joints}
+    children = {link_of(j, "child"): j for j in joints}
     roots = [name for name in links if name not in children]
     if len(roots) != 1:
         raise MomaError(f"URDF file {where!r}: expected one root link, found {roots}")
     path, link = [], cfg.end_effector_link
     while link in children:
         path.append(children[link])
-        link = children[link].find("parent").get("link")
+        link = link_of(children[link], "parent")
     movable = ("revolute", "continuous", "prismatic")
     for j in joints:
         if j.get("type") in ("revolute", "prismatic") and j.find("limit") is None:
@@ -187,7 +187,7 @@ def _model(cfg: UserRobotConfig) -> tuple[RobotModel, int]:
     if cfg.end_effector == "parallel_gripper" and not fingers:
         on_path = {j.get("name") for j in path}
         fingers = tuple(
-            j.get("name")
+            j.get("name", "")
             for j in joints
             if j.get("type") == "prismatic" and j.get("name") not in on_path
         )

@@ -121,6 +121,7 @@ class TrialRunner:
         self._allow: list[int | tuple[int, int]] = [self.target.body_id]
         if self.target.is_articulated:
             # The tool may touch the moving part and its handle, not the carcass.
+            assert self.target.joint_index is not None
             self._allow = [
                 (self.target.body_id, self.target.link_index),
                 (self.target.body_id, self.target.joint_index),
@@ -188,6 +189,7 @@ class TrialRunner:
             # Top grasps rank as a side grasp facing the robot at 45 degrees would.
             return 0.7 if n[2] > 0.7 else float(n @ to_robot)
 
+        assert info.model is not None  # a target always has its asset model
         grasps = sorted(info.model.grasps, key=score, reverse=True)
         grasps = [g for g in grasps if score(g) > -0.2]
         return grasps[: self.config.max_grasp_candidates]
@@ -341,7 +343,7 @@ class TrialRunner:
                 )
                 if res.success:
                     break
-            if not res.success:
+            if res is None or not res.success:
                 break
             qs.append(res.q)
             seed = res.q
@@ -367,6 +369,7 @@ class TrialRunner:
         """Put the base at ``(x, y)`` facing the target (or ``yaw``), the arm at home;
         True if the base then collides with the scene."""
         robot = self.robot
+        assert self.world.configuration is not None  # loaded when the runner was made
         anchor = self.world.configuration.target.anchor
         if yaw is None:
             yaw = math.atan2(anchor[1] - y, anchor[0] - x)

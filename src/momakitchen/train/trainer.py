@@ -14,9 +14,10 @@ import io
 import math
 import os
 import time
+from collections.abc import Sized
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import torch
 import torch.distributed as dist
@@ -220,7 +221,7 @@ def train(
     directory that holds a checkpoint continues after its last finished epoch (same model
     and sizes required); without it, such a directory is refused.
     """
-    if len(train_set) == 0:
+    if len(cast(Sized, train_set)) == 0:  # map-style datasets have a length
         raise MomaError("the training set is empty")
     run_dir = Path(out_dir)
     rank, world, created_group = _dist_setup()
@@ -267,7 +268,7 @@ def _train(
         torch.manual_seed(config.seed * 7919 + 1 + rank + 131 * progress["epoch"])
 
     collate = EpisodeCollator(config.num_global, config.num_floor, config.seed)
-    sampler = DistributedSampler(
+    sampler: DistributedSampler[Any] = DistributedSampler(
         train_set, num_replicas=world, rank=rank, shuffle=True, seed=config.seed
     )
     loader = DataLoader(
@@ -278,7 +279,7 @@ def _train(
         num_workers=config.num_workers,
     )
     val_loader = None
-    if val_set is not None and len(val_set) > 0 and rank == 0:
+    if val_set is not None and len(cast(Sized, val_set)) > 0 and rank == 0:
         val_loader = DataLoader(
             val_set,
             batch_size=config.batch_size,
