@@ -31,6 +31,7 @@ COMMANDS = {
     "train": "learn",
     "evaluate": "learn",
     "msr": "msr",
+    "audit": "audit",
     "benchmark": "benchmark",
     "predict": "predict",
 }

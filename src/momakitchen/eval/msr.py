@@ -90,17 +90,24 @@ class _Checkpoint:
         return pred, std
 
 
-def _configuration(
+def run_configuration(
     shard: SceneShard,
     scene: Any,
     ci: int,
     gen: Any,
-    models: dict[str, _Checkpoint],
+    models: dict[str, Any],
     names: Sequence[str],
     config: MsrConfig,
+    after: Callable[[Any, dict[str, Any]], None] | None = None,
 ) -> dict[str, Any] | None:
     """Rebuild configuration ``ci`` of ``scene``, let every method choose its points on one
-    episode and run their trials; the configuration's record (None: no usable episode)."""
+    episode and run their trials; the configuration's record (None: no usable episode).
+
+    ``after(runner, context)``, if given, runs once the methods' trials are done, with the
+    configuration's :class:`~momakitchen.sim.trials.TrialRunner` still loaded and
+    ``context`` = ``{"record", "labels", "episode", "world_xy", "configuration"}`` (the label
+    audit adds its own trials and fields to the record this way).
+    """
     from momakitchen.frames import world_to_base
     from momakitchen.robots.spec import get_robot_spec
     from momakitchen.sim.trials import TrialRunner
@@ -172,6 +179,15 @@ def _configuration(
                     record["methods"][name]["uncertainty"] = [
                         round(float(std[i]), 5) for i in chosen
                     ]
+            if after is not None:
+                context = {
+                    "record": record,
+                    "labels": labels,
+                    "episode": episode,
+                    "world_xy": world_xy,
+                    "configuration": cfg,
+                }
+                after(runner, context)
         finally:
             runner.close()
     return record
@@ -265,7 +281,7 @@ def run_msr(
                     shard.close()
                 shard = SceneShard(root / file)
             assert shard is not None  # opened with the scene above
-            record = _configuration(shard, scene, ci, gen, models, names, config)
+            record = run_configuration(shard, scene, ci, gen, models, names, config)
             if record is not None:
                 records.append(record)
     finally:
