@@ -46,3 +46,35 @@ def test_world_to_base():
     pts = np.array([[2.0, 1.0], [1.0, 2.0]])
     b = world_to_base(pts, (1.0, 1.0, math.pi / 2))  # robot at (1, 1) facing +y
     assert np.allclose(b, [[0.0, -1.0], [1.0, 0.0]])
+
+
+def test_map_is_zero_where_the_base_would_not_fit():
+    """The floor-plan check never calls a base position free where PyBullet finds the
+    base colliding, and the map is 0 there even next to successful trials."""
+    from momakitchen.robots import get_robot_spec
+    from momakitchen.scene.configuration import base_fits, sample_scene
+    from momakitchen.scene.geometry import semicircle_grid
+    from momakitchen.sim.labels import Labels, floor_affordance
+    from momakitchen.sim.trials import TrialRunner
+    from momakitchen.sim.world import World
+
+    scene = sample_scene(2001)
+    cfg = scene.configurations[3]
+    spec = get_robot_spec(cfg.robot)
+    grid = semicircle_grid(cfg.target.anchor[:2], spec.reach, 0.1)
+    fits = base_fits(scene.layout, cfg, grid, spec.footprint)
+    with World(scene.layout) as world:
+        world.load_configuration(cfg)
+        runner = TrialRunner(world, cfg.robot)
+        free = np.array([runner.base_free(x, y) for x, y in grid])
+        runner.close()
+    assert not (fits & ~free).any()  # conservative: never free where physics collides
+    assert (fits == free).mean() > 0.85 and (~fits).any() and fits.any()
+    # Every trial a success: the map is still 0 wherever the base does not fit.
+    labels = Labels(
+        cfg.scene_id, cfg.index, cfg.robot, "t", cfg.target.anchor, 0.1, grid,
+        np.zeros(len(grid)), np.zeros(len(grid), np.uint8), np.zeros(len(grid), np.float32), {},
+    )  # fmt: skip
+    base = (0.0, 0.0, 0.0)  # the world frame as the viewpoint's base frame
+    values = floor_affordance(labels, scene.layout, cfg, grid, base)
+    assert np.all(values[~fits] == 0) and np.all(values[fits] > 0.99)

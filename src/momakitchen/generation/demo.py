@@ -42,13 +42,13 @@ def run_demo(
     from momakitchen.data.config import GenerationConfig
     from momakitchen.data.episode import SEMANTIC_CLASSES
     from momakitchen.fileio import atomic_write_bytes, atomic_write_text
-    from momakitchen.frames import base_to_world, base_to_world_xy, world_to_base
+    from momakitchen.frames import base_to_world, base_to_world_xy
     from momakitchen.generation.producer import sample_views
     from momakitchen.models.inference import frame_inputs, predict_map
     from momakitchen.robots import get_robot_spec, robot_descriptor
     from momakitchen.scene.configuration import sample_scene
     from momakitchen.sim.config import Stage
-    from momakitchen.sim.labels import dense_map, label_configuration
+    from momakitchen.sim.labels import floor_affordance, label_configuration
     from momakitchen.sim.trials import TrialRunner
     from momakitchen.sim.world import World
     from momakitchen.train.checkpoint import default_checkpoint, load_checkpoint
@@ -134,12 +134,7 @@ def run_demo(
         labels = label_configuration(
             world, cfg, trial_config=config.trial, grid_spacing=config.scene.grid_spacing
         )
-        gt = dense_map(
-            world_to_base(labels.positions, base),
-            labels.outcomes,
-            pred.floor_xyz[:, :2],
-            config.dense,
-        )
+        gt = floor_affordance(labels, scene.layout, cfg, pred.floor_xyz[:, :2], base, config.dense)
         timed("labels")
 
     step(STEPS[5])

@@ -18,7 +18,7 @@ from momakitchen.data.config import GenerationConfig, ViewConfig
 from momakitchen.data.episode import SEMANTIC_CLASSES, ConfigurationLabels, Episode
 from momakitchen.data.generator import PRODUCERS, Producer
 from momakitchen.data.manifest import KITCHEN
-from momakitchen.frames import base_to_world, float3, world_to_base
+from momakitchen.frames import base_to_world, float3
 from momakitchen.generation.render import Render, render
 from momakitchen.perception.camera import look_at
 from momakitchen.perception.clouds import frame_clouds
@@ -26,7 +26,7 @@ from momakitchen.robots import get_robot_spec, robot_descriptor
 from momakitchen.scene.configuration import Configuration, sample_scene
 from momakitchen.scene.geometry import box_corners, corners_of, overlap_matrix
 from momakitchen.scene.layout import Layout, scene_rng
-from momakitchen.sim.labels import Labels, dense_map, label_configuration
+from momakitchen.sim.labels import Labels, floor_affordance, label_configuration
 from momakitchen.sim.world import World
 
 VIEW_STREAM = 3  # seed stream of the viewpoints (layout 0, configurations 1, colours 2)
@@ -140,6 +140,7 @@ def sample_views(
 
 
 def make_episode(
+    layout: Layout,
     cfg: Configuration,
     labels: Labels,
     index: int,
@@ -164,9 +165,8 @@ def make_episode(
         config.cloud,
         config.camera.max_depth,
     )
-    # Dense labels in the viewpoint's base frame: trial positions moved into it.
-    trials = world_to_base(labels.positions, base)
-    f_label = dense_map(trials, labels.outcomes, f_pts[:, :2], config.dense)
+    # Dense labels in the viewpoint's base frame, 0 where the base would not fit.
+    f_label = floor_affordance(labels, layout, cfg, f_pts[:, :2], base, config.dense)
     spec = get_robot_spec(cfg.robot)
     return Episode(
         scene_id=cfg.scene_id,
@@ -212,7 +212,7 @@ def configuration_episodes(
     )
     world.load_configuration(cfg)  # undo whatever the trials moved
     episodes = [
-        make_episode(cfg, labels, i, base, camera, frame, sem, config)
+        make_episode(layout, cfg, labels, i, base, camera, frame, sem, config)
         for i, (base, camera, (frame, sem)) in enumerate(sample_views(world, layout, cfg, config))
     ]
     return configuration_labels(labels), episodes

@@ -211,6 +211,25 @@ def _candidate_bases(
     return fps[~overlap_matrix(fps, furniture).any(1)]
 
 
+def base_fits(
+    layout: Layout, cfg: Configuration, points: np.ndarray, footprint: tuple[float, float]
+) -> np.ndarray:
+    """Where a base of ``footprint`` fits, facing the target, by the floor plan alone.
+
+    The base's box, centred on each point and turned to face the target as in the trials,
+    must lie inside the room and clear of the floor-standing furniture's and the
+    obstacles' footprints (bounding boxes: conservative, no physics query).
+
+    Shapes: ``points`` (M, 2) world xy; returns (M,) bool.
+    """
+    pts = np.asarray(points, np.float64).reshape(-1, 2)
+    ax, ay = cfg.target.anchor[:2]
+    yaws = np.arctan2(ay - pts[:, 1], ax - pts[:, 0])
+    fps = box_corners(pts[:, 0], pts[:, 1], yaws, *footprint)
+    blocked = corners_of(layout.footprints() + [o.footprint() for o in cfg.obstacles])
+    return _inside_room(fps, layout.room, 0.0) & ~overlap_matrix(fps, blocked).any(1)
+
+
 def _inside_room(corners: np.ndarray, room: Any, margin: float) -> np.ndarray:
     """(N,) bool: rectangles (N, 4, 2) at least ``margin`` inside the walls."""
     return (

@@ -11,7 +11,7 @@ gets 0. Values lie in [0, 1].
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -19,10 +19,11 @@ from scipy.spatial import cKDTree
 
 from momakitchen.bullet import p
 from momakitchen.errors import MomaError
-from momakitchen.frames import float3
+from momakitchen.frames import base_to_world_xy, float3, world_to_base
 from momakitchen.robots import get_robot_spec
-from momakitchen.scene.configuration import Configuration
+from momakitchen.scene.configuration import Configuration, base_fits
 from momakitchen.scene.geometry import semicircle_grid
+from momakitchen.scene.layout import Layout
 from momakitchen.sim.config import STAGE_NAMES, DenseMapConfig, Stage, TrialConfig
 from momakitchen.sim.trials import TrialRunner
 from momakitchen.sim.world import World
@@ -58,6 +59,29 @@ def dense_map(
     out = np.zeros(len(query))
     np.divide((w * o).sum(axis=1), wsum, out=out, where=wsum > 0)
     return np.clip(out, 0.0, 1.0).astype(np.float32)
+
+
+def floor_affordance(
+    labels: Labels,
+    layout: Layout,
+    cfg: Configuration,
+    points: np.ndarray,
+    base: Sequence[float],
+    config: DenseMapConfig | None = None,
+) -> np.ndarray:
+    """The dense map of ``labels`` at floor points of a viewpoint, 0 where the base would
+    not fit (facing the target) whatever the interpolation says.
+
+    Shapes: ``points`` (M, 2) in the base frame of the viewpoint ``base`` = (x, y, yaw)
+    in the world; returns (M,) float32 in [0, 1].
+    """
+    values = dense_map(
+        world_to_base(labels.positions, float3(base)), labels.outcomes, points, config
+    )
+    fits = base_fits(
+        layout, cfg, base_to_world_xy(points, base), get_robot_spec(cfg.robot).footprint
+    )
+    return np.where(fits, values, np.float32(0.0)).astype(np.float32)
 
 
 @dataclass(frozen=True)
