@@ -112,3 +112,30 @@ def _base(pose):
     from momakitchen.frames import base_to_world
 
     return base_to_world(pose)
+
+
+def test_every_view_sees_floor_near_a_success(episodes):
+    """Feasible configuration: each view's floor cloud comes within 10 cm of a successful
+    trial position, and the target sits high in the image (the floor in front of it is
+    in view)."""
+    from momakitchen.generation.producer import sees_near
+
+    cfg, (labels, eps) = episodes
+    successes = labels.trial_positions[labels.trial_stages == 0]
+    assert len(successes) > 0
+    for e in eps:
+        assert sees_near(e.floor_xyz, e.base_pose, successes, 0.10)
+        rows = np.nonzero(e.semantic == SEMANTIC_CLASSES.index("target"))[0]
+        assert np.median(rows) < 0.35 * e.depth.shape[0]
+
+
+def test_look_toward_puts_the_target_on_the_requested_row():
+    from momakitchen.perception.camera import look_toward
+
+    intr = Intrinsics.from_fov(640, 480, 45.0)
+    target = np.array([1.0, 2.0, 0.9])
+    for row in (0.15, 0.5, 0.8):
+        cam = look_toward(np.array([3.0, 4.0, 1.3]), target, intr, row)
+        u, v = project(transform(np.linalg.inv(cam), target[None]), intr)[0]
+        assert u == pytest.approx(intr.cx, abs=1e-6)
+        assert v == pytest.approx(row * intr.height, abs=1e-6)

@@ -28,6 +28,12 @@ class ViewConfig:
         forward: range of the distance in front of the target (increasing over episodes).
         min_target_pixels: a view is kept only if this many pixels show the target.
         max_tries: attempts per view before the configuration gives up on it.
+        target_row: the head camera turns toward the target and pitches down so that the
+            target appears this far down the image (fraction of its height; 0.5 centres
+            it): the floor in front of the target, where the robot would stand, is in view.
+        coverage_radius: a view of a configuration with successful trials is kept only
+            if its floor cloud comes this close to a successful trial position; while
+            views fail this, later attempts stand farther back (0: no check).
     """
 
     episodes: int = 10
@@ -35,6 +41,8 @@ class ViewConfig:
     forward: tuple[float, float] = (1.5, 3.8)
     min_target_pixels: int = 20
     max_tries: int = 40
+    target_row: float = 0.15
+    coverage_radius: float = 0.10
 
     def __post_init__(self) -> None:
         if not 1 <= self.episodes <= 100:
@@ -45,6 +53,10 @@ class ViewConfig:
                 raise MomaError(f"{name} must satisfy 0 <= min <= max <= 10 m, got {(lo, hi)}")
         if self.min_target_pixels < 1 or self.max_tries < 1:
             raise MomaError("min_target_pixels and max_tries must be >= 1")
+        if not 0.02 <= self.target_row <= 0.98:
+            raise MomaError(f"target_row must be in [0.02, 0.98], got {self.target_row}")
+        if not 0.0 <= self.coverage_radius <= 1.0:
+            raise MomaError(f"coverage_radius must be in [0, 1] m, got {self.coverage_radius}")
 
 
 @dataclass(frozen=True)

@@ -94,7 +94,13 @@ def run_demo(
             raise MomaError(
                 f"scene {scene_id}: no viewpoint sees the target; try another --scene-id"
             )
-        base, camera_to_world, (frame, sem) = views[-1]
+        view = views[-1]
+        base, camera_to_world, frame, sem = (
+            view.base,
+            view.camera_to_world,
+            view.frame,
+            view.semantic,
+        )
         camera_to_base = np.linalg.inv(base_to_world(base)) @ camera_to_world
         intr = config.camera.intrinsics
         timed("render")

@@ -11,16 +11,19 @@ segmentation, and the floor points with their dense affordance labels.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
+from scipy.spatial import cKDTree
 
 from momakitchen.bullet import p
 from momakitchen.data.config import GenerationConfig, ViewConfig
 from momakitchen.data.episode import SEMANTIC_CLASSES, ConfigurationLabels, Episode
 from momakitchen.data.generator import PRODUCERS, Producer
 from momakitchen.data.manifest import KITCHEN
-from momakitchen.frames import base_to_world, float3
+from momakitchen.frames import base_to_world, base_to_world_xy, float3
 from momakitchen.generation.render import Render, render
-from momakitchen.perception.camera import look_at
+from momakitchen.perception.camera import look_toward
 from momakitchen.perception.clouds import frame_clouds
 from momakitchen.robots import get_robot_spec, robot_descriptor
 from momakitchen.scene.configuration import Configuration, sample_scene
@@ -94,15 +97,64 @@ def _view_candidates(
     return lateral, forward
 
 
+Clouds = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+
+
+@dataclass(frozen=True)
+class View:
+    """A kept viewpoint: the viewing robot's base pose ``(x, y, yaw)`` in the world, the
+    camera-to-world transform (4, 4), the render, its semantic map (H, W) uint8 and the
+    frame's clouds in the base frame (as :func:`frame_clouds` returns them)."""
+
+    base: tuple[float, float, float]
+    camera_to_world: np.ndarray
+    frame: Render
+    semantic: np.ndarray
+    clouds: Clouds
+
+
+def _clouds(view_base, camera_to_world, frame: Render, sem: np.ndarray, config) -> Clouds:
+    camera_to_base = np.linalg.inv(base_to_world(view_base)) @ camera_to_world
+    align_px = np.where(
+        sem == _CLASS["target"], 1, np.where(sem == _CLASS["obstacle"], -1, 0)
+    ).astype(np.int8)
+    return frame_clouds(
+        frame.depth,
+        frame.rgb,
+        align_px,
+        config.camera.intrinsics,
+        camera_to_base,
+        config.cloud,
+        config.camera.max_depth,
+    )
+
+
+def sees_near(floor: np.ndarray, base, points: np.ndarray, radius: float) -> bool:
+    """Whether floor points (N, 3 or 2) of the viewpoint ``base`` come within ``radius`` of
+    any of the world ``points`` (M, 2)."""
+    if len(floor) == 0 or len(points) == 0:
+        return False
+    world = base_to_world_xy(np.asarray(floor)[:, :2], base)
+    dist, _ = cKDTree(points).query(world, k=1, distance_upper_bound=radius + 1e-9)
+    return bool(np.isfinite(dist).any())
+
+
 def sample_views(
-    world: World, layout: Layout, cfg: Configuration, config: GenerationConfig
-) -> list[tuple[tuple[float, float, float], np.ndarray, tuple[Render, np.ndarray]]]:
-    """Viewpoints of ``cfg`` where the target is visible: (base pose, camera-to-world,
-    render) for each kept view, in order of increasing distance.
+    world: World,
+    layout: Layout,
+    cfg: Configuration,
+    config: GenerationConfig,
+    successes: np.ndarray | None = None,
+) -> list[View]:
+    """Viewpoints of ``cfg`` where the target is visible, in order of increasing distance.
 
     A viewpoint must leave the viewing robot's footprint inside the room and clear of
     furniture and obstacles. Where the room is too shallow for the nominal distances, the
-    forward range shrinks to what fits.
+    forward range shrinks to what fits. The head camera turns toward the target with the
+    target high in the image (``views.target_row``). With ``successes`` (S, 2), the world
+    positions of successful trials, a view must also see floor within
+    ``views.coverage_radius`` of one of them; after a view that does not, later attempts
+    stand farther back.
     """
     spec = get_robot_spec(cfg.robot)
     views, cam = config.views, config.camera
@@ -112,10 +164,15 @@ def sample_views(
     room = layout.room
     intr = cam.intrinsics
     height = spec.mount_height + cam.above_mount
+    goals = np.zeros((0, 2)) if successes is None else np.asarray(successes).reshape(-1, 2)
+    check = len(goals) > 0 and views.coverage_radius > 0
     out = []
     for k in range(views.episodes):
+        farther = False
         for attempt in range(views.max_tries):
             lateral, forward = _view_candidates(rng, anchor, k, views.episodes, views)
+            if farther:  # the last view missed the successes: stand farther back
+                forward = rng.uniform(forward, views.forward[1])
             # Later attempts come closer: the room may be shallower than the nominal range.
             forward *= 1.0 - 0.5 * attempt / views.max_tries
             x, y = anchor[0] + lateral, anchor[1] + forward
@@ -129,13 +186,17 @@ def sample_views(
             ):
                 continue
             base = (float(x), float(y), yaw)
-            eye = np.array([x, y, height])
-            camera = look_at(eye, anchor)
+            camera = look_toward(np.array([x, y, height]), anchor, intr, views.target_row)
             frame = render(world.client, camera, intr, cam.near, cam.far)
             sem = semantic_map(world, frame.body, frame.link)
-            if int((sem == _CLASS["target"]).sum()) >= views.min_target_pixels:
-                out.append((base, camera, (frame, sem)))
-                break
+            if int((sem == _CLASS["target"]).sum()) < views.min_target_pixels:
+                continue
+            clouds = _clouds(base, camera, frame, sem, config)
+            if check and not sees_near(clouds[3], base, goals, views.coverage_radius):
+                farther = True
+                continue
+            out.append(View(base, camera, frame, sem, clouds))
+            break
     return out
 
 
@@ -144,27 +205,13 @@ def make_episode(
     cfg: Configuration,
     labels: Labels,
     index: int,
-    base,
-    camera_to_world,
-    frame,
-    sem: np.ndarray,
+    view: View,
     config: GenerationConfig,
 ) -> Episode:
     """Build the episode record of one view (clouds in the viewpoint's base frame)."""
-    intr = config.camera.intrinsics
+    base, camera_to_world, frame = view.base, view.camera_to_world, view.frame
     camera_to_base = np.linalg.inv(base_to_world(base)) @ camera_to_world
-    align_px = np.where(
-        sem == _CLASS["target"], 1, np.where(sem == _CLASS["obstacle"], -1, 0)
-    ).astype(np.int8)
-    g_xyz, g_rgb, align, f_pts = frame_clouds(
-        frame.depth,
-        frame.rgb,
-        align_px,
-        intr,
-        camera_to_base,
-        config.cloud,
-        config.camera.max_depth,
-    )
+    g_xyz, g_rgb, align, f_pts = view.clouds
     # Dense labels in the viewpoint's base frame, 0 where the base would not fit.
     f_label = floor_affordance(labels, layout, cfg, f_pts[:, :2], base, config.dense)
     spec = get_robot_spec(cfg.robot)
@@ -176,8 +223,8 @@ def make_episode(
         descriptor=np.asarray(robot_descriptor(spec), np.float32),
         rgb=frame.rgb,
         depth=frame.depth,
-        semantic=sem,
-        intrinsics=intr.as_array(),
+        semantic=view.semantic,
+        intrinsics=config.camera.intrinsics.as_array(),
         camera_pose=camera_to_world,
         base_pose=float3(base),
         camera_to_base=camera_to_base,
@@ -211,10 +258,9 @@ def configuration_episodes(
         world, cfg, trial_config=config.trial, grid_spacing=config.scene.grid_spacing
     )
     world.load_configuration(cfg)  # undo whatever the trials moved
-    episodes = [
-        make_episode(layout, cfg, labels, i, base, camera, frame, sem, config)
-        for i, (base, camera, (frame, sem)) in enumerate(sample_views(world, layout, cfg, config))
-    ]
+    successes = labels.positions[labels.stages == 0]
+    views = sample_views(world, layout, cfg, config, successes)
+    episodes = [make_episode(layout, cfg, labels, i, v, config) for i, v in enumerate(views)]
     return configuration_labels(labels), episodes
 
 

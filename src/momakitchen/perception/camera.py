@@ -82,6 +82,26 @@ def look_at(eye: np.ndarray, target: np.ndarray) -> np.ndarray:
     return tf
 
 
+def look_toward(
+    eye: np.ndarray, target: np.ndarray, intrinsics: Intrinsics, row: float
+) -> np.ndarray:
+    """Camera-to-world transform (4, 4) of a camera at ``eye`` turned toward ``target``
+    (horizontally centred) and pitched so that ``target`` appears at image row
+    ``row * height`` (0.5: the image centre, as :func:`look_at`; smaller values put the
+    target higher and show more of the floor in front of it)."""
+    eye, target = np.asarray(eye, float), np.asarray(target, float)
+    d = target - eye
+    horizontal = float(np.hypot(d[0], d[1]))
+    if horizontal < 1e-6:
+        raise MomaError("camera target straight above or below the eye: horizon undefined")
+    below = np.arctan2(-d[2], horizontal)  # the target's angle below the horizon
+    offset = np.arctan((0.5 - row) * intrinsics.height / intrinsics.fy)
+    pitch = float(np.clip(below + offset, -np.pi / 2 + 0.05, np.pi / 2 - 0.05))
+    yaw = np.arctan2(d[1], d[0])
+    forward = np.array([np.cos(yaw) * np.cos(pitch), np.sin(yaw) * np.cos(pitch), -np.sin(pitch)])
+    return look_at(eye, eye + forward)
+
+
 def backproject(depth: np.ndarray, intrinsics: Intrinsics) -> tuple[np.ndarray, np.ndarray]:
     """Camera-frame points of every pixel with a valid depth.
 
