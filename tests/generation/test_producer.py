@@ -120,7 +120,7 @@ def test_every_view_sees_floor_near_a_success(episodes):
     in view)."""
     from momakitchen.generation.producer import sees_near
 
-    cfg, (labels, eps) = episodes
+    _, (labels, eps) = episodes
     successes = labels.trial_positions[labels.trial_stages == 0]
     assert len(successes) > 0
     for e in eps:
