@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -140,6 +141,48 @@ def solve_ik(
         calls=calls,
         seconds=time.perf_counter() - t0,
     )
+
+
+def ik_solutions(
+    robot: RobotBody,
+    position: ArrayLike,
+    orientation: ArrayLike | None,
+    *,
+    starts: int = 6,
+    pos_tol: float = 0.005,
+    ori_tol: float = math.radians(2.0),
+    iterations: int = 40,
+    distinct: float = 0.3,
+) -> Iterator[IKResult]:
+    """Converged IK solutions of one pose from different starts, in a fixed order: from
+    home, then from the ``starts - 1`` library configurations nearest the pose. Solutions
+    within ``distinct`` rad (every joint) of one already given are skipped, so a caller
+    that rejects a solution (it collides) gets another arm configuration: elbow or wrist
+    flipped, the arm turned another way. The arm is left at the last solution tried.
+    """
+    target = np.asarray(position, float)
+    target_rot = None
+    if orientation is not None:
+        quat = np.asarray(orientation, float)
+        target_rot = np.array(p.getMatrixFromQuaternion(quat.tolist())).reshape(3, 3)
+    if not within_reach(robot, target, target_rot, pos_tol + 0.01):
+        return
+    seen: list[np.ndarray] = []
+    seeds = [robot.home]
+    for k in range(starts):
+        if k == 1:  # home did not do: the library's nearest configurations (built lazily)
+            seeds += _library_seeds(robot, target, target_rot, starts - 1)
+        if k >= len(seeds):
+            break
+        t0 = time.perf_counter()
+        q, perr, oerr, n = _lm(robot, seeds[k], target, target_rot, iterations, pos_tol, ori_tol)
+        if perr > pos_tol or oerr > ori_tol:
+            continue
+        if any(float(np.max(np.abs(q - s))) < distinct for s in seen):
+            continue
+        seen.append(q)
+        robot._reset_arm(q)
+        yield IKResult(q, perr, oerr, True, n, time.perf_counter() - t0)
 
 
 def _library_seeds(

@@ -16,7 +16,7 @@ The TCP frame's z axis is the approach direction; gripper fingers close along it
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -126,6 +126,13 @@ class Robot(RobotBody):
             restarts=restarts,
             rng=rng,
         )
+
+    def ik_solutions(
+        self, position: ArrayLike, orientation: ArrayLike | None, *, starts: int = 6
+    ) -> Iterator[IKResult]:
+        """Distinct converged IK solutions of one pose, from home then from library
+        configurations (see :func:`momakitchen.robots.ik.ik_solutions`)."""
+        return ik.ik_solutions(self, position, orientation, starts=starts)
 
     def plan_line(
         self, position: ArrayLike, orientation: ArrayLike | None, n: int = 10

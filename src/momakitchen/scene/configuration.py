@@ -230,6 +230,19 @@ def base_fits(
     return _inside_room(fps, layout.room, 0.0) & ~overlap_matrix(fps, blocked).any(1)
 
 
+ARM_CORRIDOR = 0.12  # m: width of the floor strip the arm sweeps from the base to the target
+
+
+def _corridors(bases: np.ndarray, anchor: np.ndarray) -> np.ndarray:
+    """Corners (N, 4, 2) of the floor strips from each base footprint's centre to the
+    target: an obstacle standing on one would be in the arm's way."""
+    centres = bases.mean(axis=1)
+    d = anchor[:2] - centres
+    length = np.hypot(d[:, 0], d[:, 1])
+    mid = centres + d / 2
+    return box_corners(mid[:, 0], mid[:, 1], np.arctan2(d[:, 1], d[:, 0]), length, ARM_CORRIDOR)
+
+
 def _inside_room(corners: np.ndarray, room: Any, margin: float) -> np.ndarray:
     """(N,) bool: rectangles (N, 4, 2) at least ``margin`` inside the walls."""
     return (
@@ -249,14 +262,16 @@ def _place_obstacles(
 ) -> tuple[Placed, ...]:
     """1-3 obstacles in the semicircle that leave enough base positions free.
 
-    Each obstacle takes, among random poses that fit, the first that keeps ``needed``
-    base positions free (or the one that blocks the fewest); whole arrangements are
-    redrawn up to 10 times.
+    A base position stays free if no obstacle overlaps its footprint nor the floor strip
+    from it to the target (where the arm reaches over). Each obstacle takes, among random
+    poses that fit, the first that keeps ``needed`` base positions free (or the one that
+    blocks the fewest); whole arrangements are redrawn up to 10 times.
     """
     furniture = corners_of(layout.footprints(margin=0.02))
     bases = _candidate_bases(
         anchor, reach, corners_of(layout.footprints()), footprint, cfg.grid_spacing, layout.room
     )
+    corridors = _corridors(bases, anchor)
     kinds = categories_of_kind("obstacle")
     # Where few positions exist at all (a tight corner), keep a good part of them.
     needed = min(cfg.min_free_positions, int(0.5 * len(bases)))
@@ -265,7 +280,7 @@ def _place_obstacles(
         count = int(rng.integers(cfg.obstacles[0], cfg.obstacles[1] + 1))
         placed: list[Placed] = []
         blocked = furniture
-        free_bases = bases
+        free_bases, free_corridors = bases, corridors
         for i in range(count):
             for _instance in range(4):  # a new instance if this one fits nowhere
                 cat = kinds[int(rng.integers(len(kinds)))]
@@ -280,7 +295,8 @@ def _place_obstacles(
                 c = box_corners(x, y, yaw, sx, sy)
                 ok = _inside_room(c, layout.room, 0.02) & ~overlap_matrix(c, blocked).any(1)
                 if ok.any():
-                    hits = overlap_matrix(free_bases, c)  # (bases still free, candidates)
+                    # (bases still free, candidates): the base or the arm's way blocked
+                    hits = overlap_matrix(free_bases, c) | overlap_matrix(free_corridors, c)
                     left = np.where(ok, len(free_bases) - hits.sum(0), -1)
                     good = ok & (left >= needed)
                     k = int(np.argmax(good)) if good.any() else int(np.argmax(left))
@@ -290,9 +306,11 @@ def _place_obstacles(
                     placed.append(ob)
                     blocked = np.concatenate([blocked, ob.footprint(0.02).corners()[None]])
                     free_bases = free_bases[~hits[:, k]]
+                    free_corridors = free_corridors[~hits[:, k]]
                     break
         obstacles = corners_of([q.footprint() for q in placed])
-        free = int((~overlap_matrix(bases, obstacles).any(1)).sum())
+        blocked_bases = overlap_matrix(bases, obstacles) | overlap_matrix(corridors, obstacles)
+        free = int((~blocked_bases.any(1)).sum())
         if len(placed) >= cfg.obstacles[0]:
             if free >= needed:
                 return tuple(placed)

@@ -43,7 +43,9 @@ class TrialConfig:
             width: to the axis of a bottle, around a handle bar, over the top of a fruit.
         max_grasp_candidates: rigid targets offer several grasp frames; this many, the
             best aligned with the robot first, are tried.
-        ik_restarts: random restarts of the IK solver for the pre-grasp pose.
+        ik_restarts: IK starts beyond the home configuration for the pre-grasp pose (the
+            robot's library configurations nearest the pose); each distinct solution is
+            checked for collisions until one is free.
         solver_iterations: PyBullet constraint-solver iterations per step during trials
             (PyBullet's default is 50; 30 gives the same outcomes on our scenes, faster).
     """
@@ -58,7 +60,7 @@ class TrialConfig:
     pull_distance: float = 0.16
     max_grasp_depth: float = 0.03
     max_grasp_candidates: int = 3
-    ik_restarts: int = 2
+    ik_restarts: int = 5
     solver_iterations: int = 30
 
     def __post_init__(self) -> None:

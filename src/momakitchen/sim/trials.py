@@ -212,21 +212,25 @@ class TrialRunner:
             reachable = True
             for sign in (1.0, -1.0):  # a two-finger grasp is symmetric about the closing axis
                 quat = tcp_quaternion(normal, sign * closing)
+                # Distinct arm configurations for the pre-grasp, until one is free of
+                # collisions at both poses (an IK answer alone may fold the arm into the
+                # base or sweep it through an obstacle).
                 t0 = time.perf_counter()
-                pre = robot.solve_ik(
-                    pos + cfg.pregrasp_offset * normal,
-                    quat,
-                    seed=robot.home,
-                    restarts=cfg.ik_restarts,
+                pres = robot.ik_solutions(
+                    pos + cfg.pregrasp_offset * normal, quat, starts=1 + cfg.ik_restarts
                 )
-                grasp = robot.solve_ik(pos, quat, seed=pre.q, restarts=0) if pre.success else None
+                for pre in pres:
+                    grasp = robot.solve_ik(pos, quat, seed=pre.q, restarts=0)
+                    t_ik += time.perf_counter() - t0
+                    if grasp.success:
+                        if not (
+                            self._arm_collides(pre.q, bodies) or self._arm_collides(grasp.q, bodies)
+                        ):
+                            plan = _Plan(g, pre.q, grasp.q, pos, normal, quat)
+                            return Stage.SUCCESS, plan, t_ik
+                        collided = True
+                    t0 = time.perf_counter()
                 t_ik += time.perf_counter() - t0
-                if grasp is None or not grasp.success:
-                    continue
-                if self._arm_collides(pre.q, bodies) or self._arm_collides(grasp.q, bodies):
-                    collided = True
-                    continue
-                return Stage.SUCCESS, _Plan(g, pre.q, grasp.q, pos, normal, quat), t_ik
         if not reachable:
             return Stage.OUT_OF_REACH, None, t_ik
         return (Stage.ARM_COLLISION if collided else Stage.IK_FAILED), None, t_ik
@@ -295,68 +299,89 @@ class TrialRunner:
             return False, 0.0
         robot.set_joint_positions(q_held)  # solve_ik leaves the arm at its solution
         self._drive(q_held, up.q, 4, 15)
+        # A loaded arm lags its commands: let it arrive before judging the lift.
+        robot.drive_to(up.q, 60, tol=2e-3)
         if self._object_height() - z0 < cfg.min_lift:
             return False, self._object_height() - z0  # it did not come up: no need to hold
         world.step(round(cfg.hold_seconds * 240))
         rise = self._object_height() - z0
         return bool(rise >= cfg.min_lift and self.tool.holds(self.target.body_id)), rise
 
-    def _handle_tcp_path(self, plan: _Plan, n: int) -> list[tuple[np.ndarray, np.ndarray]]:
-        """TCP poses that follow the handle as the part opens (kinematic preview)."""
-        t, c, cfg = self.target, self._client, self.config
-        amount = (
-            math.radians(cfg.pull_angle_deg) if t.joint_type == "revolute" else cfg.pull_distance
-        )
-        amount = min(amount, t.limit) if t.limit > 0 else amount
-        q0, v0 = p.getJointState(t.body_id, t.joint_index, physicsClientId=c)[:2]
-        link_pos, link_quat = p.getLinkState(
-            t.body_id, t.link_index, computeForwardKinematics=True, physicsClientId=c
+    def _link_frame(self) -> tuple[np.ndarray, np.ndarray]:
+        """The world pose (position, quaternion) of the target part's link frame, which
+        sits on its joint (URDF convention)."""
+        t = self.target
+        pos, quat = p.getLinkState(
+            t.body_id, t.link_index, computeForwardKinematics=True, physicsClientId=self._client
         )[4:6]
-        inv = p.invertTransform(link_pos, link_quat)
-        tcp_in_link = p.multiplyTransforms(*inv, plan.position.tolist(), plan.quat.tolist())
-        path = []
-        for k in range(1, n + 1):
-            p.resetJointState(
-                t.body_id, t.joint_index, q0 + t.open_direction * amount * k / n, physicsClientId=c
-            )
-            lp, lq = p.getLinkState(
-                t.body_id, t.link_index, computeForwardKinematics=True, physicsClientId=c
-            )[4:6]
-            pos, quat = p.multiplyTransforms(lp, lq, *tcp_in_link)
-            path.append((np.array(pos), np.array(quat)))
-        p.resetJointState(t.body_id, t.joint_index, q0, v0, physicsClientId=c)
-        return path
+        return np.asarray(pos), np.asarray(quat)
+
+    def _opened_pose(self, tcp_in_link: tuple, amount: float) -> tuple[np.ndarray, np.ndarray]:
+        """The TCP pose that holds the handle once the part has opened ``amount`` (rad or
+        m) beyond its measured position: the part's link frame turned about (or moved
+        along) the joint axis, with the grasp fixed in it."""
+        t = self.target
+        lp, lq = self._link_frame()
+        axis_local = p.getJointInfo(t.body_id, t.joint_index, physicsClientId=self._client)[13]
+        rot = np.array(p.getMatrixFromQuaternion(lq.tolist())).reshape(3, 3)
+        axis = rot @ np.asarray(axis_local, float)
+        step = t.open_direction * amount
+        if t.joint_type == "revolute":
+            turn = p.getQuaternionFromAxisAngle(axis.tolist(), step)
+            lq = np.asarray(p.multiplyTransforms((0, 0, 0), turn, (0, 0, 0), lq.tolist())[1])
+        else:
+            lp = lp + step * axis
+        pos, quat = p.multiplyTransforms(lp.tolist(), lq.tolist(), *tcp_in_link)
+        return np.asarray(pos), np.asarray(quat)
 
     def _pull(self, plan: _Plan, q_held: np.ndarray) -> tuple[bool, float]:
+        """Open the part in closed loop: each move aims the hand at where the handle will
+        be a small step beyond the part's *measured* opening, so the hand never runs
+        ahead of a part that lags (the grasp would tear off). Where the arm cannot follow
+        a step (the workspace ends), a half step is tried before stopping."""
         robot, cfg, world, t = self.robot, self.config, self.world, self.target
         q_start = world.joint_position(t)
-        held_quat = robot.tcp_pose(q_held)[1]
-        qs, seed = [], q_held
-        for pos, quat in self._handle_tcp_path(plan, 8):
-            # The fingers may turn about the handle bar: besides following the handle's
-            # frame, accept keeping the grasp orientation or halfway between.
+        revolute = t.joint_type == "revolute"
+        goal = math.radians(cfg.pull_angle_deg) if revolute else cfg.pull_distance
+        goal = min(goal, t.limit) if t.limit > 0 else goal
+        need = math.radians(cfg.open_angle_deg) if revolute else cfg.open_distance
+        step = math.radians(6.0) if revolute else 0.025
+        # The grasp as it really is after closing the fingers, fixed in the part's frame.
+        lp, lq = self._link_frame()
+        tcp_pos, tcp_quat = robot.tcp_pose()
+        inv = p.invertTransform(lp.tolist(), lq.tolist())
+        tcp_in_link = p.multiplyTransforms(*inv, tcp_pos.tolist(), tcp_quat.tolist())
+        held_quat = tcp_quat
+        q = q_held
+        for _ in range(2 * math.ceil(goal / step) + 4):
+            opened = (world.joint_position(t) - q_start) * t.open_direction
+            if opened >= goal - 1e-3:
+                break
             res = None
-            for frac in (1.0, 0.0, 0.5):
-                goal = p.getQuaternionSlerp(held_quat.tolist(), quat.tolist(), frac)
-                res = robot.solve_ik(
-                    pos, goal, seed=seed, restarts=0, pos_tol=0.01, ori_tol=math.radians(6)
-                )
-                if res.success:
+            # IK moves the arm kinematically: keep the physical state to put it back.
+            arm = robot.arm_joints
+            saved = p.getJointStates(robot.body, arm, physicsClientId=self._client)
+            for amount in (min(step, goal - opened + 1e-3), step / 2):
+                pos, quat = self._opened_pose(tcp_in_link, amount)
+                # The fingers may turn about the handle bar: besides following the
+                # handle's frame, accept keeping the grasp orientation or halfway.
+                for frac in (1.0, 0.0, 0.5):
+                    goal_quat = p.getQuaternionSlerp(held_quat.tolist(), quat.tolist(), frac)
+                    res = robot.solve_ik(
+                        pos, goal_quat, seed=q, restarts=0, pos_tol=0.01, ori_tol=math.radians(6)
+                    )
+                    if res.success:
+                        break
+                if res is not None and res.success:
                     break
+            for j, s in zip(arm, saved, strict=True):
+                p.resetJointState(robot.body, j, s[0], s[1], physicsClientId=self._client)
             if res is None or not res.success:
                 break
-            qs.append(res.q)
-            seed = res.q
-        robot.set_joint_positions(q_held)
-        if not qs:
-            return False, 0.0
-        prev = q_held
-        for q in qs:
-            self._drive(prev, q, 1, 30)
-            prev = q
+            self._drive(q, res.q, 4, 10)
+            q = res.q
         world.step(20)
         opened = (world.joint_position(t) - q_start) * t.open_direction
-        need = math.radians(cfg.open_angle_deg) if t.joint_type == "revolute" else cfg.open_distance
         return bool(opened >= need), float(opened)
 
     def _release(self) -> None:
