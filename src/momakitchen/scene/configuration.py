@@ -25,7 +25,7 @@ from momakitchen.scene.geometry import (
     semicircle_grid,
 )
 from momakitchen.scene.layout import Layout, Placed, _r, sample_layout, scene_rng
-from momakitchen.scene.urdf_frames import link_rest_poses
+from momakitchen.scene.urdf_frames import joint_axes, link_rest_poses
 
 CONFIG_STREAM = 1
 
@@ -148,6 +148,43 @@ def handle_anchor(unit: Placed, articulation: int) -> tuple[float, float, float]
     return float3(_r(v) for v in unit.to_world(local))
 
 
+# What the trials command (TrialConfig's pull_angle_deg and pull_distance): the floor the
+# part sweeps while opening that far must stay free of obstacles.
+PART_SWEEP = (np.radians(45.0), 0.16)
+
+
+def part_sweep(unit: Placed, articulation: int, margin: float = 0.1) -> np.ndarray:
+    """Corners (1, 4, 2) of the world-axis-aligned floor rectangle that the handle of an
+    articulated part passes over while the part opens by :data:`PART_SWEEP` (a door's
+    arc, a drawer's travel), together with its hinge, grown by ``margin``."""
+    model = unit.model
+    art = model.articulations[articulation]
+    child, axis_local = joint_axes(model.urdf)[art.joint]
+    poses = link_rest_poses(model.urdf)
+    joint_frame, handle_frame = poses[child], poses[art.handle.link]
+    origin = joint_frame[:3, 3]
+    axis = joint_frame[:3, :3] @ axis_local
+    axis = axis / max(float(np.linalg.norm(axis)), 1e-9)
+    handle = handle_frame[:3, :3] @ np.asarray(art.handle.position) + handle_frame[:3, 3]
+    amount = PART_SWEEP[0] if art.joint_type == "revolute" else PART_SWEEP[1]
+    amount = min(amount, art.limit) if art.limit > 0 else amount
+    points = [origin]
+    for s in np.linspace(0.0, amount, 6) * art.open_direction:
+        if art.joint_type == "revolute":  # Rodrigues: the handle turned about the hinge
+            v = handle - origin
+            v = (
+                v * np.cos(s)
+                + np.cross(axis, v) * np.sin(s)
+                + axis * float(axis @ v) * (1 - np.cos(s))
+            )
+            points.append(origin + v)
+        else:
+            points.append(handle + s * axis)
+    xy = unit.to_world(np.array(points))[:, :2]
+    lo, hi = xy.min(axis=0) - margin, xy.max(axis=0) + margin
+    return np.array([[[hi[0], hi[1]], [lo[0], hi[1]], [lo[0], lo[1]], [hi[0], lo[1]]]])
+
+
 def articulated_targets(layout: Layout) -> list[tuple[str, int]]:
     """(uid, articulation index) of every functional part in the kitchen."""
     return [(p.uid, i) for p in layout.furniture for i in range(len(p.model.articulations))]
@@ -259,15 +296,20 @@ def _place_obstacles(
     anchor: np.ndarray,
     reach: float,
     footprint: tuple[float, float],
+    keep_clear: np.ndarray | None = None,
 ) -> tuple[Placed, ...]:
     """1-3 obstacles in the semicircle that leave enough base positions free.
 
     A base position stays free if no obstacle overlaps its footprint nor the floor strip
     from it to the target (where the arm reaches over). Each obstacle takes, among random
     poses that fit, the first that keeps ``needed`` base positions free (or the one that
-    blocks the fewest); whole arrangements are redrawn up to 10 times.
+    blocks the fewest); whole arrangements are redrawn up to 10 times. No obstacle
+    overlaps ``keep_clear`` (K, 4, 2) either: the floor an articulated target sweeps as it
+    opens.
     """
     furniture = corners_of(layout.footprints(margin=0.02))
+    if keep_clear is not None:  # e.g. the floor a door sweeps: no obstacle may stand there
+        furniture = np.concatenate([furniture, keep_clear])
     bases = _candidate_bases(
         anchor, reach, corners_of(layout.footprints()), footprint, cfg.grid_spacing, layout.room
     )
@@ -369,8 +411,13 @@ def sample_configuration(
             break
     assert best is not None  # the loop runs at least once
     target = best[1]
+    sweep = (
+        part_sweep(layout.unit(target.uid), target.articulation)
+        if target.articulation is not None
+        else None
+    )
     obstacles = _place_obstacles(
-        layout, rng, cfg, np.asarray(target.anchor), robot.reach, robot.footprint
+        layout, rng, cfg, np.asarray(target.anchor), robot.reach, robot.footprint, sweep
     )
     return Configuration(layout.scene_id, index, robot.name, tuple(objects), target, obstacles)
 

@@ -92,3 +92,22 @@ def link_rest_poses(urdf: str) -> dict[str, np.ndarray]:
     for name in links:
         pose(name)
     return poses
+
+
+@functools.lru_cache(maxsize=256)
+def joint_axes(urdf: str) -> dict[str, tuple[str, np.ndarray]]:
+    """Every joint's child link and axis, the axis in that child link's frame (URDF's
+    default (1, 0, 0) where none is given; do not modify the returned arrays)."""
+    try:
+        root = ET.fromstring(urdf)
+    except ET.ParseError as exc:
+        raise MomaError(f"URDF does not parse: {exc}") from None
+    out = {}
+    for joint in root.findall("joint"):
+        what = f"<joint name={joint.get('name')!r}>"
+        name = _required_attr(joint, "name", "<joint>")
+        child = _required_attr(_required_child(joint, "child", what), "link", f"{what} <child>")
+        axis = joint.find("axis")
+        xyz = axis.get("xyz", "1 0 0") if axis is not None else "1 0 0"
+        out[name] = (child, np.array([float(v) for v in xyz.split()]))
+    return out

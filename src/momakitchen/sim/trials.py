@@ -345,7 +345,7 @@ class TrialRunner:
         goal = math.radians(cfg.pull_angle_deg) if revolute else cfg.pull_distance
         goal = min(goal, t.limit) if t.limit > 0 else goal
         need = math.radians(cfg.open_angle_deg) if revolute else cfg.open_distance
-        step = math.radians(6.0) if revolute else 0.025
+        step = math.radians(3.0) if revolute else 0.025
         # The grasp as it really is after closing the fingers, fixed in the part's frame.
         lp, lq = self._link_frame()
         tcp_pos, tcp_quat = robot.tcp_pose()
@@ -380,9 +380,19 @@ class TrialRunner:
                 break
             self._drive(q, res.q, 4, 10)
             q = res.q
+            if self._lost_grip():
+                break
         world.step(20)
         opened = (world.joint_position(t) - q_start) * t.open_direction
         return bool(opened >= need), float(opened)
+
+    def _lost_grip(self) -> bool:
+        """The tool let go of the part: the cup is off, or the fingers closed on nothing
+        (the handle slipped out)."""
+        tool = self.tool
+        if isinstance(tool, SuctionTool):
+            return not tool.holds(self.target.body_id)
+        return tool.opening() < 0.002
 
     def _release(self) -> None:
         # Suction holds by a constraint: let go of the target before and after a trial.
