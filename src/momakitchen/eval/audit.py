@@ -337,11 +337,8 @@ def audit_figure(summary: dict[str, Any], config: AuditConfig) -> bytes:
                 linestyles="dashed",
                 linewidth=0.8,
             )
-        ax.set_xticks(
-            x,
-            [f"{n}\n({f['configurations']})" for n, f in zip(names, rows, strict=True)],
-            fontsize=8,
-        )
+        labels = [f"{n}\n({f['configurations']})" for n, f in zip(names, rows, strict=True)]
+        ax.set_xticks(x, labels, fontsize=8, rotation=25, ha="right")
         ax.set_ylim(0, 1.05)
         ax.set_ylabel("fraction")
         ax.set_title(f"label audit {group.replace('_', ' ')} (configurations); dashed: goals")
