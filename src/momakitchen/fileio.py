@@ -1,4 +1,5 @@
-"""Atomic file writes: a reader never sees a half-written file."""
+"""Atomic file writes (a reader never sees a half-written file) and the checks of the
+directories that commands read."""
 
 from __future__ import annotations
 
@@ -8,8 +9,12 @@ import zipfile
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import numpy as np
+from momakitchen.errors import MomaError
+
+if TYPE_CHECKING:
+    import numpy as np
 
 
 @contextmanager
@@ -41,6 +46,8 @@ def atomic_write_text(path: str | os.PathLike, text: str) -> None:
 def npz_bytes(**arrays: np.ndarray) -> bytes:
     """An ``.npz`` archive (compressed, loadable by ``np.load``) whose bytes depend only on
     the arrays: entries in argument order with a fixed timestamp, unlike ``np.savez``."""
+    import numpy as np  # here: the command line imports this module before numpy is needed
+
     buf = io.BytesIO()
     with zipfile.ZipFile(buf, "w", compression=zipfile.ZIP_DEFLATED) as zf:
         for name, array in arrays.items():
@@ -49,3 +56,14 @@ def npz_bytes(**arrays: np.ndarray) -> bytes:
             with zf.open(info, "w") as fh:
                 np.lib.format.write_array(fh, np.asanyarray(array), allow_pickle=False)
     return buf.getvalue()
+
+
+def existing_dir(path: str | os.PathLike, what: str) -> Path:
+    """``path`` as a Path if it is a directory; otherwise MomaError saying whether it is
+    missing or something else (``what`` names it: "dataset directory", ...)."""
+    path = Path(path)
+    if not path.exists():
+        raise MomaError(f"{what} {str(path)!r} does not exist")
+    if not path.is_dir():
+        raise MomaError(f"{what} {str(path)!r} is not a directory")
+    return path

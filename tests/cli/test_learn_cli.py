@@ -98,3 +98,25 @@ def test_bad_input(argv, needle, dataset, run, tmp_path, capsys):
     assert main(argv) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and needle in err
+
+
+def test_a_one_scene_dataset_says_how_to_get_a_train_split(tmp_path, capsys):
+    """`generate --scenes 1` makes a test-only dataset: generate says so, and `train` says
+    which --scenes gives both splits (it used to say only "has no train episodes")."""
+    root = tmp_path / "one"
+    argv = ["generate", "--out", str(root), "--scenes", "1", "--synthetic", "--quiet"]
+    assert main(argv) == 0
+    out = capsys.readouterr().out
+    assert "note: no train scenes" in out and "--scenes 2 or more from scene 0" in out
+    run = tmp_path / "run"
+    assert main(["train", "--data", str(root), "--model", "navaff", "--out", str(run)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "all test scenes" in err
+    assert "`momakitchen generate --scenes 2` or more from scene 0 gives both splits" in err
+    assert not run.exists()
+    # Two scenes from 0 are enough: the note goes away and train has episodes.
+    assert main([*argv[:4], "2", *argv[5:]]) == 0
+    assert "note:" not in capsys.readouterr().out
+    assert main(["stats", str(root), "--json"]) == 0
+    splits = json.loads(capsys.readouterr().out)["splits"]
+    assert splits["train"]["episodes"] > 0 and splits["test"]["episodes"] > 0

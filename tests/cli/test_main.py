@@ -32,3 +32,35 @@ def test_generate_does_not_import_torch():
         [sys.executable, "-c", code], capture_output=True, text=True, check=True
     ).stdout.split()
     assert out[-1] == "False"
+
+
+def test_help_and_version_import_nothing_heavy():
+    """`momakitchen --help` and `--version` build every parser without torch (3 s), numpy
+    or the simulator, so they answer in a fraction of a second."""
+    code = (
+        "import sys; from momakitchen.cli.main import main\n"
+        "for argv in (['--help'], ['--version'], []):\n"
+        "    main(argv)\n"
+        "heavy = ('torch', 'numpy', 'h5py', 'scipy', 'pybullet', 'matplotlib', 'tqdm')\n"
+        "print(sorted(m for m in heavy if m in sys.modules))"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True
+    ).stdout.splitlines()
+    assert "momakitchen 0.1.0" in out and "train" in "\n".join(out)
+    assert out[-1] == "[]"
+
+
+def test_names_spelled_out_for_the_parsers_match_the_registries():
+    """The parsers list model, preset, baseline and split names (and the demo's default
+    scene) without importing their modules; they must be those modules' values."""
+    from momakitchen.cli import demo, learn, msr
+    from momakitchen.eval import msr as msr_module
+    from momakitchen.generation.demo import DEFAULT_SCENE_ID
+    from momakitchen.models import model_names
+    from momakitchen.train import PRESETS
+
+    assert learn.MODEL_NAMES == model_names()
+    assert learn.PRESET_NAMES == tuple(PRESETS)
+    assert (msr.BASELINES, msr.SPLITS) == (msr_module.BASELINES, msr_module.SPLITS)
+    assert demo.DEFAULT_SCENE_ID == DEFAULT_SCENE_ID

@@ -145,7 +145,7 @@ def test_bad_input_is_one_line_exit_2_and_keeps_data(tmp_path, capsys):
     before = _digests(root)
     assert main(["generate", "--synthetic", "--out", str(root), "--scenes", "0"]) == 2
     err = capsys.readouterr().err.strip()
-    assert err.count("\n") == 0 and "scenes must be >= 1, got 0" in err
+    assert err.count("\n") == 0 and "--scenes: expected an integer >= 1, got '0'" in err
     # Same directory with another producer (the simulator) is refused too.
     assert main(["generate", "--out", str(root), "--scenes", "2", "--quiet"]) == 2
     assert "use another --out" in capsys.readouterr().err

@@ -154,3 +154,32 @@ def test_msr_cli(real_dataset, tmp_path, capsys):
     )
     assert main(["msr", "--data", str(real_dataset), "--method", "best", "--json", str(out)]) == 2
     assert "unknown MSR method" in capsys.readouterr().err
+
+
+def test_msr_checks_every_shard_before_the_first_configuration(
+    real_dataset, tmp_path, monkeypatch, capsys
+):
+    """A second test scene whose shard is truncated is refused before any configuration
+    runs (it used to be found after the first scene's configurations, in HDF5's words)."""
+    import shutil
+
+    import momakitchen.eval.msr as msr_module
+    from momakitchen.cli.main import main
+
+    root = tmp_path / "ds"
+    shutil.copytree(real_dataset, root)
+    manifest = json.loads((root / "manifest.json").read_text())
+    entry = {**manifest["shards"]["0"], "scene_id": 5, "file": "scenes/scene_000005.h5"}
+    manifest["shards"]["5"] = entry  # scene 5 is a test scene, after scene 0
+    manifest["splits"]["test"].append(5)
+    (root / "manifest.json").write_text(json.dumps(manifest))
+    data = (root / "scenes" / "scene_000000.h5").read_bytes()
+    (root / "scenes" / "scene_000005.h5").write_bytes(data[: len(data) // 2])
+    calls = []
+    monkeypatch.setattr(msr_module, "run_configuration", lambda *a, **k: calls.append(a))
+    argv = ["msr", "--data", str(root), "--method", "random", "--json", str(tmp_path / "m.json")]
+    assert main([*argv, "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "scene_000005.h5" in err and "truncated" in err
+    assert "Unable to" not in err and "HDF5" not in err
+    assert calls == [] and not (tmp_path / "m.json").exists()

@@ -12,7 +12,17 @@ from momakitchen.frames import base_to_world_xy
 from momakitchen.sim.config import STAGE_NAMES
 
 
-def test_demo_writes_report_and_result(tiny_run, tmp_path, capsys):
+def test_demo_writes_report_and_result(tiny_run, tmp_path, capsys, monkeypatch):
+    import momakitchen.perception.figures as figures
+
+    figs = []
+    png_bytes = figures.png_bytes
+
+    def keep(fig):  # the report's figure, kept for the checks below
+        figs.append(fig)
+        return png_bytes(fig)
+
+    monkeypatch.setattr(figures, "png_bytes", keep)
     out = tmp_path / "demo"
     assert (
         main(
@@ -47,6 +57,41 @@ def test_demo_writes_report_and_result(tiny_run, tmp_path, capsys):
     assert (out / "report.png").stat().st_size > 50_000
     stdout = capsys.readouterr().out
     assert "[6/6] write the report" in stdout and "report.png" in stdout
+    # Each step line shows that step's own duration, the number result.json records.
+    from momakitchen.generation.demo import STEP_KEYS, STEPS
+
+    for i, (name, key) in enumerate(zip(STEPS, STEP_KEYS, strict=True)):
+        assert f"[{i + 1}/6] {name} ... {steps[key]:.2f} s\n" in stdout, stdout
+    assert f"{steps['total']:.2f} s in all" in stdout
+    _check_report_figure(figs[-1], result)
+
+
+def _check_report_figure(fig, result):
+    """The target is outlined in both image panels; the predicted and true top-down maps
+    share one colour scale and show the region around the target, not the whole floor; no
+    badge sits on a plot."""
+    from matplotlib.collections import PathCollection
+
+    axes = fig.axes
+    images = [ax for ax in axes if ax.get_title().startswith(("1.", "3."))]
+    maps = [ax for ax in axes if ax.get_title().startswith(("4.", "5."))]
+    assert len(images) == 2 and len(maps) == 2
+    for ax in images:
+        assert any(t.get_text() == "target" for t in ax.texts), ax.get_title()
+        assert len(ax.collections) >= 1 + (ax.get_title().startswith("3."))  # the outline
+    scatters = [next(c for c in ax.collections if isinstance(c, PathCollection)) for ax in maps]
+    norms = {(c.norm.vmin, c.norm.vmax) for c in scatters}
+    assert len(norms) == 1, norms
+    for ax, sc in zip(maps, scatters, strict=True):
+        floor = np.asarray(sc.get_offsets())  # (-y, x) of every floor point
+        (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+        lo, hi = floor.min(0) - 0.41, floor.max(0) + 0.41  # report_region's margin
+        assert lo[0] <= x0 < x1 <= hi[0] and lo[1] <= y0 < y1 <= hi[1]  # not the camera
+        star = next(line for line in ax.lines if line.get_marker() == "*")
+        (sx,), (sy,) = star.get_data()
+        assert x0 <= sx <= x1 and y0 <= sy <= y1  # the target is in view
+        assert not [t for t in ax.texts if t.get_bbox_patch() is not None]  # no badge
+    assert ("success" if result["trial"]["success"] else "failure") in maps[1].get_title()
 
 
 def test_demo_bad_input(tmp_path, capsys):
@@ -57,4 +102,18 @@ def test_demo_bad_input(tmp_path, capsys):
     assert main(["demo", "--out", str(tmp_path / "c"), "--config", "99"]) == 2
     err = capsys.readouterr().err
     assert "unknown robot 'r2d2'" in err and "does not exist" in err
-    assert "configuration index must be in [0, " in err
+    assert "--config must be in [0, 9], got 99" in err
+    assert not any((tmp_path / d).exists() for d in "abc")  # nothing created on bad input
+
+
+def test_report_region_is_the_floor_around_what_matters():
+    """Of a 4 x 4 m floor, the report shows the part where the maps are above 10 % of the
+    scale, the target and the poses, with a margin."""
+    from momakitchen.generation.demo import report_region
+
+    g = np.stack(np.meshgrid(np.arange(0.5, 4.5, 0.05), np.arange(-2, 2, 0.05)), -1)
+    floor = np.column_stack([g.reshape(-1, 2), np.zeros(g.size // 2)])
+    hot = np.exp(-np.sum((floor[:, :2] - [3.0, 0.5]) ** 2, 1) / 0.02)  # a blob at (3, 0.5)
+    x0, x1, y0, y1 = report_region(floor, [hot, 0.3 * hot], 1.0, np.array([[3.4, 0.4]]))
+    assert 2.0 < x0 < 2.8 and 3.7 < x1 < 3.9 and -0.3 < y0 < 0.3 and 0.7 < y1 < 1.3
+    assert (x1 - x0) * (y1 - y0) < 0.15 * 16

@@ -1,54 +1,115 @@
-"""Argument types and output helpers shared by subcommands."""
+"""Argument types and output helpers shared by subcommands.
+
+Each rule on a value has one wording, stated here once: ``expected an integer >= 1, got
+'0'``, ``expected a number > 0, got '0'``, ``--config must be in [0, 9], got 12``.
+"""
 
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import tempfile
 from pathlib import Path
 
-import numpy as np
-
 from momakitchen.errors import MomaError
 
 
-def non_negative_int(text: str) -> int:
-    """argparse type: an integer >= 0, with the bad value in the message."""
+def _integer(text: str, minimum: int) -> int:
+    """argparse type body: an integer >= ``minimum``, with the bad value in the message."""
     try:
         value = int(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a non-negative integer, got {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"expected a non-negative integer, got {value}")
+        value = None
+    if value is None or value < minimum:
+        raise argparse.ArgumentTypeError(f"expected an integer >= {minimum}, got {text!r}")
     return value
+
+
+def non_negative_int(text: str) -> int:
+    """argparse type: an integer >= 0."""
+    return _integer(text, 0)
 
 
 def positive_int(text: str) -> int:
     """argparse type: an integer >= 1."""
-    value = non_negative_int(text)
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {value}")
+    return _integer(text, 1)
+
+
+def _number(text: str, allow_zero: bool) -> float:
+    rule = ">= 0" if allow_zero else "> 0"
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and (value >= 0 if allow_zero else value > 0)):
+        raise argparse.ArgumentTypeError(f"expected a finite number {rule}, got {text!r}")
     return value
 
 
 def non_negative_float(text: str) -> float:
     """argparse type: a finite number >= 0."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not (np.isfinite(value) and value >= 0):
-        raise argparse.ArgumentTypeError(f"expected a finite number >= 0, got {text!r}")
-    return value
+    return _number(text, allow_zero=True)
+
+
+def positive_float(text: str) -> float:
+    """argparse type: a finite number > 0."""
+    return _number(text, allow_zero=False)
+
+
+def add_robot_yaml(parser: argparse.ArgumentParser) -> None:
+    """``--robot-yaml FILE`` (repeatable) on a command that takes a robot; the entry point
+    registers the files' robots before the command runs (as MOMAKITCHEN_ROBOT_YAML does)."""
+    parser.add_argument(
+        "--robot-yaml",
+        action="append",
+        default=[],
+        metavar="FILE",
+        help="register a user robot (URDF + YAML, see `momakitchen robots`) first; repeatable",
+    )
+
+
+def check_config_index(index: int, count: int) -> None:
+    """MomaError unless ``--config`` ``index`` names one of ``count`` configurations."""
+    if not 0 <= index < count:
+        raise MomaError(f"--config must be in [0, {count - 1}], got {index}")
+
+
+def planned_output_dir(path: str | os.PathLike) -> Path:
+    """Check, creating nothing, that ``path`` is or can become a writable directory: a
+    command checks its ``--out`` with this before any work and creates it (with
+    :func:`output_dir`) only when its inputs have proved valid, so a failed run leaves no
+    empty directory behind."""
+    out = Path(path)
+    ancestor = out
+    while not ancestor.exists() and ancestor != ancestor.parent:
+        ancestor = ancestor.parent
+    if not ancestor.is_dir():
+        reason = f"{str(ancestor)!r} is not a directory"
+    elif not os.access(ancestor, os.W_OK | os.X_OK):
+        reason = f"{str(ancestor)!r} is not writable"
+    else:
+        return out
+    raise MomaError(f"cannot write to output directory {str(out)!r}: {reason}")
 
 
 def output_dir(path: str | os.PathLike) -> Path:
     """Create ``path`` (and parents) and check it is writable; raise MomaError otherwise."""
-    out = Path(path)
+    out = planned_output_dir(path)
     try:
         out.mkdir(parents=True, exist_ok=True)
         with tempfile.NamedTemporaryFile(dir=out, prefix=".write-test-"):
             pass
     except OSError as exc:
         raise MomaError(f"cannot write to output directory {str(out)!r}: {exc.strerror}") from None
+    return out
+
+
+def output_file(path: str | os.PathLike) -> Path:
+    """Check, before any work, that file ``path`` can be written later (its directory is or
+    can become writable, and it is not a directory)."""
+    out = Path(path)
+    if out.is_dir():
+        raise MomaError(f"cannot write {str(out)!r}: it is a directory")
+    planned_output_dir(out.parent)
     return out

@@ -6,7 +6,7 @@ import argparse
 import json
 import sys
 
-from tqdm import tqdm
+from momakitchen.errors import MomaError
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -14,11 +14,17 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "check",
         help="integrity check of a dataset",
         description="Every shard opens, matches its manifest entry (size, "
-        "checksum, counts) and holds finite, in-range arrays. "
-        "Exit 2 naming the first bad shard otherwise.",
+        "checksum, counts) and holds finite, in-range arrays, and the generation is "
+        "complete. Exit 2 naming the first bad shard, or the number of scenes still "
+        "missing, otherwise.",
     )
     p.add_argument("dir", help="dataset directory")
     p.add_argument("--no-hash", action="store_true", help="skip the checksums (faster)")
+    p.add_argument(
+        "--allow-incomplete",
+        action="store_true",
+        help="exit 0 on an unfinished generation whose shards are sound",
+    )
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run_check)
 
@@ -54,8 +60,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def run_check(args: argparse.Namespace) -> int:
-    from momakitchen.data.integrity import check_dataset
+    from tqdm import tqdm
 
+    from momakitchen.data.integrity import check_dataset
+    from momakitchen.data.manifest import load_manifest
+
+    load_manifest(args.dir)  # a bad directory is reported before any progress bar is drawn
     with tqdm(desc="check", unit="shard", disable=args.quiet, file=sys.stderr, leave=False) as bar:
 
         def progress(done: int, total: int) -> None:
@@ -63,9 +73,15 @@ def run_check(args: argparse.Namespace) -> int:
             bar.update(done - bar.n)
 
         report = check_dataset(args.dir, verify_hash=not args.no_hash, progress=progress)
+    counts = f"{report['shards']} shards, {report['episodes']} episodes"
+    if report["incomplete"] and not args.allow_incomplete:
+        # A script that gates on `check` must not take an unfinished dataset for a good one.
+        raise MomaError(
+            f"{args.dir}: {report['incomplete']} ({counts} sound); run the same "
+            "`momakitchen generate` again to finish it, or pass --allow-incomplete"
+        )
     print(
-        f"{args.dir}: OK: {report['shards']} shards, {report['episodes']} episodes"
-        + ("" if report["complete"] else " (generation incomplete)")
+        f"{args.dir}: OK: {counts}" + (f" ({report['incomplete']})" if report["incomplete"] else "")
     )
     return 0
 
@@ -79,7 +95,7 @@ def run_stats(args: argparse.Namespace) -> int:
         return 0
     print(
         f"{s['root']}: producer {s['producer']}, momakitchen {s['generator_version']}"
-        + ("" if s["complete"] else " (incomplete)")
+        + (f" ({s['incomplete']})" if s["incomplete"] else "")
     )
     print(f"{'split':<10}{'scenes':>8}{'configs':>9}{'episodes':>10}{'trials':>9}{'success':>9}")
     for name, row in s["splits"].items():

@@ -31,7 +31,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "generate", help="generate the dataset (resumable, parallel)", description=__doc__
     )
     parser.add_argument("--out", required=True, help="dataset directory")
-    parser.add_argument("--scenes", type=non_negative_int, required=True, help="number of scenes")
+    parser.add_argument(
+        "--scenes",
+        type=positive_int,
+        required=True,
+        help="number of scenes (2 or more from scene 0 for both a train and a test split)",
+    )
     parser.add_argument(
         "--first-scene-id", type=non_negative_int, default=0, help="first scene id (default 0)"
     )
@@ -39,7 +44,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "--workers",
         type=positive_int,
         default=1,
-        help="parallel workers (processes; CPUs of a local Ray instance)",
+        help="parallel workers (processes; CPUs of a local Ray instance); a scene is the "
+        "unit of work, so at most one worker per scene left to make",
     )
     parser.add_argument(
         "--backend",
@@ -104,4 +110,14 @@ def run(args: argparse.Namespace) -> int:
         f"{c['train']['episodes']}, test {c['test']['episodes']})"
         + ("" if manifest["complete"] else " - incomplete")
     )
+    empty = [s for s in ("train", "test") if not c[s]["scenes"]]
+    if empty and manifest["complete"]:
+        from momakitchen.data.manifest import scenes_for_both_splits
+
+        # A one-scene try-out is a test-only dataset, which `train` refuses: say so now.
+        print(
+            f"note: no {empty[0]} scenes (one scene id in 5 is a test scene); "
+            f"--scenes {scenes_for_both_splits(args.first_scene_id)} or more from scene "
+            f"{args.first_scene_id} gives both splits"
+        )
     return 0

@@ -11,11 +11,15 @@ import argparse
 import dataclasses
 import json
 
-import numpy as np
-from tqdm import tqdm
-
-from momakitchen.cli.common import non_negative_float, non_negative_int, output_dir
-from momakitchen.errors import MomaError
+from momakitchen.cli.common import (
+    add_robot_yaml,
+    check_config_index,
+    non_negative_float,
+    non_negative_int,
+    output_dir,
+    planned_output_dir,
+    positive_float,
+)
 from momakitchen.fileio import atomic_path, atomic_write_bytes, atomic_write_text, npz_bytes
 from momakitchen.version import __version__
 
@@ -28,6 +32,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     parser.add_argument(
         "--robot", default=None, help="robot to label with (default: the configuration's own robot)"
     )
+    add_robot_yaml(parser)
     parser.add_argument(
         "--config",
         type=non_negative_int,
@@ -37,7 +42,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     parser.add_argument("--out", required=True, help="output directory")
     parser.add_argument(
         "--target-mass",
-        type=non_negative_float,
+        type=positive_float,
         default=None,
         help="override the target's mass in kg (what-if study)",
     )
@@ -52,6 +57,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    import numpy as np
+    from tqdm import tqdm
+
     from momakitchen.robots import get_robot_spec
     from momakitchen.scene.configuration import SceneConfig, sample_scene
     from momakitchen.sim.config import STAGE_NAMES, DenseMapConfig, TrialConfig
@@ -62,11 +70,8 @@ def run(args: argparse.Namespace) -> int:
     if args.robot is not None:
         get_robot_spec(args.robot)  # unknown names fail before any work
     scene_cfg = SceneConfig()
-    if args.config >= scene_cfg.configs_per_scene:
-        raise MomaError(
-            f"--config must be in [0, {scene_cfg.configs_per_scene - 1}], got {args.config}"
-        )
-    out = output_dir(args.out)
+    check_config_index(args.config, scene_cfg.configs_per_scene)
+    out = planned_output_dir(args.out)
     scene = sample_scene(args.scene_id, scene_cfg)
     cfg = scene.configurations[args.config]
     if args.robot is not None:
@@ -96,6 +101,7 @@ def run(args: argparse.Namespace) -> int:
             target_friction=args.target_friction,
             progress=progress,
         )
+    output_dir(out)  # created only now: a failed run leaves no empty directory
     data = npz_bytes(
         positions=labels.positions,
         yaws=labels.yaws,

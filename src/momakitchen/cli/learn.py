@@ -14,14 +14,26 @@ import json
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from momakitchen.cli.common import non_negative_float, non_negative_int, positive_int
+from momakitchen.cli.common import non_negative_float, non_negative_int, output_file, positive_int
 from momakitchen.errors import MomaError
-from momakitchen.fileio import atomic_write_text
+from momakitchen.fileio import atomic_write_text, existing_dir
 
 if TYPE_CHECKING:
     from momakitchen.train.config import TrainConfig
 
 SPLITS = ("train", "test", "all")
+# The registries' names, spelled out so that building the parser (``momakitchen --help``)
+# does not import torch; tests/cli/test_main.py checks them against the registries.
+MODEL_NAMES = (
+    "navaff",
+    "pointnet2",
+    "votenet",
+    "h3dnet",
+    "navaff-no-robot",
+    "navaff-no-vam",
+    "navaff-no-global",
+)
+PRESET_NAMES = ("paper", "cpu")
 
 TRAIN_CONFIG_HELP = """\
 training options come from, highest precedence first:
@@ -37,9 +49,6 @@ training options come from, highest precedence first:
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    from momakitchen.models import model_names
-    from momakitchen.train import PRESETS
-
     tr = sub.add_parser(
         "train",
         help="train a model (navaff, baselines, ablations)",
@@ -51,7 +60,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     tr.add_argument(
         "--model",
         default=None,
-        help=f"model name: {', '.join(model_names())} (required unless the "
+        help=f"model name: {', '.join(MODEL_NAMES)} (required unless the "
         "--config file sets 'model')",
     )
     tr.add_argument("--out", required=True, help="run directory")
@@ -65,7 +74,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     tr.add_argument(
         "--preset",
         default=None,
-        choices=tuple(PRESETS),
+        choices=PRESET_NAMES,
         help="hyper-parameter preset (default: the --config file's, else cpu: trains on 2 cores)",
     )
     tr.add_argument("--epochs", type=positive_int, default=None)
@@ -112,14 +121,35 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def _dataset(root: str, split: str):
+    """The episodes of ``split``, once every shard they come from has passed the quick
+    check (so a missing or damaged shard is found before any training or evaluation)."""
     from momakitchen.data import EpisodeDataset
+    from momakitchen.data.integrity import check_shard_files
 
-    if not Path(root).is_dir():
-        raise MomaError(f"dataset directory {root!r} does not exist")
-    data = EpisodeDataset(root, split)
+    data = EpisodeDataset(existing_dir(root, "dataset directory"), split)
     if len(data) == 0:
-        raise MomaError(f"dataset {root!r} has no {split} episodes")
+        raise MomaError(_no_episodes(root, split, data.manifest))
+    check_shard_files(root, data.manifest, {sid for _, sid, _, _, _ in data.index})
     return data
+
+
+def _no_episodes(root: str, split: str, manifest: dict) -> str:
+    """Why a dataset has no episodes of ``split``, and what to do about it."""
+    from momakitchen.data.manifest import scenes_for_both_splits
+
+    scenes = sorted(int(k) for k in manifest["shards"])
+    text = f"dataset {root!r} has no {split} episodes"
+    if not scenes:
+        return f"{text}: it holds no scene yet (run `momakitchen generate` to finish it)"
+    splits = {manifest["shards"][str(s)]["split"] for s in scenes}
+    if split in splits or split == "all":
+        return f"{text} (every view of its {split} scenes lacks floor or global points)"
+    first = scenes[0]
+    return (
+        f"{text}: its {len(scenes)} scene(s) are all {'/'.join(sorted(splits))} scenes "
+        f"(one scene id in 5 is a test scene); `momakitchen generate --scenes "
+        f"{scenes_for_both_splits(first)}` or more from scene {first} gives both splits"
+    )
 
 
 def train_config(args: argparse.Namespace) -> TrainConfig:
@@ -183,14 +213,12 @@ def run_evaluate(args: argparse.Namespace) -> int:
     from momakitchen.metrics import format_table
     from momakitchen.train import load_checkpoint
 
-    run_dir = Path(args.checkpoint)
-    if not run_dir.is_dir():
-        raise MomaError(f"checkpoint directory {str(run_dir)!r} does not exist")
+    run_dir = existing_dir(args.checkpoint, "checkpoint directory")
+    out = output_file(args.json)  # an unwritable --json fails now, not after the work
     load_checkpoint(run_dir, model=args.model)  # fails early on a checkpoint of another model
     data = _dataset(args.data, args.split)
     report = evaluate(run_dir, data, batch_size=args.batch_size, progress=not args.quiet)
     report = {"data": str(args.data), "split": args.split, "checkpoint": str(run_dir), **report}
-    out = Path(args.json)
     if out.parent and not out.parent.exists():
         out.parent.mkdir(parents=True, exist_ok=True)
     atomic_write_text(out, json.dumps(report, indent=1, default=float) + "\n")

@@ -2,8 +2,9 @@
 
 Each subcommand lives in a module exposing ``add_parser(subparsers)`` (which sets ``func``
 on its parser); the table below is the single place commands are registered. Only the
-module of the command being run is imported: some build their help from registries that
-import torch, which would add seconds to every ``generate`` or ``check``.
+module of the command being run is imported, and no ``add_parser`` imports torch, the
+simulator or a registry that does: ``momakitchen --help`` and ``--version`` build every
+parser and answer in a fraction of a second (tests/cli/test_main.py checks it).
 Every user error becomes one line on stderr and exit status 2, never a traceback.
 """
 
@@ -59,6 +60,17 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     return parser
 
 
+def register_user_robots(args: argparse.Namespace) -> None:
+    """Register the user robots of MOMAKITCHEN_ROBOT_YAML (for every command) and of the
+    command's ``--robot-yaml`` options (every command that takes a robot has one)."""
+    from momakitchen.robots.user import ENV_VAR, load_env_robots, register_user_robot
+
+    if os.environ.get(ENV_VAR):
+        load_env_robots()
+    for path in [*getattr(args, "robot_yaml", []), *getattr(args, "robot_yaml_sub", [])]:
+        register_user_robot(path)
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     # The command is the first word that is not an option (the top level has no option
@@ -72,10 +84,7 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help()
         return 2
     try:
-        from momakitchen.robots.user import ENV_VAR, load_env_robots
-
-        if os.environ.get(ENV_VAR):  # user robots are available to every command
-            load_env_robots()
+        register_user_robots(args)
         return int(args.func(args) or 0)
     except MomaError as exc:
         print(f"momakitchen {args.command}: error: {exc}", file=sys.stderr)

@@ -11,16 +11,17 @@ from __future__ import annotations
 import argparse
 import json
 import time
-from pathlib import Path
 
-from momakitchen.cli.common import non_negative_int, positive_int
-from momakitchen.errors import MomaError
-from momakitchen.fileio import atomic_write_text
+from momakitchen.cli.common import non_negative_int, output_file, positive_int
+from momakitchen.fileio import atomic_write_text, existing_dir
+
+# momakitchen.eval.msr's BASELINES and SPLITS, spelled out so that building the parser
+# (``momakitchen --help``) does not import numpy and h5py; tests/cli/test_main.py checks.
+BASELINES = ("random", "nearest", "oracle")
+SPLITS = ("test", "train", "all")
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    from momakitchen.eval.msr import BASELINES, SPLITS
-
     ms = sub.add_parser("msr", help="manipulation success rate in closed loop", description=__doc__)
     ms.add_argument("--data", required=True, help="dataset directory (momakitchen generate)")
     ms.add_argument(
@@ -62,8 +63,8 @@ def run(args: argparse.Namespace) -> int:
     from momakitchen.eval.msr import MsrConfig, format_msr_table, run_msr
 
     for run_dir in args.checkpoint:
-        if not Path(run_dir).is_dir():
-            raise MomaError(f"checkpoint directory {run_dir!r} does not exist")
+        existing_dir(run_dir, "checkpoint directory")
+    out = output_file(args.json)  # an unwritable --json fails now, not after the trials
     config = MsrConfig(
         top_k=args.top_k,
         min_spread=args.min_spread,
@@ -74,7 +75,6 @@ def run(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     result = run_msr(args.data, args.checkpoint, args.method, config, progress=not args.quiet)
     result["seconds"] = round(time.perf_counter() - t0, 1)
-    out = Path(args.json)
     out.parent.mkdir(parents=True, exist_ok=True)
     atomic_write_text(out, json.dumps(result, indent=1) + "\n")
     print(format_msr_table(result))

@@ -13,9 +13,14 @@ from __future__ import annotations
 import argparse
 import json
 import time
-from pathlib import Path
 
-from momakitchen.cli.common import non_negative_int, output_dir, positive_int
+from momakitchen.cli.common import (
+    add_robot_yaml,
+    non_negative_int,
+    output_dir,
+    planned_output_dir,
+    positive_int,
+)
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -42,6 +47,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--rgb", default=None, help="colour image (PNG or .npy), optional")
     p.add_argument("--robot", default=None, help="registered robot name (momakitchen robots)")
+    add_robot_yaml(p)
     p.add_argument("--reach", type=float, default=None, help="arm reach (m), if no --robot")
     p.add_argument(
         "--mount-height", type=float, default=None, help="arm mount height (m), if no --robot"
@@ -67,16 +73,17 @@ def run(args: argparse.Namespace) -> int:
         write_outputs,
     )
     from momakitchen.errors import MomaError
+    from momakitchen.fileio import existing_dir
     from momakitchen.perception.camera import Intrinsics
 
     if args.robot is None and (args.reach is None or args.mount_height is None):
         raise MomaError("give --robot NAME, or both --reach and --mount-height")
     if args.robot is not None and (args.reach is not None or args.mount_height is not None):
         raise MomaError("give either --robot or --reach/--mount-height, not both")
-    if args.checkpoint is not None and not Path(args.checkpoint).is_dir():
-        raise MomaError(f"checkpoint directory {args.checkpoint!r} does not exist")
+    if args.checkpoint is not None:
+        existing_dir(args.checkpoint, "checkpoint directory")
     robot = args.robot or {"reach": args.reach, "mount_height": args.mount_height}
-    out = output_dir(args.out)
+    out = planned_output_dir(args.out)
     depth = load_depth(args.depth)
     rgb = load_rgb(args.rgb) if args.rgb else None
     extrinsics = load_extrinsics(args.extrinsics)
@@ -96,6 +103,7 @@ def run(args: argparse.Namespace) -> int:
     seconds = time.perf_counter() - t0
     fx, fy, cx, cy = args.intrinsics  # argparse nargs=4
     intr = Intrinsics(fx, fy, cx, cy, depth.shape[1], depth.shape[0])
+    output_dir(out)  # created only now: a failed prediction leaves no empty directory
     paths = write_outputs(pred, out, rgb, depth, intr, extrinsics)
     best = pred.to_dict(floor_points=False)["poses"]
     print(

@@ -4,8 +4,8 @@
     momakitchen robots export-urdf NAME --out FILE [--robot-yaml FILE ...]
 
 ``--robot-yaml`` (repeatable) registers user robots (URDF + YAML, see
-``momakitchen.robots.user``) before the command runs; so does the environment variable
-``MOMAKITCHEN_ROBOT_YAML``.
+``momakitchen.robots.user``) before the command runs, here as on every command that takes
+a robot (demo, label, predict); so does the environment variable ``MOMAKITCHEN_ROBOT_YAML``.
 """
 
 from __future__ import annotations
@@ -55,14 +55,6 @@ def add_parser(subparsers) -> None:
     )
 
 
-def _register_user_robots(args: argparse.Namespace) -> None:
-    from momakitchen.robots.user import load_env_robots, register_user_robot
-
-    load_env_robots()
-    for path in [*args.robot_yaml, *getattr(args, "robot_yaml_sub", [])]:
-        register_user_robot(path)
-
-
 def robot_rows() -> list[dict]:
     """One JSON-ready dict per registered robot."""
     from momakitchen.robots.spec import (
@@ -90,7 +82,7 @@ def robot_rows() -> list[dict]:
 
 
 def run(args: argparse.Namespace) -> int:
-    _register_user_robots(args)
+    # The --robot-yaml files (of either level) are registered by the entry point.
     if args.robots_command == "export-urdf":
         return _export(args)
     rows = robot_rows()

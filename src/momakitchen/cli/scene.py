@@ -6,13 +6,20 @@ import argparse
 import json
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import numpy as np
-
-from momakitchen.cli.common import non_negative_int, output_dir, positive_int
-from momakitchen.errors import MomaError
+from momakitchen.cli.common import (
+    check_config_index,
+    non_negative_int,
+    output_dir,
+    planned_output_dir,
+    positive_int,
+)
 from momakitchen.fileio import atomic_path, atomic_write_text
 from momakitchen.version import __version__
+
+if TYPE_CHECKING:
+    import numpy as np
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -23,7 +30,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "--scene-id",
         type=non_negative_int,
         required=True,
-        help="scene id (non-negative integer); everything derives from it",
+        help="scene id (an integer >= 0); everything derives from it",
     )
     parser.add_argument("--out", required=True, help="output directory")
     parser.add_argument(
@@ -53,6 +60,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def view_pose(scene) -> tuple[np.ndarray, np.ndarray]:
     """A camera standing at the back of the room, looking at the counter."""
+    import numpy as np
+
     room = scene.layout.room
     eye = np.array([room.width * 0.5, room.depth - 0.2, 1.9])
     target = np.array([room.width * 0.5, 0.3, 0.8])
@@ -65,10 +74,9 @@ def run(args: argparse.Namespace) -> int:
     from momakitchen.scene.overview import save_overview
 
     start = time.perf_counter()
-    out = output_dir(args.out)
+    out = planned_output_dir(args.out)
     cfg = SceneConfig() if args.configs is None else SceneConfig(configs_per_scene=args.configs)
-    if args.config >= cfg.configs_per_scene:
-        raise MomaError(f"--config must be < {cfg.configs_per_scene}, got {args.config}")
+    check_config_index(args.config, cfg.configs_per_scene)
     if args.assets is not None:
         from momakitchen.assets.external import register_external_assets
 
@@ -87,6 +95,7 @@ def run(args: argparse.Namespace) -> int:
             view = render(
                 world.client, camera, Intrinsics.for_renderer(800, 600, 62.0), shadows=True
             ).rgb
+    output_dir(out)  # created only now: a failed run leaves no empty directory
     atomic_write_text(out / "scene.json", json.dumps(record, indent=1) + "\n")
     png = out / "overview.png"
     with atomic_path(png) as tmp:

@@ -20,9 +20,12 @@ from __future__ import annotations
 import ctypes
 import dataclasses
 import fcntl
+import functools
+import inspect
 import json
 import multiprocessing
 import os
+import queue
 import signal
 import sys
 import tempfile
@@ -221,16 +224,55 @@ def _existing_summary(path: Path, known: dict[str, Any] | None) -> dict[str, Any
     }
 
 
-def _scene_task(scene_fn: SceneFn, config: Any, scene_id: int, directory: str) -> dict:
-    """Worker body (local backend): compute one scene and write its shard."""
-    records = scene_fn(scene_id, config)
-    return write_shard(directory, scene_id, records)
+def reports_progress(scene_fn: SceneFn) -> bool:
+    """Whether a producer takes the optional ``progress(done, total)`` keyword that it calls
+    after each configuration (the built-in producers do; a user's need not)."""
+    try:
+        return "progress" in inspect.signature(scene_fn).parameters
+    except (TypeError, ValueError):  # a callable without a signature
+        return False
 
 
-def _worker_init(parent_pid: int) -> None:
-    """Pool worker start-up: exit as soon as the generating process is gone. Workers of a
-    SIGKILLed run would otherwise wait for work forever (and finish queued scenes while a
-    resumed run writes the same directory)."""
+def _records(
+    scene_fn: SceneFn,
+    config: Any,
+    scene_id: int,
+    progress: Callable[[int, int], None] | None,
+) -> SceneRecords:
+    """The producer's records of a scene, passing ``progress`` on where it is taken."""
+    if progress is not None and reports_progress(scene_fn):
+        return scene_fn(scene_id, config, progress=progress)  # type: ignore[call-arg]
+    return scene_fn(scene_id, config)
+
+
+# In a pool worker: the queue on which it reports (scene id, configurations done, total).
+_WORKER_PROGRESS: Any = None
+
+
+def _scene_task(
+    scene_fn: SceneFn,
+    config: Any,
+    scene_id: int,
+    directory: str,
+    progress: Callable[[int, int], None] | None = None,
+) -> dict:
+    """Worker body (local backend): compute one scene and write its shard. In a pool worker
+    the progress goes to the driver through the queue given to :func:`_worker_init`."""
+    queue = _WORKER_PROGRESS
+    if progress is None and queue is not None:
+
+        def progress(done: int, total: int) -> None:
+            queue.put((scene_id, done, total))
+
+    return write_shard(directory, scene_id, _records(scene_fn, config, scene_id, progress))
+
+
+def _worker_init(parent_pid: int, progress_queue: Any = None) -> None:
+    """Pool worker start-up: keep the progress queue, and exit as soon as the generating
+    process is gone. Workers of a SIGKILLed run would otherwise wait for work forever (and
+    finish queued scenes while a resumed run writes the same directory)."""
+    global _WORKER_PROGRESS
+    _WORKER_PROGRESS = progress_queue
 
     if sys.platform.startswith("linux"):
         # The kernel kills the worker the moment the driver dies: no orphan can write a
@@ -297,26 +339,50 @@ def generate_dataset(
             except MomaError as exc:
                 raise MomaError(f"{exc}; delete that file to regenerate the scene") from None
         todo = [s for s in request.scene_ids if s not in existing]
+        mf.record_request(manifest, request.first_scene_id, request.num_scenes)
         mf.save_manifest(root, mf.finalize(manifest, complete=False))
 
+        # A scene is the unit of work: never more workers than scenes left to make.
+        workers = max(1, min(request.workers, len(todo)))
         bar = tqdm(
             total=len(request.scene_ids),
             initial=len(request.scene_ids) - len(todo),
-            desc="generate",
+            desc=f"generate ({workers} worker{'s' if workers > 1 else ''})",
             unit="scene",
+            # Scenes advance by configurations: a fraction of a scene, with one decimal.
+            bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.1f}/{total_fmt} scenes "
+            "[{elapsed}<{remaining}{postfix}]",
             disable=not progress,
             file=sys.stderr,
             dynamic_ncols=True,
         )
         last_save = time.monotonic()
-        episodes = 0
+        episodes = configurations = 0
+        running: dict[int, float] = {}  # scene id -> fraction of its configurations done
+
+        def advance(fraction: float) -> None:
+            done_now = configurations + round(sum(running.values()) * per_scene)
+            bar.set_postfix_str(f"configurations={done_now}, episodes={episodes}", refresh=False)
+            bar.update(fraction)
+
+        per_scene = 0  # configurations per scene, as the producer reports them
+
+        def partial(scene_id: int, done_configs: int, total: int) -> None:
+            nonlocal per_scene
+            if str(scene_id) in manifest["shards"]:
+                return  # a late report of a scene already written
+            per_scene = max(total, 1)
+            before = running.get(scene_id, 0.0)
+            running[scene_id] = done_configs / per_scene
+            advance(running[scene_id] - before)
 
         def done(summary: dict[str, Any]) -> None:
-            nonlocal last_save, episodes
+            nonlocal last_save, episodes, configurations
             mf.add_shard(manifest, summary)
+            before = running.pop(int(summary["scene_id"]), 0.0)
             episodes += sum(summary["episodes_per_config"])
-            bar.update(1)
-            bar.set_postfix(episodes=episodes, refresh=False)
+            configurations += summary["configurations"]
+            advance(1.0 - before)
             if time.monotonic() - last_save > MANIFEST_SAVE_SECONDS:
                 mf.save_manifest(root, mf.finalize(manifest, complete=False))
                 last_save = time.monotonic()
@@ -325,7 +391,7 @@ def generate_dataset(
             if todo and request.backend == "ray":
                 _run_ray(submit, scene_fn, config, todo, root, done)
             elif todo:
-                _run_local(scene_fn, config, todo, root, request.workers, done)
+                _run_local(scene_fn, config, todo, root, workers, done, partial)
         finally:
             bar.close()
             mf.save_manifest(
@@ -352,24 +418,39 @@ def _run_local(
     root: Path,
     workers: int,
     done: Callable[[dict[str, Any]], None],
+    partial: Callable[[int, int, int], None] | None = None,
 ) -> None:
+    """Make the scenes of ``todo`` in ``workers`` processes (here if 1); ``done(summary)``
+    as each shard is written, ``partial(scene id, configurations done, total)`` as the
+    producer reports them."""
     directory = str(root / SCENES_DIR)
     if workers == 1:
         for sid in todo:
-            done(_scene_task(scene_fn, config, sid, directory))
+            report = None if partial is None else functools.partial(partial, sid)
+            done(_scene_task(scene_fn, config, sid, directory, report))
         return
     # Spawn: PyBullet and h5py state must not be inherited through fork.
     ctx = multiprocessing.get_context("spawn")
+    reports = ctx.Queue() if partial is not None and reports_progress(scene_fn) else None
+
+    def drain() -> None:
+        while reports is not None and partial is not None:
+            try:
+                partial(*reports.get_nowait())
+            except queue.Empty:
+                return
+
     with ProcessPoolExecutor(
         max_workers=min(workers, len(todo)),
         mp_context=ctx,
         initializer=_worker_init,
-        initargs=(os.getpid(),),
+        initargs=(os.getpid(), reports),
     ) as pool:
         pending = {pool.submit(_scene_task, scene_fn, config, sid, directory) for sid in todo}
         try:
             while pending:
-                finished, pending = wait(pending, return_when=FIRST_COMPLETED)
+                finished, pending = wait(pending, timeout=0.5, return_when=FIRST_COMPLETED)
+                drain()
                 for fut in finished:
                     done(fut.result())
         except BaseException:

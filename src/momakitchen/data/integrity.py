@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -80,17 +80,17 @@ def _check_episode(
     return ep.global_xyz.shape[0] + ep.floor_xyz.shape[0]
 
 
-def check_shard(
-    root: Path,
-    sid: int,
-    entry: dict[str, Any],
-    path: Path,
-    verify_hash: bool = True,
-    floor_z: float = FLOOR_Z_MAX,
-) -> int:
-    """Check one shard against its manifest entry (floor points below ``floor_z``); return
-    its episode count."""
+def _open_checked(
+    sid: int, entry: dict[str, Any], path: Path, verify_hash: bool = False
+) -> tuple[SceneShard, list[int], list[int]]:
+    """Open a shard after checking it against its manifest entry: there, of the recorded
+    size (and checksum with ``verify_hash``), complete, of this schema and descriptor
+    version, holding the recorded scene, configurations and episodes (metadata only: a few
+    ms). Returns the open shard, its configuration indices and episodes per configuration;
+    MomaError naming the shard otherwise."""
     name = entry["file"]
+    if not path.is_file():
+        raise MomaError(f"shard {name} listed in the manifest is missing")
     if path.stat().st_size != entry["bytes"]:
         raise MomaError(
             f"shard {name}: {path.stat().st_size} bytes, the manifest says "
@@ -102,7 +102,7 @@ def check_shard(
         shard = SceneShard(path)
     except MomaError as exc:
         raise MomaError(f"shard {name}: {str(exc).split(': ', 1)[-1]}") from None
-    with shard:
+    try:
         if shard.scene_id != sid:
             raise MomaError(f"shard {name}: holds scene {shard.scene_id}")
         if shard.descriptor_version != DESCRIPTOR_VERSION:
@@ -110,8 +110,11 @@ def check_shard(
                 f"shard {name}: descriptor version {shard.descriptor_version}, "
                 f"expected {DESCRIPTOR_VERSION}"
             )
-        configs = shard.config_indices()
-        per_config = [len(shard.episode_indices(c)) for c in configs]
+        try:
+            configs = shard.config_indices()
+            per_config = [len(shard.episode_indices(c)) for c in configs]
+        except (OSError, KeyError, ValueError) as exc:
+            raise MomaError(f"shard {name}: unreadable ({exc})") from None
         if (
             configs != list(range(entry["configurations"]))
             or per_config != entry["episodes_per_config"]
@@ -121,6 +124,44 @@ def check_shard(
                 f"episodes, the manifest says {entry['configurations']} / "
                 f"{entry['episodes_per_config']}"
             )
+    except BaseException:
+        shard.close()
+        raise
+    return shard, configs, per_config
+
+
+def check_shard_files(
+    root: str | os.PathLike, manifest: dict[str, Any], scene_ids: Iterable[int] | None = None
+) -> None:
+    """The quick check that ``evaluate``, ``train`` and ``msr`` run on the shards they will
+    read (``scene_ids``; None: all in the manifest) before any work: each is there, has
+    the size the manifest records, opens as a finished shard and holds the recorded scene,
+    configurations and episodes. MomaError naming the first bad shard (``check`` also
+    verifies checksums and every array)."""
+    root = Path(root)
+    wanted = None if scene_ids is None else {int(s) for s in scene_ids}
+    for key, entry in manifest["shards"].items():
+        if wanted is None or int(key) in wanted:
+            try:
+                shard, _, _ = _open_checked(int(key), entry, root / entry["file"])
+            except MomaError as exc:
+                raise MomaError(f"{root}: {exc}; run `momakitchen check {root}`") from None
+            shard.close()
+
+
+def check_shard(
+    root: Path,
+    sid: int,
+    entry: dict[str, Any],
+    path: Path,
+    verify_hash: bool = True,
+    floor_z: float = FLOOR_Z_MAX,
+) -> int:
+    """Check one shard against its manifest entry (floor points below ``floor_z``); return
+    its episode count."""
+    name = entry["file"]
+    shard, configs, per_config = _open_checked(sid, entry, path, verify_hash)
+    with shard:
         for c in configs:
             where = f"shard {name} configuration {c}"
             lab = shard.configuration(c)
@@ -188,7 +229,26 @@ def check_dataset(
         actual = sorted(sid for sid, e, _ in entries if e["split"] == split)
         if listed != actual:
             raise MomaError(f"manifest split {split!r} does not match its shard entries")
-    return {"shards": len(entries), "episodes": episodes, "complete": manifest["complete"]}
+    return {
+        "shards": len(entries),
+        "episodes": episodes,
+        "complete": manifest["complete"],
+        "incomplete": incomplete_note(manifest),
+    }
+
+
+def incomplete_note(manifest: dict[str, Any]) -> str:
+    """How unfinished a dataset is, for messages ("generation incomplete: 1 of 20 requested
+    scenes missing"); "" when its generation is complete."""
+    if manifest["complete"]:
+        return ""
+    missing = mf.missing_scenes(manifest)
+    if missing is None:
+        return "generation incomplete (the manifest does not record how many scenes are missing)"
+    return (
+        f"generation incomplete: {len(missing)} of {manifest['requested']['num_scenes']} "
+        "requested scenes missing"
+    )
 
 
 def dataset_stats(root: str | os.PathLike) -> dict[str, Any]:
@@ -243,6 +303,7 @@ def dataset_stats(root: str | os.PathLike) -> dict[str, Any]:
         "producer": manifest["producer"],
         "generator_version": manifest["generator_version"],
         "complete": manifest["complete"],
+        "incomplete": incomplete_note(manifest),
         "splits": {
             s: {**counts[s], "trial_success_rate": rate(counts[s])} for s in ("total", *mf.SPLITS)
         },

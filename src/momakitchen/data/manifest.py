@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from momakitchen.errors import MomaError
-from momakitchen.fileio import atomic_write_text
+from momakitchen.fileio import atomic_write_text, existing_dir
 from momakitchen.robots.spec import DESCRIPTOR_NAMES, DESCRIPTOR_VERSION
 from momakitchen.version import __version__
 
@@ -56,6 +56,17 @@ def scene_split(scene_id: int) -> str:
     digest = hashlib.sha256(f"momakitchen-split:{block}".encode()).digest()
     chosen = int.from_bytes(digest[:8], "little") % SPLIT_BLOCK
     return "test" if scene_id % SPLIT_BLOCK == chosen else "train"
+
+
+def scenes_for_both_splits(first_scene_id: int = 0) -> int:
+    """The smallest ``--scenes`` from ``first_scene_id`` that gives both a train and a test
+    scene (2 from scene 0: scene 0 is a test scene, scene 1 a train scene)."""
+    seen: set[str] = set()
+    sid = first_scene_id
+    while len(seen) < len(SPLITS):
+        seen.add(scene_split(sid))
+        sid += 1
+    return sid - first_scene_id
 
 
 def new_manifest(producer: str, config: dict[str, Any], config_class: str = "") -> dict[str, Any]:
@@ -148,15 +159,28 @@ def _zero() -> dict[str, int]:
     return {"scenes": 0, "configurations": 0, "episodes": 0, "trials": 0, "successful_trials": 0}
 
 
+def record_request(manifest: dict[str, Any], first_scene_id: int, num_scenes: int) -> None:
+    """Record the scenes a ``generate`` run was asked for (``check`` counts the missing)."""
+    manifest["requested"] = {"first_scene_id": int(first_scene_id), "num_scenes": int(num_scenes)}
+
+
+def missing_scenes(manifest: dict[str, Any]) -> list[int] | None:
+    """Scene ids the last ``generate`` run asked for that have no shard yet; None if the
+    manifest does not record the request (written by an earlier version)."""
+    req = manifest.get("requested")
+    if not isinstance(req, dict):
+        return None
+    first, count = int(req["first_scene_id"]), int(req["num_scenes"])
+    return [s for s in range(first, first + count) if str(s) not in manifest["shards"]]
+
+
 def manifest_path(root: str | os.PathLike) -> Path:
     return Path(root) / MANIFEST_NAME
 
 
 def load_manifest(root: str | os.PathLike) -> dict[str, Any]:
     """Read ``root/manifest.json``; MomaError if the root or manifest is missing/malformed."""
-    root = Path(root)
-    if not root.is_dir():
-        raise MomaError(f"dataset directory {str(root)!r} does not exist")
+    root = existing_dir(root, "dataset directory")
     path = manifest_path(root)
     if not path.is_file():
         raise MomaError(f"{str(root)!r} is not a momakitchen dataset (no {MANIFEST_NAME})")

@@ -347,7 +347,12 @@ class SceneShard:
     def configuration(self, config_index: int) -> ConfigurationLabels:
         g = self._group(config_key(config_index))
         a = g.attrs
-        arrays = {name: np.asarray(g[name][()], dtype=dtype) for name, dtype in TRIAL_ARRAYS}
+        try:
+            arrays = {name: np.asarray(g[name][()], dtype=dtype) for name, dtype in TRIAL_ARRAYS}
+        except (OSError, KeyError) as exc:  # h5py's own text, shortened, after the file's name
+            raise MomaError(
+                f"shard {self.path}: configuration {config_index} unreadable ({_short(exc)})"
+            ) from None
         return ConfigurationLabels(
             scene_id=int(a["scene_id"]),
             config_index=int(a["config_index"]),
@@ -378,7 +383,13 @@ class SceneShard:
                     f"shard {self.path}: episode {config_index}/{episode_index} "
                     f"has no dataset {name!r}"
                 )
-            out[name] = e[name][()]
+            try:
+                out[name] = e[name][()]
+            except OSError as exc:  # a damaged chunk: name the file, shorten h5py's text
+                raise MomaError(
+                    f"shard {self.path}: episode {config_index}/{episode_index} {name!r} "
+                    f"unreadable ({_short(exc)})"
+                ) from None
         return out
 
     def episode(self, config_index: int, episode_index: int) -> Episode:

@@ -13,6 +13,7 @@ Robots are assigned to configurations exactly as :class:`SceneConfig` does.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -73,14 +74,17 @@ class SyntheticSceneConfig:
 
 
 def synthetic_scene_records(
-    scene_id: int, config: SyntheticSceneConfig
+    scene_id: int,
+    config: SyntheticSceneConfig,
+    progress: Callable[[int, int], None] | None = None,
 ) -> list[tuple[ConfigurationLabels, list[Episode]]]:
-    """Records of scene ``scene_id``: one entry per configuration with its episodes."""
-    if config.seconds_per_scene > 0:
-        time.sleep(config.seconds_per_scene)
+    """Records of scene ``scene_id``: one entry per configuration with its episodes;
+    ``progress(done, total)`` after each configuration, as the real producer reports."""
     names = SceneConfig().robot_names
     out = []
     for c in range(config.configs_per_scene):
+        if config.seconds_per_scene > 0:  # the artificial work, spread over configurations
+            time.sleep(config.seconds_per_scene / config.configs_per_scene)
         rng = np.random.default_rng([7, scene_id, c])
         robot = names[(scene_id * 7 + c) % len(names)]  # as sample_configuration assigns
         desc = np.asarray(robot_descriptor(get_robot_spec(robot)), np.float32)
@@ -110,6 +114,8 @@ def synthetic_scene_records(
             _episode(scene_id, c, e, robot, desc, config) for e in range(config.episodes_per_config)
         ]
         out.append((labels, episodes))
+        if progress is not None:
+            progress(len(out), config.configs_per_scene)
     return out
 
 

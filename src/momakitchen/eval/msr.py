@@ -198,8 +198,6 @@ def _base_free(runner: Any, world_xy: np.ndarray) -> Callable[[int], bool]:
 
 
 def _load_dataset(root: Path) -> dict[str, Any]:
-    if not root.is_dir():
-        raise MomaError(f"dataset directory {str(root)!r} does not exist")
     manifest = mf.load_manifest(root)
     if manifest.get("producer") != mf.KITCHEN or "config" not in manifest:
         raise MomaError(
@@ -229,6 +227,7 @@ def run_msr(
     from tqdm.auto import tqdm
 
     from momakitchen.data.config import GenerationConfig, Preprocessing
+    from momakitchen.data.integrity import check_shard_files
     from momakitchen.scene.configuration import sample_scene
     from momakitchen.train.checkpoint import check_preprocessing
 
@@ -270,6 +269,8 @@ def run_msr(
         todo = todo[: config.max_configs]
     if not todo:
         raise MomaError(f"dataset {str(root)!r} has no {config.split} configurations")
+    # Every shard to be read is there and sound before the first (slow) configuration.
+    check_shard_files(root, manifest, {sid for sid, _, _ in todo})
 
     records = []
     scene, shard = None, None

@@ -24,6 +24,8 @@ STEPS = (
     "label the ground truth (grid of trials)",
     "write the report",
 )
+# The name of each step's duration in result.json's "seconds" (with "total", their sum).
+STEP_KEYS = ("build", "render", "predict", "trial", "labels", "report")
 
 
 def run_demo(
@@ -32,12 +34,14 @@ def run_demo(
     robot: str | None = None,
     checkpoint: str | Path | None = None,
     config_index: int = 0,
-    step: Callable[[str], None] | None = None,
+    step: Callable[[str, float | None], None] | None = None,
 ) -> dict[str, Any]:
-    """Run the demo; writes ``report.png`` and ``result.json`` into ``out_dir``.
+    """Run the demo; writes ``report.png`` and ``result.json`` into ``out_dir`` (created
+    only then: a run that fails leaves nothing behind).
 
-    ``step`` is called with the name of each stage as it starts (progress display).
-    Returns the content of ``result.json``.
+    ``step(name, None)`` is called as each of ``STEPS`` starts and ``step(name, seconds)``
+    as it ends, ``seconds`` being its own duration as ``result.json`` records it (progress
+    display). Returns the content of ``result.json``.
     """
     from momakitchen.data.config import GenerationConfig
     from momakitchen.data.episode import SEMANTIC_CLASSES
@@ -53,20 +57,24 @@ def run_demo(
     from momakitchen.sim.world import World
     from momakitchen.train.checkpoint import default_checkpoint, load_checkpoint
 
-    step = step or (lambda name: None)
+    report_step = step or (lambda name, seconds: None)
     if robot is not None:
         get_robot_spec(robot)  # unknown names fail before any work
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     run = load_checkpoint(checkpoint if checkpoint is not None else default_checkpoint())
     config = GenerationConfig()
-    t0 = time.perf_counter()
     seconds: dict[str, float] = {}
+    started = {"total": time.perf_counter()}
 
-    def timed(name: str) -> None:
-        seconds[name] = round(time.perf_counter() - t0 - sum(seconds.values()), 2)
+    def begin(i: int) -> None:
+        started["step"] = time.perf_counter()
+        report_step(STEPS[i], None)
 
-    step(STEPS[0])
+    def end(i: int) -> None:
+        seconds[STEP_KEYS[i]] = round(time.perf_counter() - started["step"], 2)
+        report_step(STEPS[i], seconds[STEP_KEYS[i]])
+
+    begin(0)
     scene = sample_scene(scene_id, config.scene)
     if not 0 <= config_index < len(scene.configurations):
         raise MomaError(
@@ -78,8 +86,8 @@ def run_demo(
         cfg = dataclasses.replace(cfg, robot=robot)
     with World(scene.layout) as world:
         world.load_configuration(cfg)
-        timed("build")
-        step(STEPS[1])
+        end(0)
+        begin(1)
         # Views come in order of increasing distance; the farthest of a few sees the most
         # floor around the target.
         views = sample_views(
@@ -103,9 +111,9 @@ def run_demo(
         )
         camera_to_base = np.linalg.inv(base_to_world(base)) @ camera_to_world
         intr = config.camera.intrinsics
-        timed("render")
+        end(1)
 
-        step(STEPS[2])
+        begin(2)
         # The frame goes through the same path as a real robot's (momakitchen.predict).
         depth = frame.depth.astype(np.float32)
         clouds = frame_inputs(
@@ -125,25 +133,25 @@ def run_demo(
             cfg.robot,
             np.asarray(robot_descriptor(get_robot_spec(cfg.robot)), np.float32),
         )
-        timed("predict")
+        end(2)
 
-        step(STEPS[3])
+        begin(3)
         world_xy = base_to_world_xy(pred.poses[:, :2], base)
         runner = TrialRunner(world, cfg.robot, config.trial)
         try:
             trial = runner.run(*world_xy[0])
         finally:
             runner.close()
-        timed("trial")
+        end(3)
 
-        step(STEPS[4])
+        begin(4)
         labels = label_configuration(
             world, cfg, trial_config=config.trial, grid_spacing=config.scene.grid_spacing
         )
         gt = floor_affordance(labels, scene.layout, cfg, pred.floor_xyz[:, :2], base, config.dense)
-        timed("labels")
+        end(4)
 
-    step(STEPS[5])
+    begin(5)
     outcome = (
         "success"
         if trial.success
@@ -172,17 +180,71 @@ def run_demo(
         "grid": {"trials": len(labels.positions), "successes": int(labels.outcomes.sum())},
         "seconds": seconds,
     }
-    png = report_figure(frame.rgb, frame.depth, intr, camera_to_base, pred, gt, outcome, result)
+    png = report_figure(
+        frame.rgb,
+        frame.depth,
+        sem == SEMANTIC_CLASSES.index("target"),
+        intr,
+        camera_to_base,
+        pred,
+        gt,
+        outcome,
+        result,
+    )
+    out.mkdir(parents=True, exist_ok=True)
     atomic_write_bytes(out / "report.png", png)
-    seconds["report"] = round(time.perf_counter() - t0 - sum(seconds.values()), 2)
-    seconds["total"] = round(time.perf_counter() - t0, 2)
+    seconds["report"] = round(time.perf_counter() - started["step"], 2)
+    seconds["total"] = round(time.perf_counter() - started["total"], 2)
     atomic_write_text(out / "result.json", json.dumps(result, indent=1) + "\n")
+    report_step(STEPS[5], seconds["report"])
     return result
+
+
+def report_region(
+    floor_xyz: np.ndarray,
+    maps: list[np.ndarray],
+    vmax: float,
+    keep: np.ndarray,
+    margin: float = 0.4,
+) -> tuple[float, float, float, float]:
+    """The part of the floor a top-down map of the report shows, as (x min, x max, y min,
+    y max) in the base frame: where any of ``maps`` exceeds 10 % of ``vmax``, and the
+    points ``keep`` ((K, 2): the target, the chosen poses), with ``margin`` around them,
+    within the visible floor. The rest of the view is floor nobody should stand on."""
+    xy = floor_xyz[:, :2]
+    hot = np.zeros(len(xy), bool)
+    for m in maps:
+        hot |= np.asarray(m) > 0.1 * vmax
+    pts = np.concatenate([xy[hot], np.asarray(keep, float).reshape(-1, 2)])
+    lo, hi = pts.min(0) - margin, pts.max(0) + margin
+    if len(xy):  # never beyond the floor that is seen (plus the margin)
+        lo = np.maximum(lo, xy.min(0) - margin)
+        hi = np.minimum(hi, xy.max(0) + margin)
+    return float(lo[0]), float(hi[0]), float(lo[1]), float(hi[1])
+
+
+def _mark_target(ax: Any, mask: np.ndarray) -> None:
+    """Outline the target's pixels in an image panel and label them."""
+    if not mask.any():
+        return
+    ax.contour(mask.astype(float), levels=[0.5], colors="red", linewidths=1.8)
+    rows, cols = np.nonzero(mask)
+    ax.annotate(
+        "target",
+        (float(cols.mean()), float(rows.min())),
+        xytext=(0, 8),
+        textcoords="offset points",
+        ha="center",
+        color="red",
+        fontsize=9,
+        weight="bold",
+    )
 
 
 def report_figure(
     rgb: np.ndarray,
     depth: np.ndarray,
+    target_mask: np.ndarray,
     intrinsics: Any,
     camera_to_base: np.ndarray,
     pred: Any,
@@ -190,8 +252,10 @@ def report_figure(
     outcome: str,
     result: dict[str, Any],
 ) -> bytes:
-    """The demo's report: what the robot sees, what the model predicts, where the robot
-    went, what happened, and the ground truth from the grid of trials."""
+    """The demo's report: what the robot sees (the target outlined), what the model
+    predicts, where the robot went, what happened, and the ground truth from the grid of
+    trials. The predicted and true maps share one colour scale and show the same region
+    around the target."""
     from momakitchen.perception.figures import floor_map, image_overlay, png_bytes, pyplot
 
     plt = pyplot()
@@ -202,21 +266,32 @@ def report_figure(
         fontsize=13,
     )
     axes[0, 0].imshow(rgb)
+    _mark_target(axes[0, 0], target_mask)
     axes[0, 0].set_title(f"1. first-person RGB (target: {result['target']})", fontsize=10)
     axes[0, 0].axis("off")
     im = axes[0, 1].imshow(np.where(depth > 0, depth, np.nan), cmap="turbo")
     axes[0, 1].set_title("2. depth (m), back-projected to a point cloud", fontsize=10)
     axes[0, 1].axis("off")
     fig.colorbar(im, ax=axes[0, 1], shrink=0.75)
+    # One scale for every affordance panel: the model is trained to predict the success
+    # rate the ground truth holds, so the two maps are read against each other.
+    vmax = max(float(pred.affordance.max()), float(np.max(gt, initial=0.0)), 0.05)
     image_overlay(
         axes[0, 2],
         rgb,
         pred.floor_xyz,
-        pred.affordance / max(float(pred.affordance.max()), 1e-6),
+        pred.affordance / vmax,
         intrinsics,
         camera_to_base,
         "3. predicted affordance on the floor (circle 1: the stop)",
         pred.poses,
+    )
+    _mark_target(axes[0, 2], target_mask)
+    region = report_region(
+        pred.floor_xyz,
+        [pred.affordance, gt],
+        vmax,
+        np.concatenate([np.asarray(pred.target_xyz, float)[None, :2], pred.poses[:, :2]]),
     )
     sc = floor_map(
         axes[1, 0],
@@ -225,20 +300,23 @@ def report_figure(
         "4. predicted map, top-down (arrows: Top-5 poses)",
         pred.target_xyz,
         pred.poses,
-        vmax=max(float(pred.affordance.max()), 0.05),
+        vmax=vmax,
+        extent=region,
     )
-    fig.colorbar(sc, ax=axes[1, 0], shrink=0.8, label="affordance")
-    sc = floor_map(
+    floor_map(
         axes[1, 1],
         pred.floor_xyz,
         gt,
         f"5. ground truth from {result['grid']['trials']} physics trials "
-        f"({result['grid']['successes']} succeeded)",
+        f"({result['grid']['successes']} succeeded)\nchosen pose (arrow): {outcome}",
         pred.target_xyz,
         pred.poses[:1],
-        outcome=f"chosen pose: {outcome}",
+        vmax=vmax,
+        extent=region,
     )
-    fig.colorbar(sc, ax=axes[1, 1], shrink=0.8, label="success (interpolated)")
+    fig.colorbar(
+        sc, ax=[axes[1, 0], axes[1, 1]], shrink=0.8, label="affordance = success rate (4 and 5)"
+    )
     ax = axes[1, 2]
     ax.axis("off")
     x, y, yaw = result["chosen_pose_base_frame"]
@@ -254,13 +332,15 @@ def report_figure(
         f"  {outcome}",
         "",
         "How to read this: the model sees only the",
-        "RGB-D view (1, 2) and scores every visible",
-        "floor point for how well the robot could",
-        "manipulate the target from there (3, 4).",
-        "The robot drives to the best point, facing",
-        "the target, and tries. The ground truth (5)",
-        "comes from really trying from every point",
-        "of a 10 cm grid in simulation.",
+        "RGB-D view (1, 2; target outlined in red)",
+        "and scores every visible floor point for",
+        "how well the robot could manipulate the",
+        "target from there (3, 4). The robot drives",
+        "to the best point, facing the target, and",
+        "tries. The ground truth (5) comes from really",
+        "trying from every point of a 10 cm grid in",
+        "simulation. 4 and 5 show the floor around",
+        "the target on one colour scale.",
     ]
     ax.text(
         0.0,

@@ -11,6 +11,7 @@ segmentation, and the floor points with their dense affordance labels.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -265,9 +266,14 @@ def configuration_episodes(
 
 
 def scene_records(
-    scene_id: int, config: GenerationConfig | None = None
+    scene_id: int,
+    config: GenerationConfig | None = None,
+    progress: Callable[[int, int], None] | None = None,
 ) -> list[tuple[ConfigurationLabels, list[Episode]]]:
-    """All configurations of scene ``scene_id`` with their episodes (deterministic)."""
+    """All configurations of scene ``scene_id`` with their episodes (deterministic).
+
+    ``progress(done, total)``, if given, is called after each configuration (the
+    generator's progress bar; it does not change the records)."""
     config = config or GenerationConfig()
     scene = sample_scene(scene_id, config.scene)
     records = []
@@ -277,6 +283,8 @@ def scene_records(
         # (scene_id, configuration index, config).
         with World(scene.layout) as world:
             records.append(configuration_episodes(world, scene.layout, cfg, config))
+        if progress is not None:
+            progress(len(records), len(scene.configurations))
     return records
 
 

@@ -84,11 +84,15 @@ def floor_map(
     poses: np.ndarray | None = None,
     cmap: str = "viridis",
     vmax: float = 1.0,
-    outcome: str | None = None,
+    extent: tuple[float, float, float, float] | None = None,
 ) -> Any:
     """Top-down view of the floor in the robot base frame (forward up, left to the left):
-    points coloured by ``values``, the robot at the origin, the target (star) and the
-    chosen poses as arrows facing the target. Returns the scatter (for a colour bar)."""
+    points coloured by ``values`` (0..``vmax``), the robot at the origin, the target (star)
+    and the chosen poses as arrows facing the target. ``extent`` = (x min, x max, y min,
+    y max) in the base frame crops the view to a region. Returns the scatter (for a colour
+    bar)."""
+    from matplotlib.ticker import FuncFormatter
+
     sc = ax.scatter(
         -xyz[:, 1], xyz[:, 0], c=values, cmap=cmap, vmin=0, vmax=vmax, s=6, linewidths=0
     )
@@ -118,27 +122,16 @@ def floor_map(
                 color=color,
                 weight="bold",
             )
-    if outcome:
-        ax.text(
-            0.02,
-            0.02,
-            outcome,
-            transform=ax.transAxes,
-            fontsize=9,
-            weight="bold",
-            color="white",
-            bbox={
-                "facecolor": "red" if "fail" in outcome else "green",
-                "alpha": 0.85,
-                "edgecolor": "none",
-            },
-        )
     ax.set_aspect("equal")
+    if extent is not None:
+        x0, x1, y0, y1 = extent
+        ax.set_xlim(-y1, -y0)
+        ax.set_ylim(x0, x1)
     ax.set_xlabel("y (m), positive to the left", fontsize=8)
     ax.set_ylabel("x, forward (m)", fontsize=8)
-    ticks = ax.get_xticks()
-    ax.set_xticks(ticks)
-    ax.set_xticklabels([f"{-t:g}" for t in ticks])
+    # The horizontal axis is -y (left on the left): label it with y. A formatter keeps the
+    # view limits (fixing the ticks would widen them to the ticks' range).
+    ax.xaxis.set_major_formatter(FuncFormatter(lambda t, _pos: f"{-t + 0.0:g}"))
     ax.set_title(title, fontsize=10)
     return sc
 

@@ -19,6 +19,7 @@ from pathlib import Path
 from typing import Any
 
 import torch
+from safetensors import SafetensorError
 from safetensors.torch import load as st_load
 from safetensors.torch import save as st_save
 from torch.utils.data import ConcatDataset, Subset
@@ -26,7 +27,7 @@ from torch.utils.data import ConcatDataset, Subset
 from momakitchen import codec
 from momakitchen.data.config import Preprocessing, manifest_preprocessing
 from momakitchen.errors import MomaError
-from momakitchen.fileio import atomic_write_bytes, atomic_write_text
+from momakitchen.fileio import atomic_write_bytes, atomic_write_text, existing_dir
 from momakitchen.models.base import AffordanceModel
 from momakitchen.models.registry import build_model
 from momakitchen.robots.spec import DESCRIPTOR_NAMES, DESCRIPTOR_VERSION
@@ -72,9 +73,7 @@ def write_run_config(
 
 def read_run_config(run_dir: Path) -> tuple[TrainConfig, dict[str, Any]]:
     """Read and check ``config.json`` of a run; MomaError if missing or incompatible."""
-    path = Path(run_dir) / CONFIG_FILE
-    if not Path(run_dir).is_dir():
-        raise MomaError(f"checkpoint directory {str(run_dir)!r} does not exist")
+    path = existing_dir(run_dir, "checkpoint directory") / CONFIG_FILE
     if not path.is_file():
         raise MomaError(f"{str(run_dir)!r} is not a run directory: {CONFIG_FILE} is missing")
     try:
@@ -149,16 +148,43 @@ def save_weights(path: Path, model: torch.nn.Module) -> None:
     atomic_write_bytes(Path(path), st_save(state, metadata={"format": FORMAT}))
 
 
-def load_weights(path: Path, model: torch.nn.Module) -> None:
-    path = Path(path)
+def _safetensors(path: Path, what: str) -> dict[str, torch.Tensor]:
+    """The tensors of a safetensors file; MomaError naming the file if it is missing or
+    unreadable (truncated, damaged or not safetensors)."""
     if not path.is_file():
-        raise MomaError(f"checkpoint weights {str(path)!r} are missing")
-    state = st_load(path.read_bytes())
+        raise MomaError(f"{what} {str(path)!r} are missing")
     try:
-        model.load_state_dict(state, strict=True)
-    except RuntimeError as exc:
-        first = str(exc).splitlines()[0]
-        raise MomaError(f"weights in {str(path)!r} do not fit the model: {first}") from None
+        return st_load(path.read_bytes())
+    except (SafetensorError, OSError) as exc:
+        reason = " ".join(str(exc).split())[:120]
+        raise MomaError(
+            f"{what} {str(path)!r} are unreadable (truncated or damaged?): {reason}"
+        ) from None
+
+
+def load_weights(path: Path, model: torch.nn.Module) -> None:
+    """Load ``model``'s weights from a safetensors file; MomaError naming the file when it
+    is missing, unreadable, or holds tensors other than the model's (names or shapes: a
+    ``config.json`` describing another model than the weights)."""
+    path = Path(path)
+    state = _safetensors(path, "checkpoint weights")
+    expected = model.state_dict()
+    problems = [f"tensor {k!r} is missing" for k in expected if k not in state]
+    problems += [f"unexpected tensor {k!r}" for k in state if k not in expected]
+    problems += [
+        f"tensor {k!r} has shape {tuple(v.shape)}, the model's is {tuple(expected[k].shape)}"
+        for k, v in state.items()
+        if k in expected and v.shape != expected[k].shape
+    ]
+    if problems:
+        more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
+        name = getattr(model, "name", None)
+        described = f"the {name} model" if name else "the model"
+        raise MomaError(
+            f"checkpoint weights {str(path)!r} do not fit {described} described by "
+            f"{CONFIG_FILE}: {problems[0]}{more}"
+        )
+    model.load_state_dict(state, strict=True)
 
 
 def save_trainer_state(
@@ -184,21 +210,32 @@ def save_trainer_state(
 
 def load_trainer_state(run_dir: Path, optimizer: torch.optim.Optimizer) -> dict[str, Any]:
     """Restore the optimiser and the torch RNG; returns the saved progress dict."""
-    body = json.loads((Path(run_dir) / STATE_JSON).read_text())
-    tensors = st_load((Path(run_dir) / STATE_FILE).read_bytes())
-    state: dict[int, dict[str, Any]] = {}
-    for key, value in tensors.items():
-        if key.startswith("opt."):
-            _, pid, name = key.split(".", 2)
-            state.setdefault(int(pid), {})[name] = value
-    for pid, extra in body["scalars"].items():
-        state.setdefault(int(pid), {}).update(extra)
-    groups = [
-        {k: (tuple(v) if k == "betas" else v) for k, v in g.items()} for g in body["param_groups"]
-    ]
-    optimizer.load_state_dict({"state": state, "param_groups": groups})
-    torch.set_rng_state(tensors["rng.torch"])
-    return body["progress"]
+    path = Path(run_dir) / STATE_JSON
+    try:
+        body = json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise MomaError(f"cannot resume: {str(path)!r} is unreadable ({exc})") from None
+    tensors = _safetensors(Path(run_dir) / STATE_FILE, "trainer state tensors")
+    try:
+        state: dict[int, dict[str, Any]] = {}
+        for key, value in tensors.items():
+            if key.startswith("opt."):
+                _, pid, name = key.split(".", 2)
+                state.setdefault(int(pid), {})[name] = value
+        for pid, extra in body["scalars"].items():
+            state.setdefault(int(pid), {}).update(extra)
+        groups = [
+            {k: (tuple(v) if k == "betas" else v) for k, v in g.items()}
+            for g in body["param_groups"]
+        ]
+        optimizer.load_state_dict({"state": state, "param_groups": groups})
+        torch.set_rng_state(tensors["rng.torch"])
+        return body["progress"]
+    except (KeyError, TypeError, ValueError, RuntimeError) as exc:
+        raise MomaError(
+            f"cannot resume from {str(run_dir)!r}: the trainer state does not fit this "
+            f"optimiser ({' '.join(str(exc).split())[:120]})"
+        ) from None
 
 
 def has_checkpoint(run_dir: Path) -> bool:

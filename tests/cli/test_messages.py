@@ -1,0 +1,132 @@
+"""One wording per rule; a failed run creates no --out directory; --robot-yaml wherever a
+command takes --robot."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from momakitchen.cli.main import main
+
+
+def _error(capsys) -> str:
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1, err
+    return err
+
+
+@pytest.mark.parametrize("value", ["0", "-1", "x"])
+def test_scenes_states_its_rule_once(value, tmp_path, capsys):
+    """`--scenes` does not call itself non-negative and then refuse 0."""
+    assert main(["generate", "--synthetic", "--out", str(tmp_path / "d"), "--scenes", value]) == 2
+    err = _error(capsys)
+    assert f"--scenes: expected an integer >= 1, got '{value}'" in err
+    assert "non-negative" not in err
+    assert not (tmp_path / "d").exists()
+
+
+@pytest.mark.parametrize("value", ["0", "-2", "nan"])
+def test_target_mass_states_its_rule_once(value, tmp_path, capsys):
+    """`--target-mass` refuses 0 at once, saying > 0 (not ">= 0" and then refusing 0)."""
+    argv = ["label", "--scene-id", "1", "--out", str(tmp_path / "o"), "--target-mass", value]
+    assert main(argv) == 2
+    err = _error(capsys)
+    assert f"--target-mass: expected a finite number > 0, got '{value}'" in err
+    assert ">= 0" not in err
+    assert not (tmp_path / "o").exists()
+
+
+def test_config_index_has_one_wording(tmp_path, capsys):
+    """scene, label and demo word an out-of-range --config alike (no "< 10" beside
+    "[0, 9]"), and none of them leaves its --out behind."""
+    errors = []
+    for argv in (
+        ["scene", "--scene-id", "1", "--no-render"],
+        ["label", "--scene-id", "1", "--quiet"],
+        ["demo"],
+    ):
+        out = tmp_path / argv[0]
+        assert main([*argv, "--config", "12", "--out", str(out)]) == 2
+        errors.append(_error(capsys).split("error: ", 1)[1])
+        assert not out.exists()
+    assert errors == ["--config must be in [0, 9], got 12"] * 3
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["stats", "FILE"],
+        ["check", "FILE"],
+        ["train", "--data", "FILE", "--model", "navaff", "--out", "RUN"],
+        ["evaluate", "--data", "FILE", "--checkpoint", "FILE", "--json", "J"],
+        ["msr", "--data", "FILE", "--json", "J"],
+    ],
+)
+def test_a_file_given_for_a_directory_is_called_a_file(argv, tmp_path, capsys):
+    """A regular file where a directory belongs: "is not a directory", never "does not
+    exist"."""
+    f = tmp_path / "notes.txt"
+    f.write_text("x")
+    repl = {"FILE": str(f), "RUN": str(tmp_path / "run"), "J": str(tmp_path / "m.json")}
+    assert main([repl.get(a, a) for a in argv]) == 2
+    err = _error(capsys)
+    assert f"{str(f)!r} is not a directory" in err and "does not exist" not in err
+    assert f.read_text() == "x" and not (tmp_path / "run").exists()
+
+
+def test_failed_predict_creates_no_output_directory(tmp_path, capsys):
+    """An all-zero depth image: one line, exit 2, and no empty --out."""
+    depth, mask, tf = tmp_path / "d.npy", tmp_path / "m.npy", tmp_path / "tf.txt"
+    np.save(depth, np.zeros((24, 32), np.float32))
+    target = np.zeros((24, 32), bool)
+    target[5:9, 10:14] = True
+    np.save(mask, target)
+    np.savetxt(tf, np.eye(4))
+    out = tmp_path / "pred"
+    argv = ["predict", "--depth", str(depth), "--intrinsics", "30", "30", "16", "12"]
+    argv += ["--extrinsics", str(tf), "--target-mask", str(mask), "--robot", "panda"]
+    assert main([*argv, "--out", str(out)]) == 2
+    assert "no valid pixel" in _error(capsys)
+    assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["label", "--scene-id", "1", "--robot", "NAME", "--config", "12", "--out", "OUT"],
+        ["demo", "--robot", "NAME", "--config", "12", "--out", "OUT"],
+        ["predict", "--depth", "MISSING.npy", "--intrinsics", "1", "1", "1", "1"],
+    ],
+)
+def test_robot_yaml_on_every_command_that_takes_a_robot(argv, tmp_path, capsys):
+    """--robot-yaml registers the user robot before the command runs: --robot then knows
+    it (the command goes on to its next check), and a bad YAML is named."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).parent))
+    try:
+        from test_robots_cli import kuka_yaml
+    finally:
+        sys.path.pop(0)
+    from momakitchen.robots.spec import ROBOTS
+    from momakitchen.robots.user import unregister_user_robot
+
+    name = f"kuka_{argv[0]}"
+    good = kuka_yaml(tmp_path, name, reach=0.8)
+    repl = {"NAME": name, "OUT": str(tmp_path / "out"), "MISSING.npy": str(tmp_path / "no.npy")}
+    argv = [repl.get(a, a) for a in argv]
+    if argv[0] == "predict":
+        argv += ["--extrinsics", "e.txt", "--target-mask", "m.npy", "--robot", name]
+        argv += ["--out", str(tmp_path / "out")]
+    try:
+        assert main([*argv, "--robot-yaml", str(good)]) == 2
+        err = _error(capsys)
+        assert "unrecognized arguments" not in err and "unknown robot" not in err, err
+        assert "--config must be in [0, 9], got 12" in err or "no.npy" in err
+        assert not (tmp_path / "out").exists()
+        assert main([*argv, "--robot-yaml", str(tmp_path / "absent.yaml")]) == 2
+        assert "absent.yaml" in _error(capsys)
+    finally:
+        if name in ROBOTS:
+            unregister_user_robot(name)
