@@ -22,6 +22,7 @@ from typing import Any, TypeVar
 import yaml
 
 from momakitchen.errors import MomaError
+from momakitchen.fileio import existing_file
 
 T = TypeVar("T")
 
@@ -165,8 +166,7 @@ def read_config_file(path: str | Path) -> dict[str, Any]:
             f"config file {str(path)!r}: use {', '.join(CONFIG_SUFFIXES)}, got "
             f"{suffix or 'no suffix'!r}"
         )
-    if not path.is_file():
-        raise MomaError(f"config file {str(path)!r} does not exist")
+    existing_file(path, "config file")
     try:
         text = path.read_text()
     except (OSError, UnicodeDecodeError) as exc:

@@ -67,3 +67,14 @@ def existing_dir(path: str | os.PathLike, what: str) -> Path:
     if not path.is_dir():
         raise MomaError(f"{what} {str(path)!r} is not a directory")
     return path
+
+
+def existing_file(path: str | os.PathLike, what: str) -> Path:
+    """``path`` as a Path if it is a regular file; otherwise MomaError saying whether it is
+    missing or a directory (``what`` names it: "depth file", "config file", ...)."""
+    path = Path(path)
+    if not path.exists():
+        raise MomaError(f"{what} {str(path)!r} does not exist")
+    if not path.is_file():
+        raise MomaError(f"{what} {str(path)!r} is not a file")
+    return path

@@ -3,6 +3,8 @@ command takes --robot."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -102,7 +104,6 @@ def test_robot_yaml_on_every_command_that_takes_a_robot(argv, tmp_path, capsys):
     """--robot-yaml registers the user robot before the command runs: --robot then knows
     it (the command goes on to its next check), and a bad YAML is named."""
     import sys
-    from pathlib import Path
 
     sys.path.insert(0, str(Path(__file__).parent))
     try:
@@ -130,3 +131,65 @@ def test_robot_yaml_on_every_command_that_takes_a_robot(argv, tmp_path, capsys):
     finally:
         if name in ROBOTS:
             unregister_user_robot(name)
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["train", "--data", "D", "--model", "navaff", "--out", "RUN", "--config", "DIR.yaml"],
+        ["generate", "--out", "RUN", "--scenes", "1", "--config", "DIR.yaml"],
+        ["predict", "--depth", "DIR.yaml", "--intrinsics", "1", "1", "1", "1", "--robot", "panda"],
+    ],
+)
+def test_a_directory_given_for_a_file_is_called_a_directory(argv, tmp_path, capsys):
+    """A directory where a file belongs: "is not a file", never "does not exist"."""
+    d = tmp_path / "DIR.yaml"
+    d.mkdir()
+    repl = {"DIR.yaml": str(d), "D": str(tmp_path), "RUN": str(tmp_path / "run")}
+    argv = [repl.get(a, a) for a in argv]
+    if argv[0] == "predict":
+        argv += ["--extrinsics", "e", "--target-mask", "m", "--out", str(tmp_path / "run")]
+    assert main(argv) == 2
+    err = _error(capsys)
+    assert f"{str(d)!r} is not a file" in err and "does not exist" not in err
+    assert not (tmp_path / "run").exists()
+
+
+@pytest.mark.parametrize("command", ["scene", "import-reference"])
+def test_a_file_given_for_a_folder_is_called_a_file(command, tmp_path, capsys):
+    f = tmp_path / "notes.txt"
+    f.write_text("x")
+    if command == "scene":
+        argv = ["scene", "--scene-id", "1", "--no-render", "--assets", str(f)]
+    else:
+        argv = ["import-reference", str(f)]
+    assert main([*argv, "--out", str(tmp_path / "out")]) == 2
+    err = _error(capsys)
+    assert f"{str(f)!r} is not a directory" in err and not (tmp_path / "out").exists()
+
+
+@pytest.mark.skipif(not Path("/proc/self").is_dir(), reason="needs /proc")
+def test_an_out_that_cannot_be_made_fails_before_the_work(capsys, monkeypatch):
+    """Root may write everywhere by permissions, yet nothing can be made under /proc: the
+    label command must say so before its trials, not after."""
+    import momakitchen.sim.labels as labels
+
+    def no_trials(*_args, **_kwargs):
+        raise AssertionError("trials ran before --out was checked")
+
+    monkeypatch.setattr(labels, "label_configuration", no_trials)
+    assert main(["label", "--scene-id", "1", "--out", "/proc/momakitchen-out", "--quiet"]) == 2
+    assert "cannot write to output directory '/proc/momakitchen-out'" in _error(capsys)
+
+
+def test_predict_names_the_bad_reach(tmp_path, capsys):
+    depth, mask, tf = tmp_path / "d.npy", tmp_path / "m.npy", tmp_path / "tf.txt"
+    np.save(depth, np.ones((24, 32), np.float32))
+    target = np.zeros((24, 32), bool)
+    target[5:9, 10:14] = True
+    np.save(mask, target)
+    np.savetxt(tf, np.eye(4))
+    argv = ["predict", "--depth", str(depth), "--intrinsics", "30", "30", "16", "12"]
+    argv += ["--extrinsics", str(tf), "--target-mask", str(mask), "--out", str(tmp_path / "o")]
+    assert main([*argv, "--reach", "-1", "--mount-height", "1"]) == 2
+    assert "robot reach must be in [0.2, 3] m, got -1.0" in _error(capsys)

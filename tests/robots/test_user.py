@@ -108,8 +108,10 @@ def test_unparsable_yaml_and_urdf(tiny_robot_files, tmp_path):
     with pytest.raises(MomaError, match="does not parse") as info:
         load_config(bad_yaml)
     assert str(bad_yaml) in str(info.value)
-    with pytest.raises(MomaError, match="not found"):
+    with pytest.raises(MomaError, match="does not exist"):
         load_config(tmp_path / "missing.yaml")
+    with pytest.raises(MomaError, match="is not a file"):
+        load_config(tmp_path)
     urdf.write_text("<robot name='x'><link name='a'></robot>")  # malformed XML
     with pytest.raises(MomaError, match="does not parse") as info:
         register_user_robot(yaml_path)

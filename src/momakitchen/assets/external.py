@@ -44,6 +44,7 @@ from momakitchen.assets.registry import (
 )
 from momakitchen.assets.urdf import fmt
 from momakitchen.errors import MomaError
+from momakitchen.fileio import existing_dir
 from momakitchen.frames import float3
 
 # PartNet-Mobility category names -> ours. PartNet's Faucet is a bare tap, not a sink
@@ -131,9 +132,7 @@ def category_of(folder_name: str) -> str | None:
 def scan_folder(root: str | Path) -> list[ExternalAsset]:
     """All ``<category>/<id>/mobility.urdf`` files under ``root`` whose category we know,
     sorted (deterministic). Unknown category folders are skipped."""
-    root = Path(root)
-    if not root.is_dir():
-        raise MomaError(f"external asset folder {str(root)!r} does not exist")
+    root = existing_dir(root, "external asset folder")
     out = []
     for cat_dir in sorted(p for p in root.iterdir() if p.is_dir()):
         ours = category_of(cat_dir.name)

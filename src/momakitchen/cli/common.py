@@ -81,15 +81,26 @@ def planned_output_dir(path: str | os.PathLike) -> Path:
     :func:`output_dir`) only when its inputs have proved valid, so a failed run leaves no
     empty directory behind."""
     out = Path(path)
-    ancestor = out
+    first_missing, ancestor = None, out
     while not ancestor.exists() and ancestor != ancestor.parent:
-        ancestor = ancestor.parent
+        first_missing, ancestor = ancestor, ancestor.parent
     if not ancestor.is_dir():
         reason = f"{str(ancestor)!r} is not a directory"
     elif not os.access(ancestor, os.W_OK | os.X_OK):
         reason = f"{str(ancestor)!r} is not writable"
     else:
-        return out
+        # Permissions say little for root or on special file systems (/proc): try it, and
+        # leave nothing behind.
+        try:
+            if first_missing is None:
+                with tempfile.NamedTemporaryFile(dir=out, prefix=".write-test-"):
+                    pass
+            else:
+                first_missing.mkdir()
+                first_missing.rmdir()
+            return out
+        except OSError as exc:
+            reason = exc.strerror or str(exc)
     raise MomaError(f"cannot write to output directory {str(out)!r}: {reason}")
 
 

@@ -357,32 +357,36 @@ def generate_dataset(
             dynamic_ncols=True,
         )
         last_save = time.monotonic()
-        episodes = configurations = 0
-        running: dict[int, float] = {}  # scene id -> fraction of its configurations done
+        finished = len(request.scene_ids) - len(todo)  # requested scenes with a shard
+        episodes = configurations = 0  # of the scenes written by this run
+        running: dict[int, tuple[int, int]] = {}  # scene -> (configurations done, of)
 
-        def advance(fraction: float) -> None:
-            done_now = configurations + round(sum(running.values()) * per_scene)
-            bar.set_postfix_str(f"configurations={done_now}, episodes={episodes}", refresh=False)
-            bar.update(fraction)
-
-        per_scene = 0  # configurations per scene, as the producer reports them
+        def redraw() -> None:
+            # The position is recomputed, not accumulated: summed fractions drift past the
+            # total in floating point.
+            position = finished + sum(d / t for d, t in running.values())
+            in_progress = sum(d for d, _ in running.values())
+            bar.set_postfix_str(
+                f"configurations={configurations + in_progress}, episodes={episodes}",
+                refresh=False,
+            )
+            bar.update(position - bar.n)
+            bar.n = position
 
         def partial(scene_id: int, done_configs: int, total: int) -> None:
-            nonlocal per_scene
             if str(scene_id) in manifest["shards"]:
                 return  # a late report of a scene already written
-            per_scene = max(total, 1)
-            before = running.get(scene_id, 0.0)
-            running[scene_id] = done_configs / per_scene
-            advance(running[scene_id] - before)
+            running[scene_id] = (done_configs, max(total, 1))
+            redraw()
 
         def done(summary: dict[str, Any]) -> None:
-            nonlocal last_save, episodes, configurations
+            nonlocal last_save, finished, episodes, configurations
             mf.add_shard(manifest, summary)
-            before = running.pop(int(summary["scene_id"]), 0.0)
+            running.pop(int(summary["scene_id"]), None)
+            finished += 1
             episodes += sum(summary["episodes_per_config"])
             configurations += summary["configurations"]
-            advance(1.0 - before)
+            redraw()
             if time.monotonic() - last_save > MANIFEST_SAVE_SECONDS:
                 mf.save_manifest(root, mf.finalize(manifest, complete=False))
                 last_save = time.monotonic()

@@ -39,6 +39,7 @@ from momakitchen.data.episode import ConfigurationLabels, Episode
 from momakitchen.data.ply import read_ply, write_ply
 from momakitchen.data.shard import SCENES_DIR, SceneShard, list_shards, write_shard
 from momakitchen.errors import MomaError
+from momakitchen.fileio import existing_dir
 from momakitchen.frames import float3
 from momakitchen.robots.spec import get_robot_spec, robot_descriptor
 
@@ -296,9 +297,7 @@ def import_reference(src: str | os.PathLike, out: str | os.PathLike) -> dict[str
     """
     from momakitchen.data.card import write_dataset_card
 
-    src, out = Path(src), Path(out)
-    if not src.is_dir():
-        raise MomaError(f"reference directory {str(src)!r} does not exist")
+    src, out = existing_dir(src, "reference directory"), Path(out)
     if out.exists() and (not out.is_dir() or any(out.iterdir())):
         raise MomaError(f"--out {str(out)!r} exists and is not an empty directory")
     pairs = _discover(src)

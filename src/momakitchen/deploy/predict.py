@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from momakitchen.errors import MomaError
+from momakitchen.fileio import existing_file
 from momakitchen.models.inference import MC_SAMPLES, Prediction
 
 
@@ -32,9 +33,7 @@ def load_depth(depth: np.ndarray | str | os.PathLike) -> np.ndarray:
     """Depth in metres (H, W) float32 from an array, a ``.npy`` file (metres) or a 16-bit
     PNG (millimetres). Invalid pixels stay 0 or NaN (they are skipped later)."""
     if isinstance(depth, (str, os.PathLike)):
-        path = Path(depth)
-        if not path.is_file():
-            raise MomaError(f"depth file {str(path)!r} does not exist")
+        path = existing_file(depth, "depth file")
         if path.suffix.lower() == ".npy":
             depth = _load_npy(path, "depth")
         elif path.suffix.lower() == ".png":
@@ -55,9 +54,7 @@ def load_depth(depth: np.ndarray | str | os.PathLike) -> np.ndarray:
 def load_mask(mask: np.ndarray | str | os.PathLike, name: str) -> np.ndarray:
     """A boolean (H, W) mask from an array, ``.npy`` or image file (non-zero = inside)."""
     if isinstance(mask, (str, os.PathLike)):
-        path = Path(mask)
-        if not path.is_file():
-            raise MomaError(f"{name} file {str(path)!r} does not exist")
+        path = existing_file(mask, f"{name} file")
         mask = _load_npy(path, name) if path.suffix.lower() == ".npy" else _load_png(path, name)
     arr = np.asarray(mask)
     if arr.ndim == 3:  # an RGB(A) mask image
@@ -69,9 +66,7 @@ def load_mask(mask: np.ndarray | str | os.PathLike, name: str) -> np.ndarray:
 
 def load_rgb(rgb: np.ndarray | str | os.PathLike) -> np.ndarray:
     if isinstance(rgb, (str, os.PathLike)):
-        path = Path(rgb)
-        if not path.is_file():
-            raise MomaError(f"rgb file {str(path)!r} does not exist")
+        path = existing_file(rgb, "rgb file")
         rgb = _load_npy(path, "rgb") if path.suffix.lower() == ".npy" else _load_png(path, "rgb")
     arr = np.asarray(rgb)
     if arr.ndim != 3 or arr.shape[2] not in (3, 4):
@@ -103,9 +98,7 @@ def load_extrinsics(tf: np.ndarray | str | os.PathLike) -> np.ndarray:
     """A rigid camera-to-base transform (4, 4) from an array, ``.npy`` or text file (OpenCV
     camera axes: x right, y down, z forward)."""
     if isinstance(tf, (str, os.PathLike)):
-        path = Path(tf)
-        if not path.is_file():
-            raise MomaError(f"extrinsics file {str(path)!r} does not exist")
+        path = existing_file(tf, "extrinsics file")
         try:
             tf = (
                 _load_npy(path, "extrinsics")
@@ -146,6 +139,10 @@ def robot_input(robot: str | Sequence[float] | Mapping[str, float]) -> tuple[str
         missing = {"reach", "mount_height"} - set(robot)
         if missing:
             raise MomaError(f"robot descriptor needs {sorted(missing)}")
+        for key, lo, hi in (("reach", 0.2, 3.0), ("mount_height", 0.0, 3.0)):
+            value = float(robot[key])
+            if not (np.isfinite(value) and lo <= value <= hi):  # named here, not as a vector
+                raise MomaError(f"robot {key} must be in [{lo:g}, {hi:g}] m, got {robot[key]}")
         vec = list(
             descriptor_values(
                 robot["reach"],

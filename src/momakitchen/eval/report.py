@@ -30,7 +30,7 @@ import numpy as np
 
 from momakitchen.errors import MomaError
 from momakitchen.eval.msr import RATE_KEYS
-from momakitchen.fileio import atomic_write_bytes, atomic_write_text
+from momakitchen.fileio import atomic_write_bytes, atomic_write_text, existing_file
 
 MAP_COLUMNS = (
     ("rmse", "RMSE ↓"),
@@ -80,8 +80,8 @@ class BenchmarkRequest:
         for run in (*self.runs, *self.ablations, *self.sweep):
             if not (Path(run) / "config.json").is_file():
                 raise MomaError(f"{str(run)!r} is not a run directory (no config.json)")
-        if self.msr is not None and not Path(self.msr).is_file():
-            raise MomaError(f"MSR file {str(self.msr)!r} does not exist")
+        if self.msr is not None:
+            existing_file(self.msr, "MSR file")
         if self.max_configs < 0:
             raise MomaError(f"max_configs must be >= 0, got {self.max_configs}")
         if not 1 <= self.examples <= 12:

@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from momakitchen.errors import MomaError
+from momakitchen.fileio import existing_file
 from momakitchen.robots.arms import (
     BuiltArm,
     ParallelGripper,
@@ -276,11 +277,9 @@ def link_of(joint: ET.Element, end: str) -> str:
 
 def parse_urdf(path: Path) -> ET.Element:
     """Parse a URDF file; MomaError naming the file on a missing file or malformed XML."""
-    path = Path(path)
+    path = existing_file(path, "URDF file")
     try:
         root = ET.parse(path).getroot()
-    except FileNotFoundError:
-        raise MomaError(f"URDF file {str(path)!r} not found") from None
     except (ET.ParseError, OSError) as exc:
         raise MomaError(f"URDF file {str(path)!r} does not parse: {exc}") from None
     if root.tag != "robot":

@@ -29,6 +29,7 @@ from pathlib import Path
 import yaml
 
 from momakitchen.errors import MomaError
+from momakitchen.fileio import existing_file
 from momakitchen.robots.arms import RobotModel, ShippedArm, UserTool
 from momakitchen.robots.spec import ROBOTS, RobotSpec, register_robot
 from momakitchen.robots.urdf import BASE_LINK, TCP_LINK, link_of, parse_urdf
@@ -112,12 +113,10 @@ def _typed(value, kind, key: str, where: str):
 
 def load_config(path: str | os.PathLike) -> UserRobotConfig:
     """Read and validate a user robot YAML file (MomaError naming the file otherwise)."""
-    path = Path(path)
+    path = existing_file(path, "robot YAML file")
     where = str(path)
     try:
         data = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise MomaError(f"robot YAML file {where!r} not found") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise MomaError(f"robot YAML file {where!r} cannot be read: {exc}") from None
     except yaml.YAMLError as exc:
