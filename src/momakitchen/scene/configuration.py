@@ -148,8 +148,8 @@ def handle_anchor(unit: Placed, articulation: int) -> tuple[float, float, float]
     return float3(_r(v) for v in unit.to_world(local))
 
 
-# What the trials command (TrialConfig's pull_angle_deg and pull_distance): the floor the
-# part sweeps while opening that far must stay free of obstacles.
+# At least what the trials pull (TrialConfig's pull_angle_deg and pull_distance), with
+# room to spare: the floor the part sweeps while opening that far stays free of obstacles.
 PART_SWEEP = (np.radians(45.0), 0.16)
 
 

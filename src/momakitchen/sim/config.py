@@ -37,7 +37,9 @@ class TrialConfig:
         hold_seconds: ...and is still held after this long.
         open_angle_deg, open_distance: an articulated trial succeeds if the joint opened
             at least this much (revolute / prismatic).
-        pull_angle_deg, pull_distance: how far the arm tries to open the part.
+        pull_angle_deg, pull_distance: how far the arm tries to open the part: a
+            margin beyond the success threshold (pulling farther costs physics and
+            decides nothing).
         max_grasp_depth: a gripper's TCP (the centre between the finger pads) goes this
             far behind the grasp surface at most, and never deeper than half the grasp
             width: to the axis of a bottle, around a handle bar, over the top of a fruit.
@@ -56,8 +58,8 @@ class TrialConfig:
     hold_seconds: float = 1.0
     open_angle_deg: float = 20.0
     open_distance: float = 0.10
-    pull_angle_deg: float = 45.0
-    pull_distance: float = 0.16
+    pull_angle_deg: float = 26.0
+    pull_distance: float = 0.125
     max_grasp_depth: float = 0.03
     max_grasp_candidates: int = 3
     ik_restarts: int = 5

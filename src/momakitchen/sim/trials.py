@@ -345,7 +345,7 @@ class TrialRunner:
         goal = math.radians(cfg.pull_angle_deg) if revolute else cfg.pull_distance
         goal = min(goal, t.limit) if t.limit > 0 else goal
         need = math.radians(cfg.open_angle_deg) if revolute else cfg.open_distance
-        step = math.radians(3.0) if revolute else 0.025
+        step = math.radians(4.0) if revolute else 0.025
         # The grasp as it really is after closing the fingers, fixed in the part's frame.
         lp, lq = self._link_frame()
         tcp_pos, tcp_quat = robot.tcp_pose()
@@ -353,10 +353,12 @@ class TrialRunner:
         tcp_in_link = p.multiplyTransforms(*inv, tcp_pos.tolist(), tcp_quat.tolist())
         held_quat = tcp_quat
         q = q_held
+        last = -math.inf
         for _ in range(2 * math.ceil(goal / step) + 4):
             opened = (world.joint_position(t) - q_start) * t.open_direction
-            if opened >= goal - 1e-3:
-                break
+            if opened >= goal - 1e-3 or opened - last < 0.1 * step:
+                break  # far enough, or the part no longer follows the hand (blocked)
+            last = opened
             res = None
             # IK moves the arm kinematically: keep the physical state to put it back.
             arm = robot.arm_joints
@@ -378,7 +380,7 @@ class TrialRunner:
                 p.resetJointState(robot.body, j, s[0], s[1], physicsClientId=self._client)
             if res is None or not res.success:
                 break
-            self._drive(q, res.q, 4, 10)
+            self._drive(q, res.q, 3, 10)
             q = res.q
             if self._lost_grip():
                 break
