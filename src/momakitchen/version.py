@@ -1,3 +1,3 @@
 """The package version (recorded in datasets, checkpoints and reports)."""
 
-__version__ = "0.1.0"
+__version__ = "0.2.0"

@@ -47,7 +47,9 @@ def test_help_and_version_import_nothing_heavy():
     out = subprocess.run(
         [sys.executable, "-c", code], capture_output=True, text=True, check=True
     ).stdout.splitlines()
-    assert "momakitchen 0.1.0" in out and "train" in "\n".join(out)
+    from momakitchen.version import __version__
+
+    assert f"momakitchen {__version__}" in out and "train" in "\n".join(out)
     assert out[-1] == "[]"
 
 

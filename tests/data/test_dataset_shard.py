@@ -90,3 +90,37 @@ def test_writer_refuses_mislabelled_records(tmp_path):
     with pytest.raises(MomaError, match="scene 2"):
         write_shard(tmp_path, 2, records)
     assert not list(tmp_path.iterdir())  # nothing left behind
+
+
+def test_infeasible_configurations_are_flagged_and_counted(tmp_path):
+    """A configuration without a successful trial stays in the data, flagged in the shard
+    and the manifest entry, and counted; views are counted as covering only where their
+    floor comes within 10 cm of a success."""
+    from momakitchen.data import manifest as mf
+    from momakitchen.data.shard import COVERAGE_RADIUS, sees_success
+
+    records = synthetic_scene_records(3, CFG)
+    lab0, eps0 = records[0]
+    failed = dataclasses.replace(lab0, trial_stages=np.full_like(lab0.trial_stages, 5))
+    records = [(failed, eps0), records[1]]
+    assert records[1][0].feasible and not failed.feasible
+    summary = write_shard(tmp_path, 3, records)
+    assert summary["feasible"] == [False, True]
+    with h5py.File(tmp_path / shard_name(3), "r") as f:
+        assert [int(f[f"config_00{c}"].attrs["feasible"]) for c in (0, 1)] == [0, 1]
+    lab1, eps1 = records[1]
+    expected = sum(sees_success(lab1, e.floor_xyz, e.base_pose) for e in eps1)
+    assert summary["covering_views"] == [0, expected]
+    with SceneShard(tmp_path / shard_name(3)) as shard:
+        assert shard.covering_views(1) == expected
+    counts = mf.compute_counts([{**summary, "split": "test"}])
+    assert counts["total"]["infeasible_configurations"] == 1
+    assert counts["total"]["feasible_views"] == len(eps1)
+    assert counts["total"]["covering_views"] == expected
+    # The radius is what the counts say: a floor point just inside covers, just outside not.
+    success = lab1.trial_positions[lab1.trial_stages == 0][:1]
+    only = dataclasses.replace(lab1, trial_positions=success, trial_stages=np.zeros(1, np.uint8))
+    base = (0.0, 0.0, 0.0)
+    near = np.array([[success[0, 0] + COVERAGE_RADIUS - 1e-3, success[0, 1], 0.0]])
+    far = np.array([[success[0, 0] + COVERAGE_RADIUS + 1e-3, success[0, 1], 0.0]])
+    assert sees_success(only, near, base) and not sees_success(only, far, base)

@@ -119,6 +119,12 @@ def run_stats(args: argparse.Namespace) -> int:
         f"{s['image_shape']}; points per episode: global {pts['global']}, floor "
         f"{pts['floor']}"
     )
+    coverage = s["view_coverage"]
+    print(
+        f"infeasible configurations (no successful trial): {s['infeasible_configurations']} of "
+        f"{s['splits']['total']['configurations']}; views of feasible configurations that see "
+        f"floor within 10 cm of a success: {'-' if coverage is None else f'{coverage:.1%}'}"
+    )
     if s["episodes_with_empty_cloud"]:
         print(
             f"episodes without global or floor points (skipped by EpisodeDataset): "

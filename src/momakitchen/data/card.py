@@ -82,6 +82,19 @@ def _rate(row: dict[str, int]) -> str:
     return f"{row['successful_trials'] / row['trials']:.3f}" if row.get("trials") else "-"
 
 
+def _ground_truth_line(total: dict[str, int]) -> str:
+    """Infeasible configurations and view coverage, in one sentence."""
+    n, bad = total.get("configurations", 0), total.get("infeasible_configurations", 0)
+    views, covering = total.get("feasible_views", 0), total.get("covering_views", 0)
+    share = f"{100 * bad / n:.1f} %" if n else "-"
+    coverage = f"{100 * covering / views:.1f} %" if views else "-"
+    return (
+        f"Infeasible configurations (no successful grid trial; kept, flagged `feasible` = 0): "
+        f"{bad} of {n} ({share}). View coverage: {covering} of the {views} views of feasible "
+        f"configurations ({coverage}) see floor within 10 cm of a successful trial position."
+    )
+
+
 def render_card(manifest: dict[str, Any], stats: dict[str, Any] | None, figure: bool) -> str:
     c = manifest["counts"]
     splits = [
@@ -128,6 +141,8 @@ def render_card(manifest: dict[str, Any], stats: dict[str, Any] | None, figure: 
         "check it with `momakitchen check`.",
         "",
         f"Splits are by scene (unseen-scene test set): {manifest['split_rule']}.",
+        "",
+        _ground_truth_line(c["total"]),
         "",
         "## Counts",
         "",

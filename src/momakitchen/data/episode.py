@@ -39,6 +39,12 @@ class ConfigurationLabels:
     def trial_outcomes(self) -> np.ndarray:
         return (self.trial_stages == 0).astype(np.uint8)
 
+    @property
+    def feasible(self) -> bool:
+        """Whether some trial of the grid succeeded (else no base position is known to
+        work: the configuration stays in the data, flagged)."""
+        return bool(np.any(self.trial_stages == 0))
+
 
 @dataclass(frozen=True)
 class Episode:

@@ -204,6 +204,7 @@ def _existing_summary(path: Path, known: dict[str, Any] | None) -> dict[str, Any
     with SceneShard(path) as shard:
         configs = [shard.configuration(c) for c in shard.config_indices()]
         per_config = [len(shard.episode_indices(c)) for c in shard.config_indices()]
+        covering = [shard.covering_views(c) for c in shard.config_indices()]
         points = [
             [shard.num_points(c, e) for e in shard.episode_indices(c)]
             for c in shard.config_indices()
@@ -216,6 +217,8 @@ def _existing_summary(path: Path, known: dict[str, Any] | None) -> dict[str, Any
         "targets": [c.target for c in configs],
         "trials": [int(c.trial_stages.shape[0]) for c in configs],
         "successes": [int((c.trial_stages == 0).sum()) for c in configs],
+        "feasible": [c.feasible for c in configs],
+        "covering_views": covering,
         "global_points": [[g for g, _ in eps] for eps in points],
         "floor_points": [[f for _, f in eps] for eps in points],
         "file": f"{SCENES_DIR}/{path.name}",

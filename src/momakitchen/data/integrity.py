@@ -185,6 +185,8 @@ def check_shard(
                 raise MomaError(f"{where}: trial stage {int(lab.trial_stages.max())} out of range")
             if int((lab.trial_stages == 0).sum()) != entry["successes"][c]:
                 raise MomaError(f"{where}: success count differs from the manifest")
+            if lab.feasible != bool(entry["feasible"][c]):
+                raise MomaError(f"{where}: feasibility flag differs from the manifest")
             for e in shard.episode_indices(c):
                 if list(shard.num_points(c, e)) != [
                     entry["global_points"][c][e],
@@ -294,6 +296,8 @@ def dataset_stats(root: str | os.PathLike) -> dict[str, Any]:
     def rate(row: dict[str, int]) -> float | None:
         return round(row["successful_trials"] / row["trials"], 4) if row.get("trials") else None
 
+    total = counts["total"]
+
     robots_in = {
         s: sorted(r for r, row in counts["robots"].items() if row[s].get("episodes"))
         for s in mf.SPLITS
@@ -323,6 +327,12 @@ def dataset_stats(root: str | os.PathLike) -> dict[str, Any]:
         "floor_label_mean": _summary(label_mean),
         "floor_label_positive_fraction": _summary(label_pos),
         "episodes_with_empty_cloud": empty,
+        "infeasible_configurations": total.get("infeasible_configurations", 0),
+        "view_coverage": (
+            round(total["covering_views"] / total["feasible_views"], 4)
+            if total.get("feasible_views")
+            else None
+        ),
     }
 
 

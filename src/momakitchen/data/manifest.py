@@ -34,6 +34,8 @@ SHARD_KEYS = (
     "targets",
     "trials",
     "successes",
+    "feasible",
+    "covering_views",
     "global_points",
     "floor_points",
     "file",
@@ -125,12 +127,13 @@ def compute_counts(shards: Any) -> dict[str, Any]:
         split = sh["split"]
         for key in ("total", split):
             counts[key]["scenes"] += 1
-        for robot, target, n_ep, n_tr, n_ok in zip(
+        for robot, target, n_ep, n_tr, n_ok, n_cov in zip(
             sh["robots"],
             sh["targets"],
             sh["episodes_per_config"],
             sh["trials"],
             sh["successes"],
+            sh["covering_views"],
             strict=True,
         ):
             category = target.split("/")[0]
@@ -140,6 +143,10 @@ def compute_counts(shards: Any) -> dict[str, Any]:
                 c["episodes"] += n_ep
                 c["trials"] += n_tr
                 c["successful_trials"] += n_ok
+                c["infeasible_configurations"] += int(n_ok == 0)
+                if n_ok:  # coverage is a property of feasible configurations' views
+                    c["feasible_views"] += n_ep
+                    c["covering_views"] += n_cov
                 for table, name in ((by_robot, robot), (by_target, category)):
                     row = table.setdefault(name, {k: Counter() for k in ("total", *SPLITS)})
                     row[key]["configurations"] += 1
@@ -156,7 +163,16 @@ def compute_counts(shards: Any) -> dict[str, Any]:
 
 
 def _zero() -> dict[str, int]:
-    return {"scenes": 0, "configurations": 0, "episodes": 0, "trials": 0, "successful_trials": 0}
+    return {
+        "scenes": 0,
+        "configurations": 0,
+        "episodes": 0,
+        "trials": 0,
+        "successful_trials": 0,
+        "infeasible_configurations": 0,
+        "feasible_views": 0,
+        "covering_views": 0,
+    }
 
 
 def record_request(manifest: dict[str, Any], first_scene_id: int, num_scenes: int) -> None:

@@ -8,7 +8,7 @@ Layout of ``scenes/scene_{scene_id:06d}.h5`` (schema ``SCHEMA_VERSION``)::
                                            semantic_classes, stage_names,
                                            complete (written last)
     /config_{c:03d}/                attrs: scene_id, config_index, robot, target,
-                                           anchor (3,), num_episodes
+                                           anchor (3,), num_episodes, feasible
         trial_positions (P, 2) f8   trial_yaws (P,) f8   trial_stages (P,) u1
         trial_moved (P,) f4
         episode_{e:03d}/            attrs: scene_id, config_index, episode_index, robot,
@@ -43,12 +43,16 @@ import numpy as np
 
 from momakitchen.data.episode import SEMANTIC_CLASSES, ConfigurationLabels, Episode
 from momakitchen.errors import MomaError
-from momakitchen.frames import float3
+from momakitchen.frames import base_to_world_xy, float3
 from momakitchen.robots.spec import DESCRIPTOR_NAMES, DESCRIPTOR_VERSION
 from momakitchen.sim.config import STAGE_NAMES
 from momakitchen.version import __version__
 
-SCHEMA_VERSION = 1
+# 2: labels of the routine with closed-loop pulls, maps zero where the base cannot stand,
+# views that see floor near a success; configurations flagged feasible.
+SCHEMA_VERSION = 2
+# A view "covers" its configuration if its floor cloud comes this close to a success (m).
+COVERAGE_RADIUS = 0.10
 SCENES_DIR = "scenes"
 SHARD_PATTERN = re.compile(r"^scene_(\d{6,})\.h5$")
 TMP_PREFIX = ".tmp-"
@@ -149,6 +153,20 @@ def _check_records(scene_id: int, records: SceneRecords) -> None:
             ep.validate()
 
 
+def sees_success(
+    labels: ConfigurationLabels, floor_xyz: np.ndarray, base_pose: Sequence[float]
+) -> bool:
+    """Whether a view's floor cloud (N, 3) in its base frame ``base_pose`` comes within
+    :data:`COVERAGE_RADIUS` of one of the configuration's successful trial positions."""
+    successes = labels.trial_positions[labels.trial_stages == 0]
+    if len(successes) == 0 or len(floor_xyz) == 0:
+        return False
+    floor = base_to_world_xy(floor_xyz[:, :2], base_pose)
+    dx = floor[:, None, 0] - successes[None, :, 0]
+    dy = floor[:, None, 1] - successes[None, :, 1]
+    return bool(np.hypot(dx, dy).min() <= COVERAGE_RADIUS)
+
+
 def shard_summary(scene_id: int, records: SceneRecords) -> dict[str, Any]:
     """Counts of a scene's records (what the manifest keeps per shard)."""
     return {
@@ -159,6 +177,11 @@ def shard_summary(scene_id: int, records: SceneRecords) -> dict[str, Any]:
         "targets": [lab.target for lab, _ in records],
         "trials": [int(lab.trial_stages.shape[0]) for lab, _ in records],
         "successes": [int(np.sum(lab.trial_stages == 0)) for lab, _ in records],
+        "feasible": [bool(lab.feasible) for lab, _ in records],
+        # Views that see floor within COVERAGE_RADIUS of a successful trial position.
+        "covering_views": [
+            sum(sees_success(lab, ep.floor_xyz, ep.base_pose) for ep in eps) for lab, eps in records
+        ],
         # Per episode, so readers can skip empty clouds without opening files.
         "global_points": [[int(ep.global_xyz.shape[0]) for ep in eps] for _, eps in records],
         "floor_points": [[int(ep.floor_xyz.shape[0]) for ep in eps] for _, eps in records],
@@ -240,6 +263,7 @@ def _write_records(f: h5py.File, scene_id: int, records: SceneRecords) -> None:
         g.attrs["target"] = labels.target
         g.attrs["anchor"] = np.asarray(labels.anchor, np.float64)
         g.attrs["num_episodes"] = len(episodes)
+        g.attrs["feasible"] = int(labels.feasible)
         for name, dtype in TRIAL_ARRAYS:
             _put(g, name, getattr(labels, name), dtype)
         for ep in episodes:
@@ -343,6 +367,19 @@ class SceneShard:
     def episode_indices(self, config_index: int) -> list[int]:
         g = self._group(config_key(config_index))
         return sorted(int(k.split("_")[1]) for k in g if k.startswith("episode_"))
+
+    def covering_views(self, config_index: int) -> int:
+        """How many of the configuration's views see floor near a success (see
+        :func:`sees_success`); reads only the floor clouds."""
+        labels = self.configuration(config_index)
+        return sum(
+            sees_success(
+                labels,
+                self.arrays(config_index, e, ("floor_xyz",))["floor_xyz"],
+                self.episode_attrs(config_index, e)["base_pose"],
+            )
+            for e in self.episode_indices(config_index)
+        )
 
     def configuration(self, config_index: int) -> ConfigurationLabels:
         g = self._group(config_key(config_index))
