@@ -261,11 +261,11 @@ def _scene_task(
 ) -> dict:
     """Worker body (local backend): compute one scene and write its shard. In a pool worker
     the progress goes to the driver through the queue given to :func:`_worker_init`."""
-    queue = _WORKER_PROGRESS
-    if progress is None and queue is not None:
+    reports = _WORKER_PROGRESS
+    if progress is None and reports is not None:
 
         def progress(done: int, total: int) -> None:
-            queue.put((scene_id, done, total))
+            reports.put((scene_id, done, total))
 
     return write_shard(directory, scene_id, _records(scene_fn, config, scene_id, progress))
 
