@@ -280,7 +280,7 @@ class TrialRunner:
                 return False, 0.0  # the fingers closed on nothing (or on something else)
             q_held = robot.joint_positions()
         if self.target.is_articulated:
-            return self._pull(plan, q_held)
+            return self._pull(q_held)
         return self._lift(plan, q_held)
 
     def _lift(self, plan: _Plan, q_held: np.ndarray) -> tuple[bool, float]:
@@ -334,7 +334,7 @@ class TrialRunner:
         pos, quat = p.multiplyTransforms(lp.tolist(), lq.tolist(), *tcp_in_link)
         return np.asarray(pos), np.asarray(quat)
 
-    def _pull(self, plan: _Plan, q_held: np.ndarray) -> tuple[bool, float]:
+    def _pull(self, q_held: np.ndarray) -> tuple[bool, float]:
         """Open the part in closed loop: each move aims the hand at where the handle will
         be a small step beyond the part's *measured* opening, so the hand never runs
         ahead of a part that lags (the grasp would tear off). Where the arm cannot follow
