@@ -220,3 +220,22 @@ def test_a_run_killed_before_its_first_manifest_is_continued(tmp_path):
     assert m["complete"] and sorted(p.name for p in (root / "scenes").iterdir()) == [
         "scene_000000.h5"
     ]
+
+
+def test_a_dataset_of_an_older_schema_is_recognised_as_old(tmp_path):
+    """A manifest of schema 1 (labels of the earlier routine, no feasibility flags) is
+    refused with both versions named, before any of its entries is read."""
+    import json
+
+    from momakitchen.data.manifest import load_manifest
+
+    root = tmp_path / "ds"
+    make_dataset(root, scenes=1)
+    path = root / "manifest.json"
+    data = json.loads(path.read_text())
+    data["schema_version"], data["generator_version"] = 1, "0.1.0"
+    for entry in data["shards"].values():  # what version 1 did not write
+        del entry["feasible"], entry["covering_views"]
+    path.write_text(json.dumps(data))
+    with pytest.raises(MomaError, match=r"schema version 1 \(written by momakitchen 0\.1\.0\)"):
+        load_manifest(root)

@@ -209,17 +209,19 @@ def load_manifest(root: str | os.PathLike) -> dict[str, Any]:
     for key in ("schema_version", "producer", "config", "splits", "shards"):
         if key not in data:
             raise MomaError(f"{path}: manifest has no {key!r}")
+    if data["schema_version"] != _schema_version():
+        # Another schema: its labels or layout differ (docs/DATASET.md), so say so first.
+        raise MomaError(
+            f"{path}: dataset schema version {data['schema_version']} (written by "
+            f"momakitchen {data.get('generator_version', '?')}), this version of momakitchen "
+            f"reads {_schema_version()}: generate the dataset again"
+        )
     if not isinstance(data["shards"], dict):
         raise MomaError(f"{path}: 'shards' must be an object")
     for key, entry in data["shards"].items():
         missing = [k for k in SHARD_KEYS if not isinstance(entry, dict) or k not in entry]
         if missing:
             raise MomaError(f"{path}: shard entry {key!r} lacks {missing[0]!r}")
-    if data["schema_version"] != _schema_version():
-        raise MomaError(
-            f"{path}: schema version {data['schema_version']}, this version of "
-            f"momakitchen reads {_schema_version()}"
-        )
     return _current_names(data)
 
 
