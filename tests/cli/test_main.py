@@ -66,3 +66,16 @@ def test_names_spelled_out_for_the_parsers_match_the_registries():
     assert learn.PRESET_NAMES == tuple(PRESETS)
     assert (msr.BASELINES, msr.SPLITS) == (msr_module.BASELINES, msr_module.SPLITS)
     assert demo.DEFAULT_SCENE_ID == DEFAULT_SCENE_ID
+
+
+def test_a_reader_that_goes_away_is_no_traceback():
+    """`momakitchen robots | head -0`: the pipe closes before the table is written; the
+    command stops quietly with the status of a tool ended by SIGPIPE."""
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "momakitchen.cli.main", "robots"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
+    proc.stdout.close()  # before the interpreter has even started
+    err = proc.stderr.read().decode()
+    assert proc.wait() == 141 and "Traceback" not in err, err
