@@ -134,8 +134,10 @@ def run_stats(args: argparse.Namespace) -> int:
 
 
 def run_export(args: argparse.Namespace) -> int:
+    from momakitchen.cli.common import planned_output_dir
     from momakitchen.data.reference import export_reference
 
+    planned_output_dir(args.out)  # an impossible --out fails before any work
     n = export_reference(args.dir, args.out)
     print(
         f"{args.out}: {n['configurations']} configurations, {n['episodes']} episodes in "

@@ -194,8 +194,10 @@ def train_config(args: argparse.Namespace) -> TrainConfig:
 
 
 def run_train(args: argparse.Namespace) -> int:
+    from momakitchen.cli.common import planned_output_dir
     from momakitchen.train import train
 
+    planned_output_dir(args.out)  # a file or an impossible place fails before any work
     config = train_config(args)
     data = _dataset(args.data, "train")
     result = train(config, data, None, Path(args.out), resume=args.resume)
