@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from momakitchen import codec
+from momakitchen.data.coverage import COVERAGE_RADIUS
 from momakitchen.errors import MomaError
 from momakitchen.perception.camera import CameraConfig
 from momakitchen.perception.clouds import CloudConfig
@@ -42,7 +43,7 @@ class ViewConfig:
     min_target_pixels: int = 20
     max_tries: int = 40
     target_row: float = 0.15
-    coverage_radius: float = 0.10
+    coverage_radius: float = COVERAGE_RADIUS
 
     def __post_init__(self) -> None:
         if not 1 <= self.episodes <= 100:

@@ -41,9 +41,10 @@ from typing import Any
 import h5py
 import numpy as np
 
+from momakitchen.data.coverage import COVERAGE_RADIUS, sees_near
 from momakitchen.data.episode import SEMANTIC_CLASSES, ConfigurationLabels, Episode
 from momakitchen.errors import MomaError
-from momakitchen.frames import base_to_world_xy, float3
+from momakitchen.frames import float3
 from momakitchen.robots.spec import DESCRIPTOR_NAMES, DESCRIPTOR_VERSION
 from momakitchen.sim.config import STAGE_NAMES
 from momakitchen.version import __version__
@@ -51,8 +52,6 @@ from momakitchen.version import __version__
 # 2: labels of the routine with closed-loop pulls, maps zero where the base cannot stand,
 # views that see floor near a success; configurations flagged feasible.
 SCHEMA_VERSION = 2
-# A view "covers" its configuration if its floor cloud comes this close to a success (m).
-COVERAGE_RADIUS = 0.10
 SCENES_DIR = "scenes"
 SHARD_PATTERN = re.compile(r"^scene_(\d{6,})\.h5$")
 TMP_PREFIX = ".tmp-"
@@ -158,13 +157,7 @@ def sees_success(
 ) -> bool:
     """Whether a view's floor cloud (N, 3) in its base frame ``base_pose`` comes within
     :data:`COVERAGE_RADIUS` of one of the configuration's successful trial positions."""
-    successes = labels.trial_positions[labels.trial_stages == 0]
-    if len(successes) == 0 or len(floor_xyz) == 0:
-        return False
-    floor = base_to_world_xy(floor_xyz[:, :2], base_pose)
-    dx = floor[:, None, 0] - successes[None, :, 0]
-    dy = floor[:, None, 1] - successes[None, :, 1]
-    return bool(np.hypot(dx, dy).min() <= COVERAGE_RADIUS)
+    return sees_near(floor_xyz, base_pose, labels.trial_positions[labels.trial_stages == 0])
 
 
 def shard_summary(scene_id: int, records: SceneRecords) -> dict[str, Any]:
@@ -368,18 +361,25 @@ class SceneShard:
         g = self._group(config_key(config_index))
         return sorted(int(k.split("_")[1]) for k in g if k.startswith("episode_"))
 
-    def covering_views(self, config_index: int) -> int:
-        """How many of the configuration's views see floor near a success (see
-        :func:`sees_success`); reads only the floor clouds."""
+    def covering(self, config_index: int, radius: float = COVERAGE_RADIUS) -> list[bool]:
+        """Per view of the configuration, whether it sees floor within ``radius`` of a
+        successful trial position (see :mod:`momakitchen.data.coverage`); reads only the
+        floor clouds."""
         labels = self.configuration(config_index)
-        return sum(
-            sees_success(
-                labels,
+        successes = labels.trial_positions[labels.trial_stages == 0]
+        return [
+            sees_near(
                 self.arrays(config_index, e, ("floor_xyz",))["floor_xyz"],
                 self.episode_attrs(config_index, e)["base_pose"],
+                successes,
+                radius,
             )
             for e in self.episode_indices(config_index)
-        )
+        ]
+
+    def covering_views(self, config_index: int) -> int:
+        """How many of the configuration's views see floor near a success."""
+        return sum(self.covering(config_index))
 
     def configuration(self, config_index: int) -> ConfigurationLabels:
         g = self._group(config_key(config_index))

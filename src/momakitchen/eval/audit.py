@@ -31,10 +31,10 @@ from typing import Any
 
 import numpy as np
 
+from momakitchen.data.coverage import COVERAGE_RADIUS, near_any
 from momakitchen.data.shard import SceneShard
 from momakitchen.errors import MomaError
 from momakitchen.eval.msr import BASELINES, MsrConfig, run_configuration
-from momakitchen.frames import base_to_world_xy
 from momakitchen.sim.config import STAGE_NAMES, Stage
 
 # Stages that say where the grid is, not how well the routine manipulates.
@@ -60,7 +60,7 @@ class AuditConfig:
 
     offsets: tuple[float, ...] = (0.03, 0.05)
     yaw_offset_deg: float = 10.0
-    coverage_radius: float = 0.10
+    coverage_radius: float = COVERAGE_RADIUS
     near_success: float = 0.05
     max_stability_points: int = 0
     msr: MsrConfig = field(default_factory=lambda: MsrConfig(split="all"))
@@ -90,41 +90,31 @@ def _offset_keys(config: AuditConfig) -> list[str]:
     return [f"{round(100 * d)}cm" for d in config.offsets] + [f"yaw{config.yaw_offset_deg:g}"]
 
 
-def _stability(runner: Any, successes: np.ndarray, anchor: Sequence[float], config: AuditConfig):
+def _stability(
+    runner: Any, successes: np.ndarray, anchor: Sequence[float], config: AuditConfig
+) -> dict[str, dict[str, list[int]]]:
     """Re-run the successful grid positions ``successes`` (S, 2) displaced; per offset key,
     the outcomes (1/0) and failing stages of every re-run."""
-    out: dict[str, dict[str, list[int]]] = {
-        k: {"outcomes": [], "stages": []} for k in _offset_keys(config)
-    }
+    *shift_keys, yaw_key = keys = _offset_keys(config)
+    out: dict[str, dict[str, list[int]]] = {k: {"outcomes": [], "stages": []} for k in keys}
+
+    def record(key: str, x: float, y: float, yaw: float | None = None) -> None:
+        trial = runner.run(x, y, yaw)
+        out[key]["outcomes"].append(int(trial.success))
+        out[key]["stages"].append(int(trial.stage))
+
     points = successes
     if config.max_stability_points and len(points) > config.max_stability_points:
         keep = np.linspace(0, len(points) - 1, config.max_stability_points).round().astype(int)
         points = points[keep]
-    yaw_key = _offset_keys(config)[-1]
     for x, y in points:
-        for d, key in zip(config.offsets, out, strict=False):
+        for d, key in zip(config.offsets, shift_keys, strict=True):
             for dx, dy in ((d, 0.0), (-d, 0.0), (0.0, d), (0.0, -d)):
-                trial = runner.run(float(x + dx), float(y + dy))
-                out[key]["outcomes"].append(int(trial.success))
-                out[key]["stages"].append(int(trial.stage))
+                record(key, float(x + dx), float(y + dy))
         facing = math.atan2(anchor[1] - y, anchor[0] - x)
         for sign in (1.0, -1.0):
-            trial = runner.run(
-                float(x), float(y), facing + sign * math.radians(config.yaw_offset_deg)
-            )
-            out[yaw_key]["outcomes"].append(int(trial.success))
-            out[yaw_key]["stages"].append(int(trial.stage))
+            record(yaw_key, float(x), float(y), facing + sign * math.radians(config.yaw_offset_deg))
     return out
-
-
-def _near(points: np.ndarray, targets: np.ndarray, radius: float) -> np.ndarray:
-    """(N,) bool: which of ``points`` (N, 2) lie within ``radius`` of some of ``targets``."""
-    if len(points) == 0 or len(targets) == 0:
-        return np.zeros(len(points), bool)
-    from scipy.spatial import cKDTree
-
-    dist, _ = cKDTree(targets).query(points, k=1, distance_upper_bound=radius + 1e-9)
-    return np.isfinite(dist)
 
 
 def _audit_hook(shard: SceneShard, ci: int, config: AuditConfig) -> Callable[[Any, dict], None]:
@@ -145,22 +135,16 @@ def _audit_hook(shard: SceneShard, ci: int, config: AuditConfig) -> Callable[[An
             runner, successes, ctx["configuration"].target.anchor, config
         )
         # View coverage: every stored view of this configuration.
-        covered = []
-        for e in shard.episode_indices(ci):
-            attrs = shard.episode_attrs(ci, e)
-            floor = shard.arrays(ci, e, ("floor_xyz",))["floor_xyz"]
-            world = base_to_world_xy(floor[:, :2], attrs["base_pose"])
-            covered.append(bool(_near(world, successes, config.coverage_radius).any()))
-        record["views_covering"] = covered
+        record["views_covering"] = shard.covering(ci, config.coverage_radius)
         # Why the oracle's Top-1 pick failed, if it did.
         oracle = record["methods"]["oracle"]
         if oracle["outcomes"] and not oracle["outcomes"][0]:
             pick = np.asarray([oracle["points"][0]])
             if not len(successes):
                 reason = "infeasible"
-            elif not _near(ctx["world_xy"], successes, config.coverage_radius).any():
+            elif not near_any(ctx["world_xy"], successes, config.coverage_radius).any():
                 reason = "not_visible"
-            elif _near(pick, successes, config.near_success)[0]:
+            elif near_any(pick, successes, config.near_success)[0]:
                 reason = "near_success"
             else:
                 reason = "away_from_success"

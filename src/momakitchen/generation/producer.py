@@ -15,14 +15,14 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from momakitchen.bullet import p
 from momakitchen.data.config import GenerationConfig, ViewConfig
+from momakitchen.data.coverage import sees_near
 from momakitchen.data.episode import SEMANTIC_CLASSES, ConfigurationLabels, Episode
 from momakitchen.data.generator import PRODUCERS, Producer
 from momakitchen.data.manifest import KITCHEN
-from momakitchen.frames import base_to_world, base_to_world_xy, float3
+from momakitchen.frames import base_to_world, float3
 from momakitchen.generation.render import Render, render
 from momakitchen.perception.camera import look_toward
 from momakitchen.perception.clouds import frame_clouds
@@ -128,16 +128,6 @@ def _clouds(view_base, camera_to_world, frame: Render, sem: np.ndarray, config) 
         config.cloud,
         config.camera.max_depth,
     )
-
-
-def sees_near(floor: np.ndarray, base, points: np.ndarray, radius: float) -> bool:
-    """Whether floor points (N, 3 or 2) of the viewpoint ``base`` come within ``radius`` of
-    any of the world ``points`` (M, 2)."""
-    if len(floor) == 0 or len(points) == 0:
-        return False
-    world = base_to_world_xy(np.asarray(floor)[:, :2], base)
-    dist, _ = cKDTree(points).query(world, k=1, distance_upper_bound=radius + 1e-9)
-    return bool(np.isfinite(dist).any())
 
 
 def sample_views(
