@@ -9,6 +9,8 @@ them to it as one API. Conventions: positions in metres (world frame), quaternio
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
@@ -191,6 +193,17 @@ class RobotBody:
             np.asarray(q, float).reshape(-1, 1).tolist(),
             physicsClientId=self.client,
         )
+
+    @contextmanager
+    def kinematic_scratch(self) -> Iterator[None]:
+        """Move the arm kinematically inside (IK, FK previews) and get the exact physical
+        joint state back afterwards (positions and velocities), e.g. mid-manipulation."""
+        saved = p.getJointStates(self.body, self.arm_joints, physicsClientId=self.client)
+        try:
+            yield
+        finally:
+            for j, s in zip(self.arm_joints, saved, strict=True):
+                p.resetJointState(self.body, j, s[0], s[1], physicsClientId=self.client)
 
     def set_joint_positions(self, q: ArrayLike) -> None:
         """Teleport the arm to ``q`` (shape ``(dof,)``) and hold it there with the motors."""

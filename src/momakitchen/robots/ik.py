@@ -62,6 +62,22 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.einsum("ijk,nj,nk->ni", _LEVI_CIVITA, a, b)
 
 
+def _ik_target(
+    position: ArrayLike, orientation: ArrayLike | None
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """The checked IK goal: position (3,) and rotation matrix (3, 3) or None."""
+    target = np.asarray(position, float)
+    if target.shape != (3,) or not np.all(np.isfinite(target)):
+        raise MomaError(f"IK position must be 3 finite numbers, got {position!r}")
+    if orientation is None:
+        return target, None
+    quat = np.asarray(orientation, float)
+    norm = float(np.linalg.norm(quat)) if quat.shape == (4,) else 0.0
+    if not 0.5 < norm < 2.0:
+        raise MomaError(f"IK orientation must be a unit quaternion, got {orientation!r}")
+    return target, np.array(p.getMatrixFromQuaternion((quat / norm).tolist())).reshape(3, 3)
+
+
 def solve_ik(
     robot: RobotBody,
     position: ArrayLike,
@@ -90,16 +106,7 @@ def solve_ik(
         seed: start configuration, shape ``(dof,)`` (default: current joints).
     """
     t0 = time.perf_counter()
-    target = np.asarray(position, float)
-    if target.shape != (3,) or not np.all(np.isfinite(target)):
-        raise MomaError(f"IK position must be 3 finite numbers, got {position!r}")
-    target_rot = None
-    if orientation is not None:
-        quat = np.asarray(orientation, float)
-        norm = float(np.linalg.norm(quat)) if quat.shape == (4,) else 0.0
-        if not 0.5 < norm < 2.0:
-            raise MomaError(f"IK orientation must be a unit quaternion, got {orientation!r}")
-        target_rot = np.array(p.getMatrixFromQuaternion((quat / norm).tolist())).reshape(3, 3)
+    target, target_rot = _ik_target(position, orientation)
     rng = rng if rng is not None else np.random.default_rng(0)
     slack = pos_tol + 0.01  # the sampled workspace radii may fall a little short
     if not within_reach(robot, target, target_rot, slack):
@@ -160,11 +167,7 @@ def ik_solutions(
     that rejects a solution (it collides) gets another arm configuration: elbow or wrist
     flipped, the arm turned another way. The arm is left at the last solution tried.
     """
-    target = np.asarray(position, float)
-    target_rot = None
-    if orientation is not None:
-        quat = np.asarray(orientation, float)
-        target_rot = np.array(p.getMatrixFromQuaternion(quat.tolist())).reshape(3, 3)
+    target, target_rot = _ik_target(position, orientation)
     if not within_reach(robot, target, target_rot, pos_tol + 0.01):
         return
     seen: list[np.ndarray] = []
@@ -309,19 +312,14 @@ def plan_line(
 
     The physical joint state (positions and velocities) is left untouched.
     """
-    c = robot.client
-    saved = p.getJointStates(robot.body, robot.arm_joints, physicsClientId=c)
     start, _ = robot.tcp_pose()
     goal = np.asarray(position, float)
-    path, q = [], np.array([s[0] for s in saved])
-    ok = True
-    for k in range(1, n + 1):
-        res = solve_ik(robot, start + (goal - start) * k / n, orientation, seed=q, restarts=0)
-        if not res.success:
-            ok = False
-            break
-        q = res.q
-        path.append(q)
-    for j, s in zip(robot.arm_joints, saved, strict=True):
-        p.resetJointState(robot.body, j, s[0], s[1], physicsClientId=c)
-    return path if ok else None
+    path, q = [], robot.joint_positions()
+    with robot.kinematic_scratch():
+        for k in range(1, n + 1):
+            res = solve_ik(robot, start + (goal - start) * k / n, orientation, seed=q, restarts=0)
+            if not res.success:
+                return None
+            q = res.q
+            path.append(q)
+    return path

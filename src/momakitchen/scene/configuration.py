@@ -242,10 +242,23 @@ def _candidate_bases(
     """Corners (N, 4, 2) of base footprints (facing the target) on the sampling grid
     that fit in the room and clear the furniture."""
     grid = semicircle_grid((center[0], center[1]), reach, spacing)
-    yaws = np.arctan2(center[1] - grid[:, 1], center[0] - grid[:, 0])
-    fps = box_corners(grid[:, 0], grid[:, 1], yaws, *footprint)
-    fps = fps[_inside_room(fps, room, 0.0)]
-    return fps[~overlap_matrix(fps, furniture).any(1)]
+    fps, fits = _facing_bases(grid, center, footprint, furniture, room)
+    return fps[fits]
+
+
+def _facing_bases(
+    points: np.ndarray,
+    anchor: Any,
+    footprint: tuple[float, float],
+    blocked: np.ndarray,
+    room: Any,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Base footprints centred on ``points`` (M, 2) and turned to face ``anchor``: their
+    corners (M, 4, 2), and (M,) whether each lies in the room clear of ``blocked``
+    (K, 4, 2)."""
+    yaws = np.arctan2(anchor[1] - points[:, 1], anchor[0] - points[:, 0])
+    fps = box_corners(points[:, 0], points[:, 1], yaws, *footprint)
+    return fps, _inside_room(fps, room, 0.0) & ~overlap_matrix(fps, blocked).any(1)
 
 
 def base_fits(
@@ -260,11 +273,8 @@ def base_fits(
     Shapes: ``points`` (M, 2) world xy; returns (M,) bool.
     """
     pts = np.asarray(points, np.float64).reshape(-1, 2)
-    ax, ay = cfg.target.anchor[:2]
-    yaws = np.arctan2(ay - pts[:, 1], ax - pts[:, 0])
-    fps = box_corners(pts[:, 0], pts[:, 1], yaws, *footprint)
     blocked = corners_of(layout.footprints() + [o.footprint() for o in cfg.obstacles])
-    return _inside_room(fps, layout.room, 0.0) & ~overlap_matrix(fps, blocked).any(1)
+    return _facing_bases(pts, cfg.target.anchor, footprint, blocked, layout.room)[1]
 
 
 ARM_CORRIDOR = 0.12  # m: width of the floor strip the arm sweeps from the base to the target

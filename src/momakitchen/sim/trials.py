@@ -215,22 +215,24 @@ class TrialRunner:
                 # Distinct arm configurations for the pre-grasp, until one is free of
                 # collisions at both poses (an IK answer alone may fold the arm into the
                 # base or sweep it through an obstacle).
-                t0 = time.perf_counter()
                 pres = robot.ik_solutions(
                     pos + cfg.pregrasp_offset * normal, quat, starts=1 + cfg.ik_restarts
                 )
-                for pre in pres:
-                    grasp = robot.solve_ik(pos, quat, seed=pre.q, restarts=0)
+                while True:
+                    t0 = time.perf_counter()  # IK time: the next solution and its grasp
+                    pre = next(pres, None)
+                    grasp = (
+                        None if pre is None else robot.solve_ik(pos, quat, seed=pre.q, restarts=0)
+                    )
                     t_ik += time.perf_counter() - t0
-                    if grasp.success:
-                        if not (
-                            self._arm_collides(pre.q, bodies) or self._arm_collides(grasp.q, bodies)
-                        ):
-                            plan = _Plan(g, pre.q, grasp.q, pos, normal, quat)
-                            return Stage.SUCCESS, plan, t_ik
+                    if pre is None or grasp is None:
+                        break
+                    if not grasp.success:
+                        continue
+                    if self._arm_collides(pre.q, bodies) or self._arm_collides(grasp.q, bodies):
                         collided = True
-                    t0 = time.perf_counter()
-                t_ik += time.perf_counter() - t0
+                        continue
+                    return Stage.SUCCESS, _Plan(g, pre.q, grasp.q, pos, normal, quat), t_ik
         if not reachable:
             return Stage.OUT_OF_REACH, None, t_ik
         return (Stage.ARM_COLLISION if collided else Stage.IK_FAILED), None, t_ik
@@ -316,15 +318,16 @@ class TrialRunner:
         )[4:6]
         return np.asarray(pos), np.asarray(quat)
 
-    def _opened_pose(self, tcp_in_link: tuple, amount: float) -> tuple[np.ndarray, np.ndarray]:
+    def _opened_pose(
+        self, tcp_in_link: tuple, axis_local: np.ndarray, amount: float
+    ) -> tuple[np.ndarray, np.ndarray]:
         """The TCP pose that holds the handle once the part has opened ``amount`` (rad or
         m) beyond its measured position: the part's link frame turned about (or moved
-        along) the joint axis, with the grasp fixed in it."""
+        along) the joint axis (``axis_local``, in that frame), with the grasp fixed in it."""
         t = self.target
         lp, lq = self._link_frame()
-        axis_local = p.getJointInfo(t.body_id, t.joint_index, physicsClientId=self._client)[13]
         rot = np.array(p.getMatrixFromQuaternion(lq.tolist())).reshape(3, 3)
-        axis = rot @ np.asarray(axis_local, float)
+        axis = rot @ axis_local
         step = t.open_direction * amount
         if t.joint_type == "revolute":
             turn = p.getQuaternionFromAxisAngle(axis.tolist(), step)
@@ -333,6 +336,31 @@ class TrialRunner:
             lp = lp + step * axis
         pos, quat = p.multiplyTransforms(lp.tolist(), lq.tolist(), *tcp_in_link)
         return np.asarray(pos), np.asarray(quat)
+
+    def _follow(
+        self,
+        tcp_in_link: tuple,
+        axis_local: np.ndarray,
+        held_quat: np.ndarray,
+        q: np.ndarray,
+        amounts: tuple[float, ...],
+    ) -> np.ndarray | None:
+        """Arm configuration (dof,) that holds the handle once the part opens by the first
+        of ``amounts`` the arm can follow from ``q``; None if it can follow none. The
+        physical arm state is left as it was (IK moves the arm kinematically)."""
+        with self.robot.kinematic_scratch():
+            for amount in amounts:
+                pos, quat = self._opened_pose(tcp_in_link, axis_local, amount)
+                # The fingers may turn about the handle bar: besides following the
+                # handle's frame, accept keeping the grasp orientation or halfway.
+                for frac in (1.0, 0.0, 0.5):
+                    goal = p.getQuaternionSlerp(held_quat.tolist(), quat.tolist(), frac)
+                    res = self.robot.solve_ik(
+                        pos, goal, seed=q, restarts=0, pos_tol=0.01, ori_tol=math.radians(6)
+                    )
+                    if res.success:
+                        return res.q
+        return None
 
     def _pull(self, q_held: np.ndarray) -> tuple[bool, float]:
         """Open the part in closed loop: each move aims the hand at where the handle will
@@ -352,6 +380,9 @@ class TrialRunner:
         inv = p.invertTransform(lp.tolist(), lq.tolist())
         tcp_in_link = p.multiplyTransforms(*inv, tcp_pos.tolist(), tcp_quat.tolist())
         held_quat = tcp_quat
+        axis_local = np.asarray(
+            p.getJointInfo(t.body_id, t.joint_index, physicsClientId=self._client)[13], float
+        )
         q = q_held
         last = -math.inf
         for _ in range(2 * math.ceil(goal / step) + 4):
@@ -359,29 +390,12 @@ class TrialRunner:
             if opened >= goal - 1e-3 or opened - last < 0.1 * step:
                 break  # far enough, or the part no longer follows the hand (blocked)
             last = opened
-            res = None
-            # IK moves the arm kinematically: keep the physical state to put it back.
-            arm = robot.arm_joints
-            saved = p.getJointStates(robot.body, arm, physicsClientId=self._client)
-            for amount in (min(step, goal - opened + 1e-3), step / 2):
-                pos, quat = self._opened_pose(tcp_in_link, amount)
-                # The fingers may turn about the handle bar: besides following the
-                # handle's frame, accept keeping the grasp orientation or halfway.
-                for frac in (1.0, 0.0, 0.5):
-                    goal_quat = p.getQuaternionSlerp(held_quat.tolist(), quat.tolist(), frac)
-                    res = robot.solve_ik(
-                        pos, goal_quat, seed=q, restarts=0, pos_tol=0.01, ori_tol=math.radians(6)
-                    )
-                    if res.success:
-                        break
-                if res is not None and res.success:
-                    break
-            for j, s in zip(arm, saved, strict=True):
-                p.resetJointState(robot.body, j, s[0], s[1], physicsClientId=self._client)
-            if res is None or not res.success:
+            amounts = (min(step, goal - opened + 1e-3), step / 2)
+            q_next = self._follow(tcp_in_link, axis_local, held_quat, q, amounts)
+            if q_next is None:
                 break
-            self._drive(q, res.q, 3, 10)
-            q = res.q
+            self._drive(q, q_next, 3, 10)
+            q = q_next
             if self._lost_grip():
                 break
         world.step(20)
