@@ -87,6 +87,7 @@ def run_check(args: argparse.Namespace) -> int:
 
 
 def run_stats(args: argparse.Namespace) -> int:
+    from momakitchen.data.coverage import COVERAGE_RADIUS
     from momakitchen.data.integrity import dataset_stats
 
     s = dataset_stats(args.dir)
@@ -123,7 +124,8 @@ def run_stats(args: argparse.Namespace) -> int:
     print(
         f"infeasible configurations (no successful trial): {s['infeasible_configurations']} of "
         f"{s['splits']['total']['configurations']}; views of feasible configurations that see "
-        f"floor within 10 cm of a success: {'-' if coverage is None else f'{coverage:.1%}'}"
+        f"floor within {100 * COVERAGE_RADIUS:.0f} cm of a success: "
+        f"{'-' if coverage is None else f'{coverage:.1%}'}"
     )
     if s["episodes_with_empty_cloud"]:
         print(

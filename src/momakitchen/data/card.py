@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 
 from momakitchen.data import manifest as mf
+from momakitchen.data.coverage import COVERAGE_RADIUS
 from momakitchen.data.episode import Episode
 from momakitchen.data.shard import SceneShard, list_shards
 from momakitchen.fileio import atomic_path, atomic_write_text
@@ -91,7 +92,8 @@ def _ground_truth_line(total: dict[str, int]) -> str:
     return (
         f"Infeasible configurations (no successful grid trial; kept, flagged `feasible` = 0): "
         f"{bad} of {n} ({share}). View coverage: {covering} of the {views} views of feasible "
-        f"configurations ({coverage}) see floor within 10 cm of a successful trial position."
+        f"configurations ({coverage}) see floor within {100 * COVERAGE_RADIUS:.0f} cm of a "
+        "successful trial position."
     )
 
 
