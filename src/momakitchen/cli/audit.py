@@ -94,6 +94,7 @@ def run(args: argparse.Namespace) -> int:
     from momakitchen.cli.common import output_dir
     from momakitchen.data import manifest as mf
     from momakitchen.data.config import GenerationConfig
+    from momakitchen.data.integrity import check_shard_files
     from momakitchen.eval.audit import AuditConfig, audit_figure, format_audit_table, summarize
     from momakitchen.eval.msr import MsrConfig
     from momakitchen.fileio import atomic_write_bytes, atomic_write_text
@@ -104,8 +105,7 @@ def run(args: argparse.Namespace) -> int:
     )
     if args.data is not None:
         root = Path(args.data)
-        if not (root / mf.MANIFEST_NAME).is_file():
-            raise MomaError(f"dataset directory {str(root)!r} has no {mf.MANIFEST_NAME}")
+        mf.load_manifest(root)  # a missing or malformed dataset fails before anything
         if args.config is not None:
             raise MomaError(
                 "--config applies to --scenes (the dataset's config is in its manifest)"
@@ -141,6 +141,7 @@ def run(args: argparse.Namespace) -> int:
     ids = sorted(s for s in shards if wanted is None or s in wanted)
     if not ids:
         raise MomaError(f"dataset {str(root)!r} has no scenes to audit")
+    check_shard_files(root, manifest, ids)  # a missing or damaged shard fails before any trial
     out = output_dir(args.out)
     records_dir = out / "records"
     records_dir.mkdir(exist_ok=True)
