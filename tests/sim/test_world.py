@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from momakitchen.bullet import p
-from momakitchen.scene.configuration import sample_scene
+from momakitchen.scene.configuration import PART_SWEEP, part_sweep, sample_scene
 from momakitchen.sim.validate import pull_test, settle_check
 from momakitchen.sim.world import World
 
@@ -75,3 +75,47 @@ def test_two_worlds_coexist(scene):
         a.load_configuration(scene.configurations[0])
         b.load_configuration(other.configurations[0])
         assert a.penetrations() == [] and b.penetrations() == []
+
+
+def _box_corners_xy(client: int, body: int, link: int) -> np.ndarray:
+    """World xy (K, 2) of the corners of a link's collision boxes as PyBullet loaded them
+    (its link AABBs are far too loose for compound shapes to be of use here)."""
+    state = p.getLinkState(body, link, computeForwardKinematics=True, physicsClientId=client)
+    signs = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
+    out = []
+    for shape in p.getCollisionShapeData(body, link, physicsClientId=client):
+        if shape[2] != p.GEOM_BOX:
+            continue
+        pos, orn = p.multiplyTransforms(state[0], state[1], shape[5], shape[6])
+        rot = np.array(p.getMatrixFromQuaternion(orn)).reshape(3, 3)
+        corners = (signs * np.asarray(shape[3]) / 2) @ rot.T + np.asarray(pos)
+        out.append(corners[:, :2])
+    return np.concatenate(out) if out else np.zeros((0, 2))
+
+
+def test_part_sweep_covers_the_moving_part_at_rest_and_opened():
+    """The floor rectangle kept free of obstacles contains the whole door panel or drawer
+    (as PyBullet sees it), closed and opened by PART_SWEEP: a pull-down door is as wide as
+    the unit, not as its handle."""
+    checked = 0
+    for sid in (300, 301, 302):
+        scene = sample_scene(sid)
+        with World(scene.layout) as w:
+            for cfg in scene.configurations:
+                if cfg.target.articulation is None:
+                    continue
+                w.load_configuration(cfg)
+                t = w.target
+                assert t.joint_index is not None
+                sweep = part_sweep(scene.layout.unit(cfg.target.uid), cfg.target.articulation)[0]
+                lo, hi = sweep.min(0) - 1e-6, sweep.max(0) + 1e-6
+                amount = PART_SWEEP[0] if t.joint_type == "revolute" else PART_SWEEP[1]
+                amount = min(amount, t.limit) if t.limit > 0 else amount
+                for opened in (0.0, amount):
+                    angle = t.open_direction * opened
+                    p.resetJointState(t.body_id, t.joint_index, angle, physicsClientId=w.client)
+                    xy = _box_corners_xy(w.client, t.body_id, t.joint_index)
+                    assert len(xy) > 0
+                    assert np.all(xy >= lo) and np.all(xy <= hi), (sid, cfg.index, opened)
+                checked += 1
+    assert checked >= 5

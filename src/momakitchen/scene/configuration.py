@@ -25,7 +25,7 @@ from momakitchen.scene.geometry import (
     semicircle_grid,
 )
 from momakitchen.scene.layout import Layout, Placed, _r, sample_layout, scene_rng
-from momakitchen.scene.urdf_frames import joint_axes, link_rest_poses
+from momakitchen.scene.urdf_frames import joint_axes, link_extent_points, link_rest_poses
 
 CONFIG_STREAM = 1
 
@@ -154,9 +154,10 @@ PART_SWEEP = (np.radians(45.0), 0.16)
 
 
 def part_sweep(unit: Placed, articulation: int, margin: float = 0.1) -> np.ndarray:
-    """Corners (1, 4, 2) of the world-axis-aligned floor rectangle that the handle of an
-    articulated part passes over while the part opens by :data:`PART_SWEEP` (a door's
-    arc, a drawer's travel), together with its hinge, grown by ``margin``."""
+    """Corners (1, 4, 2) of the world-axis-aligned floor rectangle that an articulated
+    part (its whole panel or drawer box, and its handle) passes over while it opens by
+    :data:`PART_SWEEP` (a door's arc, a drawer's travel), together with its hinge, grown
+    by ``margin``."""
     model = unit.model
     art = model.articulations[articulation]
     child, axis_local = joint_axes(model.urdf)[art.joint]
@@ -166,20 +167,24 @@ def part_sweep(unit: Placed, articulation: int, margin: float = 0.1) -> np.ndarr
     axis = joint_frame[:3, :3] @ axis_local
     axis = axis / max(float(np.linalg.norm(axis)), 1e-9)
     handle = handle_frame[:3, :3] @ np.asarray(art.handle.position) + handle_frame[:3, 3]
+    # The panel's corners as well as the handle: a pull-down door or a drawer is as wide
+    # as the unit, far wider than its handle.
+    panel = link_extent_points(model.urdf, child) @ joint_frame[:3, :3].T + joint_frame[:3, 3]
     amount = PART_SWEEP[0] if art.joint_type == "revolute" else PART_SWEEP[1]
     amount = min(amount, art.limit) if art.limit > 0 else amount
     points = [origin]
+    moving = np.vstack([handle, panel])
     for s in np.linspace(0.0, amount, 6) * art.open_direction:
-        if art.joint_type == "revolute":  # Rodrigues: the handle turned about the hinge
-            v = handle - origin
+        if art.joint_type == "revolute":  # Rodrigues: turned about the hinge
+            v = moving - origin
             v = (
                 v * np.cos(s)
                 + np.cross(axis, v) * np.sin(s)
-                + axis * float(axis @ v) * (1 - np.cos(s))
+                + np.outer(v @ axis, axis) * (1 - np.cos(s))
             )
-            points.append(origin + v)
+            points.extend(origin + v)
         else:
-            points.append(handle + s * axis)
+            points.extend(moving + s * axis)
     xy = unit.to_world(np.array(points))[:, :2]
     lo, hi = xy.min(axis=0) - margin, xy.max(axis=0) + margin
     return np.array([[[hi[0], hi[1]], [lo[0], hi[1]], [lo[0], lo[1]], [hi[0], lo[1]]]])

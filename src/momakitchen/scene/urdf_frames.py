@@ -111,3 +111,33 @@ def joint_axes(urdf: str) -> dict[str, tuple[str, np.ndarray]]:
         xyz = axis.get("xyz", "1 0 0") if axis is not None else "1 0 0"
         out[name] = (child, np.array([float(v) for v in xyz.split()]))
     return out
+
+
+@functools.lru_cache(maxsize=256)
+def link_extent_points(urdf: str, link: str) -> np.ndarray:
+    """Corners of the boxes bounding each collision shape of ``link``, in that link's
+    frame (do not modify the returned array). Shape (8 * shapes, 3); (0, 3) for a link
+    without collision shapes."""
+    try:
+        root = ET.fromstring(urdf)
+    except ET.ParseError as exc:
+        raise MomaError(f"URDF does not parse: {exc}") from None
+    signs = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
+    points = [np.zeros((0, 3))]
+    for elem in root.findall("link"):
+        if elem.get("name") != link:
+            continue
+        for collision in elem.findall("collision"):
+            geometry = _required_child(collision, "geometry", f"<link name={link!r}> <collision>")
+            if (box := geometry.find("box")) is not None:
+                half = np.array([float(v) for v in box.get("size", "0 0 0").split()]) / 2
+            elif (cyl := geometry.find("cylinder")) is not None:
+                r, length = float(cyl.get("radius", 0)), float(cyl.get("length", 0))
+                half = np.array([r, r, length / 2])
+            elif (sphere := geometry.find("sphere")) is not None:
+                half = np.full(3, float(sphere.get("radius", 0)))
+            else:  # meshes: not used by the procedural assets
+                continue
+            tf = _origin(collision.find("origin"))
+            points.append((signs * half) @ tf[:3, :3].T + tf[:3, 3])
+    return np.concatenate(points)

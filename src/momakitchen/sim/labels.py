@@ -78,10 +78,14 @@ def floor_affordance(
     values = dense_map(
         world_to_base(labels.positions, float3(base)), labels.outcomes, points, config
     )
+    # The mask only matters where the map is positive (most floor points are 0).
+    lit = np.flatnonzero(values > 0)
     fits = base_fits(
-        layout, cfg, base_to_world_xy(points, base), get_robot_spec(cfg.robot).footprint
+        layout, cfg, base_to_world_xy(points[lit], base), get_robot_spec(cfg.robot).footprint
     )
-    return np.where(fits, values, np.float32(0.0)).astype(np.float32)
+    out = np.zeros(len(values), np.float32)
+    out[lit] = np.where(fits, values[lit], np.float32(0.0))
+    return out
 
 
 @dataclass(frozen=True)
