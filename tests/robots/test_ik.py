@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from momakitchen.errors import MomaError
+from momakitchen.robots.ik import build_seed_library
 from momakitchen.robots.robot import Robot, quaternion_angle
 
 NAMES = ["panda", "flexiv", "ur5e", "xarm6", "realman", "elephant"]
@@ -70,3 +71,16 @@ def test_plan_line_follows_a_straight_line_and_keeps_the_joint_state(client):
         assert np.linalg.norm(pos - (start + (goal - start) * k / 5)) <= 0.005
     assert np.array_equal(robot.joint_positions(), q0)
     assert robot.plan_line(start + np.array([3.0, 0.0, 0.0]), orn) is None  # out of reach
+
+
+@pytest.mark.parametrize("name", ["elephant", "panda"])
+def test_seed_library_holds_no_self_colliding_configurations(client, name):
+    """IK restarts from library configurations: one that folds the arm into its own base
+    led the solver to answers that did the same (the Elephant reaching down to a fridge
+    handle)."""
+    robot = Robot(client, name)
+    qs, pos, zax = build_seed_library(robot, n=200)
+    assert len(qs) == 200 and pos.shape == zax.shape == (200, 3)
+    for q in qs:
+        robot.set_joint_positions(q)
+        assert not robot.arm_collisions([]), q

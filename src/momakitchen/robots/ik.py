@@ -19,6 +19,7 @@ from numpy.typing import ArrayLike
 
 from momakitchen.bullet import p
 from momakitchen.errors import MomaError
+from momakitchen.robots import collisions
 from momakitchen.robots.body import RobotBody
 from momakitchen.robots.reach import within_reach
 
@@ -211,13 +212,23 @@ def _library_seeds(
 def build_seed_library(
     robot: RobotBody, n: int = 1500
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Random configurations with their TCP position and z axis in the base frame."""
+    """Random configurations free of self-collision, with their TCP position and z axis in
+    the base frame. A seed that folds the arm into its own base leads IK to solutions that
+    do the same: such seeds are drawn again (at most 5 rounds)."""
     rng = np.random.default_rng(1)
     saved = robot.joint_positions()
     bpos, born = p.getBasePositionAndOrientation(robot.body, physicsClientId=robot.client)
     brot = np.array(p.getMatrixFromQuaternion(born)).reshape(3, 3)
-    qs = rng.uniform(robot.lower, robot.upper, size=(n, robot.dof))
-    pos, zax = np.empty((n, 3)), np.empty((n, 3))
+    free: list[np.ndarray] = []
+    for _round in range(5):
+        for q in rng.uniform(robot.lower, robot.upper, size=(n, robot.dof)):
+            robot._reset_arm(q)
+            if not collisions.arm_collisions(robot, ()):
+                free.append(q)
+        if len(free) >= n:
+            break
+    qs = np.array(free[:n])
+    pos, zax = np.empty((len(qs), 3)), np.empty((len(qs), 3))
     for i, q in enumerate(qs):
         robot._reset_arm(q)
         wp, wq = robot.link_pose(robot.tcp_link)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import itertools
 from dataclasses import dataclass
 from typing import Any
 
@@ -30,6 +31,7 @@ UNIT_WIDTHS: dict[str, tuple[float, float]] = {
     "fridge": (0.7, 0.9),
 }
 UNIT_GAP = 0.004  # clearance between neighbouring units: no interpenetration at spawn
+FRIDGE_GAP = 0.04  # clearance beside a fridge, whose door would hit the next unit otherwise
 
 
 def _r(value: float) -> float:
@@ -198,7 +200,10 @@ def sample_layout(scene_id: int) -> Layout:
     counter_depth = _r(rng.uniform(0.56, 0.66))
     order = _unit_sequence(rng)
     widths = [_r(rng.uniform(*UNIT_WIDTHS[c])) for c in order]
-    run = sum(widths) + UNIT_GAP * (len(widths) - 1)
+    # A fridge stands deeper than the counter and its door's edge swings sideways past
+    # its carcass: it keeps FRIDGE_GAP from its neighbours so that the door opens.
+    gaps = [FRIDGE_GAP if "fridge" in (a, b) else UNIT_GAP for a, b in itertools.pairwise(order)]
+    run = sum(widths) + sum(gaps)
     left_margin = _r(rng.uniform(0.25, 1.2))
     room = Room(
         width=_r(run + left_margin + rng.uniform(0.25, 1.2)),
@@ -215,7 +220,7 @@ def sample_layout(scene_id: int) -> Layout:
             env = Envelope(w, counter_depth, counter_height)
         params = get_category(cat).sample(rng, env)
         furniture.append(Placed(f"f{i}", cat, params, _r(x + w / 2), 0.0, 0.0, 0.0))
-        x += w + UNIT_GAP
+        x += w + (gaps[i] if i < len(gaps) else 0.0)
     layout = Layout(scene_id, room, counter_height, counter_depth, tuple(furniture))
     return _add_microwave(layout, rng)
 

@@ -7,9 +7,10 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
+from matplotlib.patches import Patch
 
 from momakitchen.robots import get_robot_spec
-from momakitchen.scene.configuration import Configuration
+from momakitchen.scene.configuration import Configuration, base_fits
 from momakitchen.scene.geometry import box_corners, corners_of, overlap_matrix
 from momakitchen.scene.layout import Layout
 from momakitchen.scene.overview import draw_kitchen, draw_target, frame_plan
@@ -51,7 +52,8 @@ def save_label_figure(
     path: Path,
     dense: DenseMapConfig | None = None,
 ) -> None:
-    """Write a two-panel PNG: outcome/stage per grid position, and the dense map."""
+    """Write a two-panel PNG: outcome/stage per grid position, and the dense map with
+    the footprint mask (0 where the base does not fit, as the dataset stores it)."""
     reach = get_robot_spec(labels.robot).reach
     ax_, ay_ = labels.anchor[:2]
     xlim = (ax_ - reach - 0.45, ax_ + reach + 0.45)
@@ -98,7 +100,13 @@ def save_label_figure(
 
     pts, free = floor_raster(layout, cfg, xlim, ylim)
     values = dense_map(labels.positions, labels.outcomes, pts.reshape(-1, 2), dense)
-    image = np.where(free, values.reshape(free.shape), np.nan)
+    # The footprint mask, as in the dataset's maps: 0 where the base, facing the target,
+    # would not fit; drawn apart where it removes affordance the trials would give.
+    fits = base_fits(layout, cfg, pts.reshape(-1, 2), get_robot_spec(labels.robot).footprint)
+    fits = fits.reshape(free.shape)
+    values = values.reshape(free.shape)
+    image = np.where(free, np.where(fits, values, 0.0), np.nan)
+    masked = free & ~fits & (values > 0)
     draw_kitchen(ax2, layout, cfg, handles=False, alpha=0.5)
     im = ax2.imshow(
         image,
@@ -110,8 +118,18 @@ def save_label_figure(
         interpolation="nearest",
         zorder=3,
     )
+    overlay = np.zeros((*masked.shape, 4))
+    overlay[masked] = (0.95, 0.35, 0.6, 0.75)
+    ax2.imshow(overlay, origin="lower", extent=(*xlim, *ylim), interpolation="nearest", zorder=3)
     draw_target(ax2, cfg)
     frame_plan(ax2, xlim, ylim)
+    if masked.any():
+        ax2.legend(
+            handles=[Patch(color=(0.95, 0.35, 0.6), label="base does not fit: map set to 0")],
+            loc="lower left",
+            fontsize=7,
+            framealpha=0.9,
+        )
     cfg_d = dense or DenseMapConfig()
     ax2.set_title(
         f"dense affordance map (theta={cfg_d.theta} m, k={cfg_d.k}, sigma={cfg_d.sigma} m)"

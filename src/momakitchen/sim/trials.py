@@ -33,6 +33,11 @@ from momakitchen.sim.config import Stage, TrialConfig
 from momakitchen.sim.world import TargetInfo, World
 
 PARKING = (-20.0, -20.0, 0.0)  # where the robot waits between trials, far from the room
+# One move of a pull: the hand aims this far beyond the part's measured opening (rad for
+# doors and levers, m for drawers), in PULL_WAYPOINTS position-controlled waypoints of
+# PULL_STEPS physics steps each.
+PULL_STEP = {"revolute": math.radians(6.0), "prismatic": 0.0375}
+PULL_WAYPOINTS, PULL_STEPS = 2, 10
 
 
 @dataclass(frozen=True)
@@ -373,7 +378,7 @@ class TrialRunner:
         goal = math.radians(cfg.pull_angle_deg) if revolute else cfg.pull_distance
         goal = min(goal, t.limit) if t.limit > 0 else goal
         need = math.radians(cfg.open_angle_deg) if revolute else cfg.open_distance
-        step = math.radians(4.0) if revolute else 0.025
+        step = PULL_STEP["revolute" if revolute else "prismatic"]
         # The grasp as it really is after closing the fingers, fixed in the part's frame.
         lp, lq = self._link_frame()
         tcp_pos, tcp_quat = robot.tcp_pose()
@@ -394,7 +399,7 @@ class TrialRunner:
             q_next = self._follow(tcp_in_link, axis_local, held_quat, q, amounts)
             if q_next is None:
                 break
-            self._drive(q, q_next, 3, 10)
+            self._drive(q, q_next, PULL_WAYPOINTS, PULL_STEPS)
             q = q_next
             if self._lost_grip():
                 break
