@@ -169,8 +169,9 @@ for _spec in (
         mount_offset_x=FRONT_MOUNT,
         model=RobotModel(
             FLEXIV_ARM,
-            # Robotiq 2F-85-like gripper (what BestMan mounted), 8 cm opening.
-            ParallelGripper(tcp_offset=0.15, palm_size=(0.07, 0.14, 0.10)),
+            # Robotiq 2F-85-like gripper (what BestMan mounted), 8 cm opening; the
+            # 2F-85 grips with 20-235 N: 100 N per finger.
+            ParallelGripper(tcp_offset=0.15, palm_size=(0.07, 0.14, 0.10), finger_force=100.0),
             home=(0.0, -0.7, 0.0, 1.6, 0.0, 0.8, 0.0),
             source="Flexiv SDK kinematics URDF (Rizon 4)",
         ),
@@ -219,8 +220,9 @@ for _spec in (
         mount_offset_x=FRONT_MOUNT,
         model=RobotModel(
             REALMAN_ARM,
-            # DH Robotics AG-95-like gripper (what BestMan mounted), 8 cm opening.
-            ParallelGripper(tcp_offset=0.16, palm_size=(0.07, 0.13, 0.11)),
+            # DH Robotics AG-95-like gripper (what BestMan mounted), 8 cm opening; the
+            # AG-95 grips with 45-160 N: 80 N per finger.
+            ParallelGripper(tcp_offset=0.16, palm_size=(0.07, 0.13, 0.11), finger_force=80.0),
             home=(0.0, 0.6, 1.5, 0.0, 1.0, 0.0),
             source="Realman ROS 2 description (RML63-6F)",
         ),

@@ -36,7 +36,7 @@ PARKING = (-20.0, -20.0, 0.0)  # where the robot waits between trials, far from 
 # One move of a pull: the hand aims this far beyond the part's measured opening (rad for
 # doors and levers, m for drawers), in PULL_WAYPOINTS position-controlled waypoints of
 # PULL_STEPS physics steps each.
-PULL_STEP = {"revolute": math.radians(6.0), "prismatic": 0.0375}
+PULL_STEP = {"revolute": math.radians(4.0), "prismatic": 0.025}
 PULL_WAYPOINTS, PULL_STEPS = 2, 10
 
 
