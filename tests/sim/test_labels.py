@@ -78,3 +78,38 @@ def test_map_is_zero_where_the_base_would_not_fit():
     base = (0.0, 0.0, 0.0)  # the world frame as the viewpoint's base frame
     values = floor_affordance(labels, scene.layout, cfg, grid, base)
     assert np.all(values[~fits] == 0) and np.all(values[fits] > 0.99)
+
+
+def test_map_is_zero_beyond_the_sampling_area():
+    """The trials cover the half-disc of the robot's reach: a floor point just beyond it,
+    next to successful trials, is not claimed (the interpolation alone gives it 1)."""
+    from momakitchen.robots import get_robot_spec
+    from momakitchen.scene.configuration import base_fits, sample_scene
+    from momakitchen.scene.geometry import semicircle_grid
+    from momakitchen.sim.labels import Labels, dense_map, floor_affordance
+
+    scene = sample_scene(2001)
+    cfg = scene.configurations[3]
+    spec = get_robot_spec(cfg.robot)
+    anchor = np.asarray(cfg.target.anchor[:2])
+    grid = semicircle_grid(tuple(anchor), spec.reach, 0.1)
+    labels = Labels(
+        cfg.scene_id, cfg.index, cfg.robot, "t", cfg.target.anchor, 0.1, grid,
+        np.zeros(len(grid)), np.zeros(len(grid), np.uint8), np.zeros(len(grid), np.float32), {},
+    )  # fmt: skip
+    # Points 8 cm beyond the outermost trials, on the rays through them.
+    ray = grid - anchor
+    dist = np.hypot(ray[:, 0], ray[:, 1])
+    outer = grid[dist > spec.reach - 0.1]
+    beyond = (
+        anchor
+        + (outer - anchor)
+        * ((np.hypot(*(outer - anchor).T) + 0.08) / np.hypot(*(outer - anchor).T))[:, None]
+    )
+    beyond = beyond[base_fits(scene.layout, cfg, beyond, spec.footprint)]
+    assert len(beyond) >= 3
+    assert np.all(dense_map(grid, labels.outcomes, beyond) > 0.99)
+    assert np.all(floor_affordance(labels, scene.layout, cfg, beyond, (0.0, 0.0, 0.0)) == 0)
+    # Inside the area the map stays as the trials say.
+    inside = grid[base_fits(scene.layout, cfg, grid, spec.footprint)]
+    assert np.all(floor_affordance(labels, scene.layout, cfg, inside, (0.0, 0.0, 0.0)) > 0.99)

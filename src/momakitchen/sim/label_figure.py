@@ -10,12 +10,12 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
 from momakitchen.robots import get_robot_spec
-from momakitchen.scene.configuration import Configuration, base_fits
+from momakitchen.scene.configuration import Configuration
 from momakitchen.scene.geometry import box_corners, corners_of, overlap_matrix
 from momakitchen.scene.layout import Layout
 from momakitchen.scene.overview import draw_kitchen, draw_target, frame_plan
 from momakitchen.sim.config import STAGE_NAMES, DenseMapConfig, Stage
-from momakitchen.sim.labels import Labels, dense_map
+from momakitchen.sim.labels import Labels, dense_map, standable
 
 STAGE_COLOURS = {
     Stage.SUCCESS: "#16a34a",
@@ -100,10 +100,9 @@ def save_label_figure(
 
     pts, free = floor_raster(layout, cfg, xlim, ylim)
     values = dense_map(labels.positions, labels.outcomes, pts.reshape(-1, 2), dense)
-    # The footprint mask, as in the dataset's maps: 0 where the base, facing the target,
-    # would not fit; drawn apart where it removes affordance the trials would give.
-    fits = base_fits(layout, cfg, pts.reshape(-1, 2), get_robot_spec(labels.robot).footprint)
-    fits = fits.reshape(free.shape)
+    # The mask, as in the dataset's maps: 0 where the base, facing the target, would not
+    # fit or outside the sampling area; drawn apart where it removes interpolated affordance.
+    fits = standable(layout, cfg, pts.reshape(-1, 2)).reshape(free.shape)
     values = values.reshape(free.shape)
     image = np.where(free, np.where(fits, values, 0.0), np.nan)
     masked = free & ~fits & (values > 0)
@@ -125,7 +124,7 @@ def save_label_figure(
     frame_plan(ax2, xlim, ylim)
     if masked.any():
         ax2.legend(
-            handles=[Patch(color=(0.95, 0.35, 0.6), label="base does not fit: map set to 0")],
+            handles=[Patch(color=(0.95, 0.35, 0.6), label="base does not fit or out of reach: 0")],
             loc="lower left",
             fontsize=7,
             framealpha=0.9,

@@ -70,7 +70,8 @@ def floor_affordance(
     config: DenseMapConfig | None = None,
 ) -> np.ndarray:
     """The dense map of ``labels`` at floor points of a viewpoint, 0 where the base would
-    not fit (facing the target) whatever the interpolation says.
+    not fit (facing the target) and outside the sampling area, whatever the interpolation
+    says (:func:`standable`).
 
     Shapes: ``points`` (M, 2) in the base frame of the viewpoint ``base`` = (x, y, yaw)
     in the world; returns (M,) float32 in [0, 1].
@@ -80,12 +81,27 @@ def floor_affordance(
     )
     # The mask only matters where the map is positive (most floor points are 0).
     lit = np.flatnonzero(values > 0)
-    fits = base_fits(
-        layout, cfg, base_to_world_xy(points[lit], base), get_robot_spec(cfg.robot).footprint
-    )
+    keep = standable(layout, cfg, base_to_world_xy(points[lit], base))
     out = np.zeros(len(values), np.float32)
-    out[lit] = np.where(fits, values[lit], np.float32(0.0))
+    out[lit] = np.where(keep, values[lit], np.float32(0.0))
     return out
+
+
+def standable(layout: Layout, cfg: Configuration, points: np.ndarray) -> np.ndarray:
+    """Where a dense map may be positive: inside the sampling area (within the robot's
+    reach of the target, where the trials ran: beyond it the interpolation would only
+    extend the outermost successes, with no trial to say otherwise) and where the base,
+    facing the target, fits by the floor plan.
+
+    Shapes: ``points`` (M, 2) world xy; returns (M,) bool.
+    """
+    spec = get_robot_spec(cfg.robot)
+    pts = np.asarray(points, np.float64).reshape(-1, 2)
+    offset = pts - np.asarray(cfg.target.anchor[:2])
+    inside = np.hypot(offset[:, 0], offset[:, 1]) <= spec.reach + 1e-9
+    fits = np.zeros(len(pts), bool)
+    fits[inside] = base_fits(layout, cfg, pts[inside], spec.footprint)
+    return fits
 
 
 @dataclass(frozen=True)
