@@ -118,13 +118,13 @@ def save_label_figure(
         zorder=3,
     )
     overlay = np.zeros((*masked.shape, 4))
-    overlay[masked] = (0.95, 0.35, 0.6, 0.75)
+    overlay[masked] = (1.0, 0.55, 0.1, 0.8)
     ax2.imshow(overlay, origin="lower", extent=(*xlim, *ylim), interpolation="nearest", zorder=3)
     draw_target(ax2, cfg)
     frame_plan(ax2, xlim, ylim)
     if masked.any():
         ax2.legend(
-            handles=[Patch(color=(0.95, 0.35, 0.6), label="base does not fit or out of reach: 0")],
+            handles=[Patch(color=(1.0, 0.55, 0.1), label="base does not fit or out of reach: 0")],
             loc="lower left",
             fontsize=7,
             framealpha=0.9,
