@@ -84,12 +84,15 @@ def _check_report_figure(fig, result):
     assert len(norms) == 1, norms
     for ax, sc in zip(maps, scatters, strict=True):
         floor = np.asarray(sc.get_offsets())  # (-y, x) of every floor point
-        (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
-        lo, hi = floor.min(0) - 0.41, floor.max(0) + 0.41  # report_region's margin
-        assert lo[0] <= x0 < x1 <= hi[0] and lo[1] <= y0 < y1 <= hi[1]  # not the camera
+        (x0, x1), (y0, y1) = sorted(ax.get_xlim()), sorted(ax.get_ylim())
         star = next(line for line in ax.lines if line.get_marker() == "*")
         (sx,), (sy,) = star.get_data()
         assert x0 <= sx <= x1 and y0 <= sy <= y1  # the target is in view
+        # Not the whole view down to the camera: the floor and the target, with
+        # report_region's margin (and the poses, which lie on the floor).
+        seen = np.vstack([floor, [[sx, sy]]])
+        lo, hi = seen.min(0) - 0.41, seen.max(0) + 0.41
+        assert lo[0] <= x0 < x1 <= hi[0] and lo[1] <= y0 < y1 <= hi[1]
         assert not [t for t in ax.texts if t.get_bbox_patch() is not None]  # no badge
     assert ("success" if result["trial"]["success"] else "failure") in maps[1].get_title()
 
@@ -117,3 +120,6 @@ def test_report_region_is_the_floor_around_what_matters():
     x0, x1, y0, y1 = report_region(floor, [hot, 0.3 * hot], 1.0, np.array([[3.4, 0.4]]))
     assert 2.0 < x0 < 2.8 and 3.7 < x1 < 3.9 and -0.3 < y0 < 0.3 and 0.7 < y1 < 1.3
     assert (x1 - x0) * (y1 - y0) < 0.15 * 16
+    # A target beyond the seen floor (e.g. on a counter far ahead) stays in view.
+    x0, x1, y0, y1 = report_region(floor, [hot], 1.0, np.array([[6.0, 0.4]]))
+    assert x0 < 6.0 < x1 and y0 < 0.4 < y1

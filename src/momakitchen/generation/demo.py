@@ -215,11 +215,15 @@ def report_region(
     hot = np.zeros(len(xy), bool)
     for m in maps:
         hot |= np.asarray(m) > 0.1 * vmax
-    pts = np.concatenate([xy[hot], np.asarray(keep, float).reshape(-1, 2)])
+    keep = np.asarray(keep, float).reshape(-1, 2)
+    pts = np.concatenate([xy[hot], keep])
     lo, hi = pts.min(0) - margin, pts.max(0) + margin
-    if len(xy):  # never beyond the floor that is seen (plus the margin)
+    if len(xy):  # never beyond the floor that is seen (plus the margin)...
         lo = np.maximum(lo, xy.min(0) - margin)
         hi = np.minimum(hi, xy.max(0) + margin)
+    if len(keep):  # ...but always the target and the chosen poses
+        lo = np.minimum(lo, keep.min(0) - margin)
+        hi = np.maximum(hi, keep.max(0) + margin)
     return float(lo[0]), float(hi[0]), float(lo[1]), float(hi[1])
 
 
