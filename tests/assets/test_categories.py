@@ -164,3 +164,30 @@ def test_any_envelope_from_minimum_to_generous_is_filled_and_respected(name):
             assert w == pytest.approx(env.width, abs=1e-5)  # units fill their slot
         if name != "sink":  # the faucet stands on the countertop
             assert h <= env.height + 1e-6, (name, env, model.size)
+
+
+def test_lidless_pots_offer_rim_grasps_straddling_the_wall():
+    """A pot without a lid can be held at its rim, fingers closing radially across the wall
+    2 cm below its top, on the sides where no handle is attached; a lid covers the rim."""
+    cat = get_category("pot")
+    rng = np.random.default_rng(5)
+    seen = {0: 0, 1: 0}
+    for _ in range(40):
+        params = cat.sample(rng, None)
+        model = cat.build(params)
+        rims = [g for g in model.grasps if g.name.startswith("rim")]
+        seen[params.lid] += 1
+        if params.lid:
+            assert not rims
+            continue
+        assert len(rims) == (3 if params.style == "saucepan" else 2)
+        cx = -params.handle_length / 2 if params.style == "saucepan" else 0.0
+        for g in rims:
+            radial = np.array(g.position[:2]) - [cx, 0.0]
+            inside = params.radius - params.wall / 2
+            assert np.linalg.norm(radial) == pytest.approx(inside, abs=1e-5)
+            assert np.allclose(np.array(g.closing_axis[:2]), radial / np.linalg.norm(radial))
+            assert g.normal == (0.0, 0.0, 1.0) and g.width == params.wall
+            assert g.position[2] == pytest.approx(params.height - 0.02)
+        assert model.grasps[0].name.startswith("rim")
+    assert seen[0] and seen[1]

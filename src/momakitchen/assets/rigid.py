@@ -281,6 +281,26 @@ class Pot(ProceduralCategory):
                     f"handle{'+' if sgn > 0 else '-'}x",
                 )
             )
+        if not p.lid:
+            # The rim, from above, fingers straddling the wall 2 cm down: the pads press
+            # on the wall over their whole height and hold the pot level (held by a
+            # handle, it turns about the fingers' axis and tilts).
+            rr, zr = p.radius - p.wall / 2, round(p.height - 0.02, 6)
+            for k in range(4):
+                a = k * math.pi / 2
+                if abs(math.cos(a)) > 0.5 and (p.style == "casserole" or math.cos(a) > 0):
+                    continue  # a handle is attached there
+                grasps.insert(
+                    0,
+                    GraspFrame(
+                        BODY,
+                        (round(cx + rr * math.cos(a), 6), round(rr * math.sin(a), 6), zr),
+                        (0.0, 0.0, 1.0),
+                        (round(math.cos(a), 6), round(math.sin(a), 6), 0.0),
+                        p.wall,
+                        f"rim{k * 90}",
+                    ),
+                )
         if p.lid:
             shapes.append(
                 Shape(Cylinder(p.radius, 0.005), (cx, 0.0, p.height + 0.0025), material="body")

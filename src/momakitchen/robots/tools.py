@@ -132,6 +132,9 @@ class SuctionTool:
 
     kind = "suction"
 
+    # The narrowest surface the cup seals on (m): a handle, not the edge of a pot's wall.
+    min_surface_width = 0.015
+
     def __init__(
         self, robot: RobotBody, cup_link: int, contact_distance: float, face_only: bool
     ) -> None:

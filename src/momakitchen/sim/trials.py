@@ -189,13 +189,27 @@ class TrialRunner:
         to_robot[2] = 0.0
         to_robot /= max(np.linalg.norm(to_robot), 1e-9)
 
+        com = np.asarray(
+            p.getDynamicsInfo(t.body_id, t.link_index, physicsClientId=self._client)[3]
+        )
+
         def score(g: GraspFrame) -> float:
             n = rot @ np.asarray(g.normal)
-            # Top grasps rank as a side grasp facing the robot at 45 degrees would.
-            return 0.7 if n[2] > 0.7 else float(n @ to_robot)
+            if n[2] <= 0.7:
+                return float(n @ to_robot)
+            # Top grasps rank about as a side grasp facing the robot at 45 degrees would:
+            # those nearest the centre of mass first (the least torque to hold level: a
+            # pot's rim before its handles), then those on the robot's side.
+            offset = rot @ (np.asarray(g.position) - com)
+            offset[2] = 0.0
+            d = float(np.linalg.norm(offset))
+            return 0.7 - 0.5 * d + (0.02 * float(offset @ to_robot) / d if d > 1e-3 else 0.0)
 
         assert info.model is not None  # a target always has its asset model
-        grasps = sorted(info.model.grasps, key=score, reverse=True)
+        grasps = list(info.model.grasps)
+        if isinstance(self.tool, SuctionTool):
+            grasps = [g for g in grasps if g.width >= self.tool.min_surface_width]
+        grasps = sorted(grasps, key=score, reverse=True)
         grasps = [g for g in grasps if score(g) > -0.2]
         return grasps[: self.config.max_grasp_candidates]
 
