@@ -124,11 +124,12 @@ def test_part_sweep_covers_the_moving_part_at_rest_and_opened():
     assert checked >= 5
 
 
-@pytest.mark.parametrize("scene_id", [1001, 1003, 1005])
+@pytest.mark.parametrize("scene_id", [1000, 1001, 1003, 1005])
 def test_every_part_opens_to_the_pull_goal_clear_of_other_units(scene_id):
     """Turned (or slid) kinematically to what the trials pull, no part penetrates another
     body: before fridges kept FRIDGE_GAP, their doors hit the worktop beside them at ~8°
-    in these scenes, and no robot could open them."""
+    in scenes 1001-1005, and before side-hinged doors pivoted on their front face, the
+    sink door of scene 1000 stopped against the next unit at 19.4°."""
     trial = TrialConfig()
     layout = sample_scene(scene_id).layout
     with World(layout) as w:
@@ -152,7 +153,7 @@ def test_every_part_opens_to_the_pull_goal_clear_of_other_units(scene_id):
                         info.body_id, other, 0.0, linkIndexA=joint, physicsClientId=c
                     )
                     deepest = min((pt[8] for pt in pts), default=0.0)
-                    assert deepest > -0.003, (unit.uid, unit.category, art.joint, other, deepest)
+                    assert deepest > -0.0005, (unit.uid, unit.category, art.joint, other, deepest)
                 p.resetJointState(info.body_id, joint, 0.0, physicsClientId=c)
                 count += 1
         assert count >= 5

@@ -254,8 +254,11 @@ def door(
 ) -> tuple[Link, Joint, Articulation]:
     """A side-hinged door covering ``[x0, x1] x [z0, z1]`` with its back face at ``y_front``.
 
-    The joint sits on the hinge edge at the back face of the door; both hinge sides open with
-    a positive angle (the axis is flipped for right hinges), the free edge swinging to +y.
+    The joint sits on the hinge edge at the *front* face of the door, as a cabinet hinge
+    pivots: the door swings out without its hinge edge moving sideways (pivoting at the
+    back face, that edge swung into the next unit's worktop and stopped the door at about
+    20°). Both hinge sides open with a positive angle (the axis is flipped for right
+    hinges), the free edge swinging to +y.
     ``extra`` shapes (windows, trims) are given in the frame of a left-hinged door and
     mirrored for right hinges.
     """
@@ -263,16 +266,17 @@ def door(
     dw, dh = x1 - x0, z1 - z0
     left = hinge == "left"
     sx = 1.0 if left else -1.0
-    panel = box_at((min(0.0, sx * dw), 0.0, 0.0), (max(0.0, sx * dw), t, dh), material, density)
+    # Link frame on the front face (y = 0), the panel behind it.
+    panel = box_at((min(0.0, sx * dw), -t, 0.0), (max(0.0, sx * dw), 0.0, dh), material, density)
     vertical = handle.kind in ("bar_v", "flat_v")
     hl = min(handle.length, (dh if vertical else dw) * 0.6)
     hx = sx * (dw - 0.04 - hl / 2) if handle.kind in ("bar_h", "flat_h") else sx * (dw - 0.045)
     top_z = dh - 0.06 - (hl / 2 if vertical else 0.0)
-    h = handle.make((hx, t, top_z if handle_at_top else dh / 2), hl)
+    h = handle.make((hx, 0.0, top_z if handle_at_top else dh / 2), hl)
     mirrored = tuple(
         Shape(
             s.geometry,
-            (sx * s.xyz[0], s.xyz[1], s.xyz[2]),
+            (sx * s.xyz[0], s.xyz[1] - t, s.xyz[2]),
             s.rpy,
             s.material,
             s.collision,
@@ -288,7 +292,7 @@ def door(
         "revolute",
         parent,
         name,
-        (x0 if left else x1, y_front, z0),
+        (x0 if left else x1, y_front + t, z0),
         axis=(0.0, 0.0, 1.0 if left else -1.0),
         lower=0.0,
         upper=limit,

@@ -48,6 +48,9 @@ class TrialConfig:
         ik_restarts: IK starts beyond the home configuration for the pre-grasp pose (the
             robot's library configurations nearest the pose); each distinct solution is
             checked for collisions until one is free.
+        approach_tilt_deg: where the approach along the surface normal finds no plan,
+            grippers also approach turned this far about the closing axis (the pads
+            still hold the part), from above first; 0 turns this off.
         solver_iterations: PyBullet constraint-solver iterations per step during trials
             (PyBullet's default is 50; 30 gives the same outcomes on our scenes, faster).
     """
@@ -63,6 +66,7 @@ class TrialConfig:
     max_grasp_depth: float = 0.03
     max_grasp_candidates: int = 3
     ik_restarts: int = 5
+    approach_tilt_deg: float = 20.0
     solver_iterations: int = 30
 
     def __post_init__(self) -> None:
@@ -86,6 +90,10 @@ class TrialConfig:
             raise MomaError("TrialConfig: the commanded pull must exceed the success threshold")
         if not 0 <= self.hold_seconds <= 10:
             raise MomaError(f"TrialConfig.hold_seconds must be in [0, 10], got {self.hold_seconds}")
+        if not 0 <= self.approach_tilt_deg <= 60:
+            raise MomaError(
+                f"TrialConfig.approach_tilt_deg must be in [0, 60], got {self.approach_tilt_deg}"
+            )
         if not 5 <= self.solver_iterations <= 500:
             raise MomaError(
                 f"TrialConfig.solver_iterations must be in [5, 500], got {self.solver_iterations}"

@@ -229,13 +229,13 @@ class TrialRunner:
             if not robot.could_reach(pos):
                 continue
             reachable = True
-            for sign in (1.0, -1.0):  # a two-finger grasp is symmetric about the closing axis
-                quat = tcp_quaternion(normal, sign * closing)
+            for approach, sign in self._approaches(normal, closing):
+                quat = tcp_quaternion(approach, sign * closing)
                 # Distinct arm configurations for the pre-grasp, until one is free of
                 # collisions at both poses (an IK answer alone may fold the arm into the
                 # base or sweep it through an obstacle).
                 pres = robot.ik_solutions(
-                    pos + cfg.pregrasp_offset * normal, quat, starts=1 + cfg.ik_restarts
+                    pos + cfg.pregrasp_offset * approach, quat, starts=1 + cfg.ik_restarts
                 )
                 while True:
                     t0 = time.perf_counter()  # IK time: the next solution and its grasp
@@ -251,10 +251,28 @@ class TrialRunner:
                     if self._arm_collides(pre.q, bodies) or self._arm_collides(grasp.q, bodies):
                         collided = True
                         continue
-                    return Stage.SUCCESS, _Plan(g, pre.q, grasp.q, pos, normal, quat), t_ik
+                    return Stage.SUCCESS, _Plan(g, pre.q, grasp.q, pos, approach, quat), t_ik
         if not reachable:
             return Stage.OUT_OF_REACH, None, t_ik
         return (Stage.ARM_COLLISION if collided else Stage.IK_FAILED), None, t_ik
+
+    def _approaches(
+        self, normal: np.ndarray, closing: np.ndarray
+    ) -> list[tuple[np.ndarray, float]]:
+        """(approach normal, closing sign) pairs to try, in order: along the surface normal
+        with either finger first (a two-finger grasp is symmetric about the closing axis),
+        then, for grippers, turned by ``TrialConfig.approach_tilt_deg`` about the closing
+        axis, where the pads still hold (from above first): a high-mounted arm reaches a
+        low handle more easily from above. A suction cup stays flush with the surface."""
+        signs = (1.0, -1.0)
+        out = [(normal, sign) for sign in signs]
+        tilt = math.radians(self.config.approach_tilt_deg)
+        if tilt > 0 and isinstance(self.tool, ParallelGripperTool):
+            side = np.cross(closing, normal)  # Rodrigues about the closing axis (normal ⟂ it)
+            turned = [normal * math.cos(t) + side * math.sin(t) for t in (tilt, -tilt)]
+            turned.sort(key=lambda n: -n[2])  # the approach from above first
+            out += [(n, sign) for n in turned for sign in signs]
+        return out
 
     def _near(self, x: float, y: float, radius: float) -> list[int]:
         """Scene bodies whose bounding box comes within ``radius`` of (x, y) in the plane."""
@@ -367,18 +385,26 @@ class TrialRunner:
         """Arm configuration (dof,) that holds the handle once the part opens by the first
         of ``amounts`` the arm can follow from ``q``; None if it can follow none. The
         physical arm state is left as it was (IK moves the arm kinematically)."""
+        tilt = math.radians(self.config.approach_tilt_deg)
+        # Turns of the hand about its closing axis (TCP y), where the pads still hold.
+        turns = [(0.0, 0.0, 0.0, 1.0)] + [
+            p.getQuaternionFromAxisAngle((0.0, 1.0, 0.0), t) for t in (tilt, -tilt) if t
+        ]
         with self.robot.kinematic_scratch():
             for amount in amounts:
                 pos, quat = self._opened_pose(tcp_in_link, axis_local, amount)
                 # The fingers may turn about the handle bar: besides following the
-                # handle's frame, accept keeping the grasp orientation or halfway.
-                for frac in (1.0, 0.0, 0.5):
-                    goal = p.getQuaternionSlerp(held_quat.tolist(), quat.tolist(), frac)
-                    res = self.robot.solve_ik(
-                        pos, goal, seed=q, restarts=0, pos_tol=0.01, ori_tol=math.radians(6)
-                    )
-                    if res.success:
-                        return res.q
+                # handle's frame, accept keeping the grasp orientation or halfway, and
+                # the hand turned about its closing axis.
+                for turn in turns:
+                    for frac in (1.0, 0.0, 0.5):
+                        goal = p.getQuaternionSlerp(held_quat.tolist(), quat.tolist(), frac)
+                        goal = p.multiplyTransforms((0, 0, 0), goal, (0, 0, 0), turn)[1]
+                        res = self.robot.solve_ik(
+                            pos, goal, seed=q, restarts=0, pos_tol=0.01, ori_tol=math.radians(6)
+                        )
+                        if res.success:
+                            return res.q
         return None
 
     def _pull(self, q_held: np.ndarray) -> tuple[bool, float]:
