@@ -200,8 +200,8 @@ def sample_layout(scene_id: int) -> Layout:
     counter_depth = _r(rng.uniform(0.56, 0.66))
     order = _unit_sequence(rng)
     widths = [_r(rng.uniform(*UNIT_WIDTHS[c])) for c in order]
-    # A fridge stands deeper than the counter and its door's edge swings sideways past
-    # its carcass: it keeps FRIDGE_GAP from its neighbours so that the door opens.
+    # A fridge keeps FRIDGE_GAP from its neighbours: the hinge edge of its thick door
+    # turns close to the worktop overhang beside it.
     gaps = [FRIDGE_GAP if "fridge" in (a, b) else UNIT_GAP for a, b in itertools.pairwise(order)]
     run = sum(widths) + sum(gaps)
     left_margin = _r(rng.uniform(0.25, 1.2))
