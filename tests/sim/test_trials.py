@@ -208,3 +208,16 @@ def test_suction_skips_grasps_too_narrow_to_seal_on():
     assert cfg.robot == "ur5e" and cfg.target.category == "pot"
     executed = [r for r in results if r.stage in (Stage.SUCCESS, Stage.EXECUTION_FAILED)]
     assert executed and all(r.success and r.grasp.startswith("handle") for r in executed)
+
+
+def test_labels_record_the_grasp_each_trial_executed(bottle_labels):
+    """Which candidate succeeded, and which failed in physics: a name for every trial that
+    reached physics, none for the others; the summary counts them per candidate."""
+    labels = bottle_labels
+    ran = (labels.stages == Stage.SUCCESS) | (labels.stages == Stage.EXECUTION_FAILED)
+    assert len(labels.grasps) == len(labels.stages)
+    assert all(bool(g) == bool(r) for g, r in zip(labels.grasps, ran, strict=True))
+    counts = labels.summary()["grasps"]
+    assert sum(c["success"] for c in counts.values()) == int(labels.outcomes.sum())
+    assert sum(sum(c.values()) for c in counts.values()) == int(ran.sum())
+    assert set(counts) <= {"side+x", "side-x", "side+y", "side-y", "top"}

@@ -1,8 +1,8 @@
 """``momakitchen label``: run the trials of one configuration and write its labels.
 
-Writes ``labels.npz`` (grid positions, yaws, outcomes, failure stage and what moved per
-position), ``labels.json`` (summary: counts per stage, success rate, timing) and
-``labels.png`` (outcomes by stage next to the dense map).
+Writes ``labels.npz`` (grid positions, yaws, outcomes, failure stage, the grasp executed and
+what moved per position), ``labels.json`` (summary: counts per stage and per grasp, success
+rate, timing) and ``labels.png`` (outcomes by stage next to the dense map).
 """
 
 from __future__ import annotations
@@ -108,6 +108,7 @@ def run(args: argparse.Namespace) -> int:
         outcomes=labels.outcomes,
         stages=labels.stages,
         moved=labels.moved,
+        grasps=np.array(labels.grasps, dtype=str),
         anchor=np.asarray(labels.anchor),
         stage_names=np.array(STAGE_NAMES),
     )

@@ -111,7 +111,9 @@ class Labels:
     Shapes: ``positions`` (P, 2) world xy of the trial grid; ``yaws`` (P,) base yaw (facing
     the target); ``stages`` (P,) :class:`Stage` codes (0 = success); ``moved`` (P,) object
     rise (m) or joint opening (rad or m) reached in physics (0 where no physics ran).
-    ``seconds`` splits the wall time: check, ik, physics, total.
+    ``seconds`` splits the wall time: check, ik, physics, total. ``grasps`` (P,) names the
+    grasp candidate each trial executed ("" where no plan reached physics): which one
+    succeeded, which one failed in execution.
     """
 
     scene_id: int
@@ -125,6 +127,7 @@ class Labels:
     stages: np.ndarray
     moved: np.ndarray
     seconds: dict[str, float]
+    grasps: tuple[str, ...] = ()
 
     @property
     def outcomes(self) -> np.ndarray:
@@ -153,8 +156,19 @@ class Labels:
             "success_rate": float(self.outcomes.mean()) if n else 0.0,
             "physics_trials": physics,
             "stages": self.stage_counts(),
+            "grasps": self.grasp_counts(),
             "seconds": {k: round(v, 4) for k, v in self.seconds.items()},
         }
+
+    def grasp_counts(self) -> dict[str, dict[str, int]]:
+        """Per grasp candidate executed in physics: how many trials succeeded and failed."""
+        out: dict[str, dict[str, int]] = {}
+        for name, stage in zip(self.grasps, self.stages, strict=False):
+            if name:
+                key = "success" if stage == Stage.SUCCESS else "execution_failed"
+                counts = out.setdefault(name, {"success": 0, "execution_failed": 0})
+                counts[key] += 1
+        return out
 
 
 def target_name(world: World) -> str:
@@ -230,4 +244,5 @@ def label_configuration(
         stages=np.array([int(r.stage) for r in results], dtype=np.uint8),
         moved=np.array([r.moved for r in results], dtype=np.float32),
         seconds=seconds,
+        grasps=tuple(r.grasp for r in results),
     )
