@@ -60,6 +60,15 @@ def _origin(elem: ET.Element | None) -> np.ndarray:
 
 
 @functools.lru_cache(maxsize=256)
+def _parse(urdf: str) -> ET.Element:
+    """The URDF's XML tree, parsed once per text (cached: do not modify it)."""
+    try:
+        return ET.fromstring(urdf)
+    except ET.ParseError as exc:
+        raise MomaError(f"URDF does not parse: {exc}") from None
+
+
+@functools.lru_cache(maxsize=256)
 def link_rest_poses(urdf: str) -> dict[str, np.ndarray]:
     """Pose of every link in the root-link frame with all joints at 0 (cached: do not
     modify the returned arrays).
@@ -67,10 +76,7 @@ def link_rest_poses(urdf: str) -> dict[str, np.ndarray]:
     Returns:
         Mapping link name -> homogeneous transform of shape (4, 4).
     """
-    try:
-        root = ET.fromstring(urdf)
-    except ET.ParseError as exc:
-        raise MomaError(f"URDF does not parse: {exc}") from None
+    root = _parse(urdf)
     links = [_required_attr(link, "name", "<link>") for link in root.findall("link")]
     parent_of: dict[str, tuple[str, np.ndarray]] = {}
     for joint in root.findall("joint"):
@@ -98,10 +104,7 @@ def link_rest_poses(urdf: str) -> dict[str, np.ndarray]:
 def joint_axes(urdf: str) -> dict[str, tuple[str, np.ndarray]]:
     """Every joint's child link and axis, the axis in that child link's frame (URDF's
     default (1, 0, 0) where none is given; do not modify the returned arrays)."""
-    try:
-        root = ET.fromstring(urdf)
-    except ET.ParseError as exc:
-        raise MomaError(f"URDF does not parse: {exc}") from None
+    root = _parse(urdf)
     out = {}
     for joint in root.findall("joint"):
         what = f"<joint name={joint.get('name')!r}>"
@@ -118,10 +121,7 @@ def link_extent_points(urdf: str, link: str) -> np.ndarray:
     """Corners of the boxes bounding each collision shape of ``link``, in that link's
     frame (do not modify the returned array). Shape (8 * shapes, 3); (0, 3) for a link
     without collision shapes."""
-    try:
-        root = ET.fromstring(urdf)
-    except ET.ParseError as exc:
-        raise MomaError(f"URDF does not parse: {exc}") from None
+    root = _parse(urdf)
     signs = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
     points = [np.zeros((0, 3))]
     for elem in root.findall("link"):
