@@ -30,9 +30,11 @@ def main() -> None:
     ap.add_argument("--out", type=Path, required=True)
     args = ap.parse_args()
     scene = sample_scene(args.scene_id)
+    if not 0 <= args.config < len(scene.configurations):
+        ap.error(f"--config must be in [0, {len(scene.configurations) - 1}], got {args.config}")
     cfg = scene.configurations[args.config]
     if cfg.target.articulation is None:
-        raise SystemExit(f"configuration {args.config} targets a {cfg.target.category}, not a part")
+        ap.error(f"configuration {args.config} targets a {cfg.target.category}, not a part")
     anchor = np.asarray(cfg.target.anchor)
     with World(scene.layout) as world:
         world.load_configuration(cfg)
@@ -41,7 +43,7 @@ def main() -> None:
         grid = semicircle_grid(tuple(anchor[:2]), get_robot_spec(cfg.robot).reach, 0.1)
         base = next((xy for xy in grid if runner.run(*xy).success), None)
         if base is None:
-            raise SystemExit("no trial of this configuration succeeds")
+            ap.error(f"no trial of configuration {args.config} succeeds")
         # A camera beside the robot, looking at the middle of the robot and the handle.
         towards = (base - anchor[:2]) / np.linalg.norm(base - anchor[:2])
         side = np.array([-towards[1], towards[0]])
