@@ -161,3 +161,45 @@ def test_mc_samples_split_the_backbone_where_the_dropout_starts(name, tiny_confi
     sampled = model.sample_predictions(batch, 3)
     assert sampled.shape == (3, plain.shape[1])
     torch.testing.assert_close(sampled, plain.expand(3, -1), atol=1e-6, rtol=0)
+
+
+@pytest.mark.parametrize("name", sorted(EXPECTED))
+def test_a_plan_computed_ahead_gives_the_same_outputs_and_gradients(name, tiny_config, samples):
+    """The trainer's DataLoader workers attach Backbone.plan to each batch; the forward
+    pass must then equal the one that finds the geometry itself, bit for bit."""
+    cfg = dataclasses.replace(tiny_config, dropout=0.0)
+    torch.manual_seed(0)
+    model = build_model(name, cfg)
+    with torch.no_grad():
+        model.head.out.weight.normal_(0.0, 1.0)
+    batch = _pad_with_garbage(collate_episodes(samples), 11, 7)
+    torch.manual_seed(1)
+    planner = build_model(name, cfg).backbone  # another instance: plans need no weights
+    planned = {**batch, "plan": planner.plan(batch)}
+    assert planned["plan"] or name == "navaff-no-global"
+    outs, grads = [], []
+    for b in (batch, planned):
+        model.zero_grad()
+        torch.manual_seed(5)
+        out = model(b)
+        out["loss"].backward()
+        outs.append(out["pred"])
+        grads.append([p.grad.clone() for p in model.parameters()])
+    assert torch.equal(outs[0], outs[1])
+    assert all(torch.equal(a, b) for a, b in zip(*grads, strict=True))
+
+
+@pytest.mark.parametrize("name", ["navaff", "pointnet2"])
+def test_backward_copies_no_slices(name, tiny_config, samples):
+    """In-place ops on views (a ReLU after a Linear on a 4-D tensor) make autograd copy
+    whole (B, M, K, C) gradients through CopySlices: a third of a training step once."""
+    model = build_model(name, tiny_config)
+    out = model(collate_episodes(samples))
+    seen, stack = set(), [out["loss"].grad_fn]
+    while stack:
+        fn = stack.pop()
+        if fn is None or fn in seen:
+            continue
+        seen.add(fn)
+        assert type(fn).__name__ != "CopySlices"
+        stack += [f for f, _ in fn.next_functions]

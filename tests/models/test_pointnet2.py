@@ -144,3 +144,30 @@ def test_group_all_ignores_padding():
     )
     assert out.shape == (1, 8)
     assert torch.allclose(out, out_padded)
+
+
+def test_set_abstraction_pools_like_a_masked_max_over_each_ball():
+    """SA pools with a plain max over K because empty slots repeat the centroid itself;
+    it must equal the masked max over the real neighbours within the radius (centroids of
+    a cloud with too few real points pool to 0)."""
+    from momakitchen.models.pointnet2 import SetAbstractionMSG, ball_query, gather_points
+
+    torch.manual_seed(0)
+    sa = SetAbstractionMSG(16, (0.05, 0.3), (4, 8), 5, [[8, 8], [8, 16]])
+    xyz = torch.rand(2, 40, 3)
+    feats = torch.randn(2, 40, 5)
+    mask = torch.ones(2, 40, dtype=torch.bool)
+    mask[1, 10:] = False  # 10 real points for 16 centroids
+    new_xyz, out, new_mask = sa(xyz, feats, mask)
+    assert not new_mask[1].all()
+    idx, valid = farthest_point_sample(xyz, mask, 16)
+    centers = gather_points(xyz, idx)
+    groups = ball_query(sa.radii, sa.nsamples, xyz, mask, centers)
+    ref = []
+    for (gidx, gmask), radius, mlp, norm in zip(groups, sa.radii, sa.mlps, sa.norms, strict=True):
+        h = mlp(xyz, feats, centers, gidx, radius)
+        keep = gmask & valid.unsqueeze(-1)
+        pooled = h.masked_fill(~keep.unsqueeze(-1), float("-inf")).amax(2)
+        ref.append(norm(torch.where(keep.any(-1, keepdim=True), pooled, torch.zeros_like(pooled))))
+    assert torch.allclose(out, torch.cat(ref, -1), atol=1e-6)
+    assert torch.equal(new_xyz, centers)

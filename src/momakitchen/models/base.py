@@ -10,11 +10,16 @@ from torch import nn
 
 from momakitchen.models.config import ModelConfig
 from momakitchen.models.loss import WeightedMSELoss
-from momakitchen.models.pointnet2 import PointMLP
+from momakitchen.models.pointnet2 import Geometry, PointMLP
 from momakitchen.robots.spec import DESCRIPTOR_DIM
 
 # Initial value of every prediction (a typical mean label is a few per cent).
 PRIOR = 0.05
+
+
+# The geometry of a batch, by layer (see Backbone.plan).
+Plan = dict[str, Geometry]
+PLAN_KEY = "plan"
 
 
 class Backbone(nn.Module):
@@ -26,6 +31,19 @@ class Backbone(nn.Module):
     """
 
     out_channels: int
+
+    def plan(self, batch: dict[str, Any]) -> Plan:
+        """The geometry of the batch that does not depend on the weights: every layer's
+        centroids (FPS), neighbourhoods and interpolation weights that can be found from
+        the input positions alone. A batch may carry it under ``"plan"`` (computed ahead,
+        e.g. in a DataLoader worker, by a backbone of the same configuration); the forward
+        pass then skips that work and gives the same result. Default: nothing."""
+        return {}
+
+    def batch_plan(self, batch: dict[str, Any]) -> Plan:
+        """The batch's own plan if it carries one, else :meth:`plan`."""
+        plan = batch.get(PLAN_KEY)
+        return plan if plan is not None else self.plan(batch)
 
     def encode(self, batch: dict[str, Any]) -> dict[str, torch.Tensor]:
         """The deterministic part (no dropout), run once for MC-dropout sampling: a dict of

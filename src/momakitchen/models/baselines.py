@@ -23,7 +23,7 @@ from typing import Any
 import torch
 from torch import nn
 
-from momakitchen.models.base import Backbone
+from momakitchen.models.base import Backbone, Plan
 from momakitchen.models.config import ModelConfig
 from momakitchen.models.pointnet2 import (
     FeaturePropagation,
@@ -33,6 +33,7 @@ from momakitchen.models.pointnet2 import (
     fourier_channels,
     fourier_features,
     gather_points,
+    interpolation_geometry,
     masked_max,
 )
 
@@ -65,9 +66,14 @@ def union_cloud(
     ffeat = torch.cat(
         [fourier_features(fxyz, pos_freqs), fxyz.new_zeros(b, nf, 4), fxyz.new_ones(b, nf, 1)], -1
     )
-    xyz = torch.cat([gxyz, fxyz], 1)
-    mask = torch.cat([batch["global_mask"], batch["floor_mask"]], 1)
+    xyz, mask = union_xyz(batch)
     return xyz, torch.cat([gfeat, ffeat], 1), mask
+
+
+def union_xyz(batch: dict[str, Any]) -> tuple[torch.Tensor, torch.Tensor]:
+    """Positions (B, Ng+Nf, 3) and mask (B, Ng+Nf) of :func:`union_cloud`."""
+    xyz = torch.cat([batch["global_xyz"], batch["floor_xyz"]], 1)
+    return xyz, torch.cat([batch["global_mask"], batch["floor_mask"]], 1)
 
 
 class _Encoder(nn.Module):
@@ -99,10 +105,16 @@ class _Encoder(nn.Module):
             [[ch(256), ch(256), ch(512)], [ch(256), ch(256), ch(512)]],
         )
 
-    def forward(self, xyz, feats, mask):
-        l1 = self.sa1(xyz, feats, mask)
-        l2 = self.sa2(*l1)
-        l3 = self.sa3(*l2)
+    def plan(self, batch: dict[str, Any]) -> Plan:
+        """The union cloud's set abstractions (keys ``sa1``..``sa3``)."""
+        p1 = self.sa1.sample_and_group(*union_xyz(batch))
+        p2 = self.sa2.sample_and_group(p1["xyz"], p1["mask"])
+        return {"sa1": p1, "sa2": p2, "sa3": self.sa3.sample_and_group(p2["xyz"], p2["mask"])}
+
+    def forward(self, xyz, feats, mask, plan: Plan):
+        l1 = self.sa1(xyz, feats, mask, plan["sa1"])
+        l2 = self.sa2(*l1, plan["sa2"])
+        l3 = self.sa3(*l2, plan["sa3"])
         return l1, l2, l3
 
 
@@ -124,13 +136,24 @@ class PointNet2Backbone(Backbone):
         self.fp1 = FeaturePropagation(fourier_channels(cfg.pos_freqs) + ch(128), [ch(128), ch(128)])
         self.out_channels = ch(128)
 
+    def plan(self, batch: dict[str, Any]) -> Plan:
+        """The encoder's set abstractions and the three propagations (``fp3``..``fp1``)."""
+        plan = self.encoder.plan(batch)
+        (p1, p2, p3), fxyz = (plan[k] for k in ("sa1", "sa2", "sa3")), batch["floor_xyz"]
+        plan["fp3"] = interpolation_geometry(p2["xyz"], p3["xyz"], p3["mask"])
+        plan["fp2"] = interpolation_geometry(p1["xyz"], p2["xyz"], p2["mask"])
+        plan["fp1"] = interpolation_geometry(fxyz, p1["xyz"], p1["mask"])
+        return plan
+
     def forward(self, batch: dict[str, Any]) -> torch.Tensor:
+        plan = self.batch_plan(batch)
         xyz, feats, mask = union_cloud(batch, self.pos_freqs)
-        (x1, f1, m1), (x2, f2, m2), (x3, f3, m3) = self.encoder(xyz, feats, mask)
-        u2 = self.fp3(x2, x3, f2, f3, m3)
-        u1 = self.fp2(x1, x2, f1, u2, m2)
+        (x1, f1, m1), (x2, f2, m2), (x3, f3, m3) = self.encoder(xyz, feats, mask, plan)
+        u2 = self.fp3(x2, x3, f2, f3, m3, plan["fp3"])
+        u1 = self.fp2(x1, x2, f1, u2, m2, plan["fp2"])
         fxyz = batch["floor_xyz"]
-        return self.fp1(fxyz, x1, fourier_features(fxyz, self.pos_freqs), u1, m1)
+        fpos = fourier_features(fxyz, self.pos_freqs)
+        return self.fp1(fxyz, x1, fpos, u1, m1, plan["fp1"])
 
 
 class VotingModule(nn.Module):
@@ -166,10 +189,19 @@ class _SeedNet(nn.Module):
         self.out_channels = ch(256)
         self.pos_freqs = cfg.pos_freqs
 
-    def forward(self, batch):
+    def plan(self, batch: dict[str, Any]) -> Plan:
+        """The encoder's set abstractions, the propagation to the seeds (``fp``) and the
+        seeds' propagation to the floor points (``floor``)."""
+        plan = self.encoder.plan(batch)
+        p2, p3 = plan["sa2"], plan["sa3"]
+        plan["fp"] = interpolation_geometry(p2["xyz"], p3["xyz"], p3["mask"])
+        plan["floor"] = interpolation_geometry(batch["floor_xyz"], p2["xyz"], p2["mask"])
+        return plan
+
+    def forward(self, batch, plan: Plan):
         xyz, feats, mask = union_cloud(batch, self.pos_freqs)
-        l1, (x2, f2, m2), (x3, f3, m3) = self.encoder(xyz, feats, mask)
-        return l1, x2, self.fp(x2, x3, f2, f3, m3), m2
+        l1, (x2, f2, m2), (x3, f3, m3) = self.encoder(xyz, feats, mask, plan)
+        return l1, x2, self.fp(x2, x3, f2, f3, m3, plan["fp"]), m2
 
 
 class VoteNetBackbone(Backbone):
@@ -193,14 +225,20 @@ class VoteNetBackbone(Backbone):
         self.fp_prop = FeaturePropagation(ch(128) + ch(128), [ch(128), ch(128)])
         self.out_channels = ch(128)
 
+    def plan(self, batch: dict[str, Any]) -> Plan:
+        """The seed network's geometry (votes move with the weights: aggregated in the
+        forward pass)."""
+        return self.seeds.plan(batch)
+
     def forward(self, batch: dict[str, Any]) -> torch.Tensor:
-        _, sxyz, sfeat, smask = self.seeds(batch)
+        plan = self.batch_plan(batch)
+        _, sxyz, sfeat, smask = self.seeds(batch, plan)
         vxyz, vfeat = self.vote(sxyz, sfeat)
         pxyz, pfeat, pmask = self.aggregate(vxyz, vfeat, smask)
         pfeat = self.proposal(pfeat)
         fxyz = batch["floor_xyz"]
         fpos = fourier_features(fxyz, self.seeds.pos_freqs)
-        x = self.fp_seed(fxyz, sxyz, fpos, sfeat, smask)
+        x = self.fp_seed(fxyz, sxyz, fpos, sfeat, smask, plan["floor"])
         return self.fp_prop(fxyz, pxyz, x, pfeat, pmask)
 
 
@@ -240,8 +278,13 @@ class H3DNetBackbone(Backbone):
         self.fp_prop = FeaturePropagation(ch(128) + ch(128), [ch(128), ch(128)])
         self.out_channels = ch(128)
 
+    def plan(self, batch: dict[str, Any]) -> Plan:
+        """The seed network's geometry (primitives move with the weights)."""
+        return self.seeds.plan(batch)
+
     def forward(self, batch: dict[str, Any]) -> torch.Tensor:
-        _, sxyz, sfeat, smask = self.seeds(batch)
+        plan = self.batch_plan(batch)
+        _, sxyz, sfeat, smask = self.seeds(batch, plan)
         prims = {}
         for k in self.kinds:
             vxyz, vfeat = self.votes[k](sxyz, sfeat)
@@ -264,5 +307,5 @@ class H3DNetBackbone(Backbone):
         pfeat = self.refine(torch.cat([cfeat, ctx], -1))
         fxyz = batch["floor_xyz"]
         fpos = fourier_features(fxyz, self.seeds.pos_freqs)
-        x = self.fp_seed(fxyz, sxyz, fpos, sfeat, smask)
+        x = self.fp_seed(fxyz, sxyz, fpos, sfeat, smask, plan["floor"])
         return self.fp_prop(fxyz, cxyz, x, pfeat, cmask)

@@ -24,7 +24,7 @@ from typing import Any
 import torch
 from torch import nn
 
-from momakitchen.models.base import Backbone
+from momakitchen.models.base import Backbone, Plan
 from momakitchen.models.config import ModelConfig
 from momakitchen.models.pointnet2 import (
     FeaturePropagation,
@@ -32,7 +32,7 @@ from momakitchen.models.pointnet2 import (
     SetAbstractionMSG,
     fourier_channels,
     fourier_features,
-    three_nn_weights,
+    interpolation_geometry,
 )
 from momakitchen.robots.spec import DESCRIPTOR_DIM
 
@@ -145,12 +145,18 @@ class GlobalEncoder(nn.Module):
         )
         self.tokenizer = Tokenizer(self.sa3.out_channels, cfg.embed_dim, cfg.pos_freqs)
 
+    def plan(self, xyz: torch.Tensor, mask: torch.Tensor) -> Plan:
+        """The three set abstractions' geometry (keys ``sa1``..``sa3``)."""
+        p1 = self.sa1.sample_and_group(xyz, mask)
+        p2 = self.sa2.sample_and_group(p1["xyz"], p1["mask"])
+        return {"sa1": p1, "sa2": p2, "sa3": self.sa3.sample_and_group(p2["xyz"], p2["mask"])}
+
     def forward(
-        self, xyz: torch.Tensor, feats: torch.Tensor, mask: torch.Tensor
+        self, xyz: torch.Tensor, feats: torch.Tensor, mask: torch.Tensor, plan: Plan
     ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
-        x1, f1, m1 = self.sa1(xyz, feats, mask)
-        x2, f2, m2 = self.sa2(x1, f1, m1)
-        x3, f3, m3 = self.sa3(x2, f2, m2)
+        x1, f1, m1 = self.sa1(xyz, feats, mask, plan["sa1"])
+        x2, f2, m2 = self.sa2(x1, f1, m1, plan["sa2"])
+        x3, f3, m3 = self.sa3(x2, f2, m2, plan["sa3"])
         return self.tokenizer(f3, x3), x3, m3
 
 
@@ -229,9 +235,24 @@ class NavAffBackbone(Backbone):
         self.fp1 = FeaturePropagation(pos_ch + self.fp2.out_channels, [ch(128), ch(128)])
         self.out_channels = self.fp1.out_channels
 
+    def plan(self, batch: dict[str, Any]) -> Plan:
+        """Global encoder (``global.sa1``..``global.sa3``), floor set abstractions
+        (``floor.sa1``, ``floor.sa2``) and feature propagation (``fp2``, ``fp1``)."""
+        fxyz, fmask = batch["floor_xyz"], batch["floor_mask"]
+        plan: Plan = {}
+        if self.use_global:
+            for k, v in self.global_encoder.plan(batch["global_xyz"], batch["global_mask"]).items():
+                plan[f"global.{k}"] = v
+        f1 = plan["floor.sa1"] = self.floor_sa1.sample_and_group(fxyz, fmask)
+        f2 = plan["floor.sa2"] = self.floor_sa2.sample_and_group(f1["xyz"], f1["mask"])
+        plan["fp2"] = interpolation_geometry(f1["xyz"], f2["xyz"], f2["mask"])
+        plan["fp1"] = interpolation_geometry(fxyz, f1["xyz"], f1["mask"])
+        return plan
+
     def encode(self, batch: dict[str, Any]) -> dict[str, torch.Tensor]:
         """Everything before the cross-attention (no dropout): keys, floor tokens and the
         floor hierarchy that feature propagation needs."""
+        plan = self.batch_plan(batch)
         fxyz, fmask = batch["floor_xyz"], batch["floor_mask"]
         b = fxyz.shape[0]
         keys, pads = [], []
@@ -239,8 +260,9 @@ class NavAffBackbone(Backbone):
             parts = [fourier_features(batch["global_xyz"], self.pos_freqs), batch["global_rgb"]]
             if self.use_alignment:
                 parts.append(batch["global_align"].unsqueeze(-1))
+            gplan = {k: plan[f"global.{k}"] for k in ("sa1", "sa2", "sa3")}
             gtok, _, gm = self.global_encoder(
-                batch["global_xyz"], torch.cat(parts, -1), batch["global_mask"]
+                batch["global_xyz"], torch.cat(parts, -1), batch["global_mask"], gplan
             )
             keys.append(gtok)
             pads.append(~gm)
@@ -256,11 +278,9 @@ class NavAffBackbone(Backbone):
                 batch["global_xyz"], batch["global_align"], batch["global_mask"]
             )
         fpos = floor_features(fxyz, target, self.pos_freqs)
-        x1, f1, m1 = self.floor_sa1(fxyz, fpos, fmask)
-        x2, f2, m2 = self.floor_sa2(x1, f1, m1)
-        # Feature propagation's neighbours depend on the geometry only: found here, once.
-        nn2 = three_nn_weights(x1, x2, m2)
-        nn1 = three_nn_weights(fxyz, x1, m1)
+        x1, f1, m1 = self.floor_sa1(fxyz, fpos, fmask, plan["floor.sa1"])
+        x2, f2, m2 = self.floor_sa2(x1, f1, m1, plan["floor.sa2"])
+        nn2, nn1 = plan["fp2"], plan["fp1"]
         return {
             "q": self.floor_tokenizer(f2, x2),
             "kv": kv,
@@ -272,10 +292,10 @@ class NavAffBackbone(Backbone):
             "m1": m1,
             "x2": x2,
             "m2": m2,
-            "nn2_idx": nn2[0],
-            "nn2_w": nn2[1],
-            "nn1_idx": nn1[0],
-            "nn1_w": nn1[1],
+            "nn2_idx": nn2["idx"],
+            "nn2_w": nn2["weight"],
+            "nn1_idx": nn1["idx"],
+            "nn1_w": nn1["weight"],
         }
 
     def decode(self, ctx: dict[str, torch.Tensor]) -> torch.Tensor:
@@ -283,9 +303,7 @@ class NavAffBackbone(Backbone):
         q = ctx["q"]
         for block in self.blocks:
             q = block(q, ctx["kv"], ctx["kv_pad"])
-        up1 = self.fp2(
-            ctx["x1"], ctx["x2"], ctx["f1"], q, ctx["m2"], (ctx["nn2_idx"], ctx["nn2_w"])
-        )
-        return self.fp1(
-            ctx["fxyz"], ctx["x1"], ctx["fpos"], up1, ctx["m1"], (ctx["nn1_idx"], ctx["nn1_w"])
-        )
+        nn2 = {"idx": ctx["nn2_idx"], "weight": ctx["nn2_w"]}
+        nn1 = {"idx": ctx["nn1_idx"], "weight": ctx["nn1_w"]}
+        up1 = self.fp2(ctx["x1"], ctx["x2"], ctx["f1"], q, ctx["m2"], nn2)
+        return self.fp1(ctx["fxyz"], ctx["x1"], ctx["fpos"], up1, ctx["m1"], nn1)

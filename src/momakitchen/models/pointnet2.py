@@ -24,6 +24,9 @@ from torch import nn
 
 _BIG = 1e10
 
+# Precomputed geometry of a layer (see SetAbstractionMSG.sample_and_group): tensors by name.
+Geometry = dict[str, torch.Tensor]
+
 
 def fourier_features(xyz: torch.Tensor, num_freqs: int) -> torch.Tensor:
     """Positions with sine/cosine encodings at wavelengths 4 m, 2 m, 1 m, ... (halving).
@@ -233,6 +236,15 @@ def three_nn_weights(
     return idx, w
 
 
+def interpolation_geometry(
+    dst: torch.Tensor, src: torch.Tensor, src_mask: torch.Tensor
+) -> Geometry:
+    """:func:`three_nn_weights` as a :data:`Geometry` (``idx``, ``weight``) for
+    :class:`FeaturePropagation`."""
+    idx, weight = three_nn_weights(dst, src, src_mask)
+    return {"idx": idx, "weight": weight}
+
+
 class PointMLP(nn.Sequential):
     """Shared per-point MLP on channel-last tensors: (Linear, [LayerNorm], ReLU) per layer.
 
@@ -250,7 +262,7 @@ class PointMLP(nn.Sequential):
             if last_act or i < len(widths) - 1:
                 if norm:
                     layers.append(nn.LayerNorm(w))
-                layers.append(nn.ReLU(inplace=True))
+                layers.append(nn.ReLU())
             c = w
         super().__init__(*layers)
         self.out_channels = c
@@ -342,21 +354,43 @@ class SetAbstractionMSG(nn.Module):
         self.norms = nn.ModuleList(nn.LayerNorm(m.out_channels) for m in grouped)
         self.out_channels = sum(m.out_channels for m in grouped)
 
-    def forward(
-        self, xyz: torch.Tensor, feats: torch.Tensor | None, mask: torch.Tensor
-    ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    @torch.no_grad()
+    def sample_and_group(self, xyz: torch.Tensor, mask: torch.Tensor) -> Geometry:
+        """The geometry-only part: centroids (FPS) and their neighbourhoods per scale.
+
+        Shapes:
+            - input: ``xyz`` (B, N, 3), ``mask`` (B, N) bool
+            - output: ``xyz`` (B, npoint, 3), ``mask`` (B, npoint) bool and ``group<s>``
+              (B, npoint, K_s) long indices into N, one per scale
+        """
         idx, new_mask = farthest_point_sample(xyz, mask, self.npoint)
         new_xyz = gather_points(xyz, idx)
-        outs = []
         groups = ball_query(self.radii, self.nsamples, xyz, mask, new_xyz)
-        for radius, (gidx, gmask), mlp, norm in zip(
-            self.radii, groups, self.mlps, self.norms, strict=True
+        out = {"xyz": new_xyz, "mask": new_mask}
+        out.update({f"group{s}": gidx for s, (gidx, _) in enumerate(groups)})
+        return out
+
+    def forward(
+        self,
+        xyz: torch.Tensor,
+        feats: torch.Tensor | None,
+        mask: torch.Tensor,
+        geometry: Geometry | None = None,
+    ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        """``geometry``: :meth:`sample_and_group` of (xyz, mask) when already known (the
+        geometry of the input clouds is found once per batch, off the training thread)."""
+        if geometry is None:
+            geometry = self.sample_and_group(xyz, mask)
+        new_xyz, new_mask = geometry["xyz"], geometry["mask"]
+        outs = []
+        for s, (radius, mlp, norm) in enumerate(
+            zip(self.radii, self.mlps, self.norms, strict=True)
         ):
-            h = mlp(xyz, feats, new_xyz, gidx, radius)
-            # h >= 0 (ReLU), so zeroing masked entries before the max is a masked max
-            # (a centre without any neighbour pools to 0).
-            gmask = gmask & new_mask.unsqueeze(-1)
-            pooled = (h * gmask.unsqueeze(-1).to(h.dtype)).amax(dim=2)
+            h = mlp(xyz, feats, new_xyz, geometry[f"group{s}"], radius)
+            # A centroid is a point of the cloud, so its nearest neighbour (itself) is in
+            # every ball, and ball_query points empty slots at it: the plain max over K is
+            # the masked max. Invalid centroids pool to 0.
+            pooled = h.max(dim=2).values * new_mask.unsqueeze(-1).to(h.dtype)
             outs.append(norm(pooled))
         return new_xyz, torch.cat(outs, -1), new_mask
 
@@ -399,11 +433,13 @@ class FeaturePropagation(nn.Module):
         dst_feats: torch.Tensor | None,
         src_feats: torch.Tensor,
         src_mask: torch.Tensor,
-        neighbors: tuple[torch.Tensor, torch.Tensor] | None = None,
+        geometry: Geometry | None = None,
     ) -> torch.Tensor:
-        """``neighbors``: :func:`three_nn_weights` of (dst_xyz, src_xyz, src_mask) when
-        already known (they depend on the geometry only)."""
-        idx, w = neighbors or three_nn_weights(dst_xyz, src_xyz, src_mask)
+        """``geometry``: :func:`interpolation_geometry` of (dst_xyz, src_xyz, src_mask)
+        when already known (it depends on the point positions only)."""
+        if geometry is None:
+            geometry = interpolation_geometry(dst_xyz, src_xyz, src_mask)
+        idx, w = geometry["idx"], geometry["weight"]
         interp = (gather_points(src_feats, idx) * w.unsqueeze(-1)).sum(2)
         x = interp if dst_feats is None else torch.cat([dst_feats, interp], -1)
         return self.mlp(x)
