@@ -4,13 +4,14 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 from pathlib import Path
 
 import pytest
 
 from momakitchen.cli.main import main
 from momakitchen.errors import MomaError
-from momakitchen.eval.report import BenchmarkRequest, run_benchmark
+from momakitchen.eval.report import BenchmarkRequest, mcnemar, run_benchmark
 
 
 def _tiny(out: Path, model: str, lambda_zero: float = 0.7) -> Path:
@@ -75,6 +76,7 @@ def test_report_tables_and_figures(report):
     assert set(result["msr"]) == {"navaff", "random", "nearest", "oracle"}
     msr = json.loads((req.out / "msr.json").read_text())
     assert msr["configurations"] == 1
+    assert "### navaff against each method" in text and "| oracle |" in text
     ablation = text.split("## Ablations")[1].split("##")[0]
     assert "| navaff-no-vam |" in ablation and "+0.0000 |" in ablation  # full model row
 
@@ -147,3 +149,16 @@ def test_report_bad_input(report, tmp_path, capsys):
                 msr=req.out / "msr.json",
             )
         )
+
+
+def test_mcnemar_counts_discordant_pairs_and_tests_them_exactly():
+    a = [1] * 12 + [0] * 2 + [1] * 5 + [0] * 5
+    b = [0] * 12 + [1] * 2 + [1] * 5 + [0] * 5
+    only_a, only_b, p = mcnemar(a, b)
+    assert (only_a, only_b) == (12, 2)
+    assert p == pytest.approx(2 * sum(math.comb(14, k) for k in range(3)) / 2**14)
+    assert p < 0.05
+    assert mcnemar([1, 0, 1], [1, 0, 1])[2] == 1.0
+    assert mcnemar([1] * 3 + [0] * 2, [0] * 3 + [1] * 2)[2] > 0.5
+    with pytest.raises(MomaError, match="length"):
+        mcnemar([1, 0], [1])

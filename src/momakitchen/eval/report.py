@@ -161,6 +161,7 @@ def run_benchmark(req: BenchmarkRequest, log: Callable[[str], None] = print) -> 
 
     main_reports = [metrics[r] for r in req.runs]
     lines = ["## Methods", "", *main_table(main_reports, msr), "", *msr_breakdown(msr)]
+    lines += ["", f"### {models[0]} against each method", "", *paired_table(msr, models[0])]
     if req.ablations:
         full = metrics[req.runs[models.index("navaff")]]
         lines += [
@@ -259,6 +260,45 @@ def main_table(reports: Sequence[dict], msr: dict) -> list[str]:
         f"{msr['configurations']} {msr['config']['split']} configurations "
         f"({msr['feasible_configurations']} with at least one successful grid "
         f"trial: 'feasible'), seed {msr['config']['seed']}.",
+    ]
+
+
+def mcnemar(a: Sequence[int], b: Sequence[int]) -> tuple[int, int, float]:
+    """McNemar's exact test of two methods' paired outcomes (1 success, 0 failure) on the
+    same configurations: (only a succeeded, only b succeeded, two-sided p-value). The p-value
+    is the binomial test of the discordant pairs at 1/2."""
+    from scipy.stats import binomtest
+
+    if len(a) != len(b):
+        raise MomaError(f"paired outcomes differ in length: {len(a)} and {len(b)}")
+    only_a = sum(1 for x, y in zip(a, b, strict=True) if x and not y)
+    only_b = sum(1 for x, y in zip(a, b, strict=True) if y and not x)
+    n = only_a + only_b
+    return only_a, only_b, float(binomtest(only_a, n, 0.5).pvalue) if n else 1.0
+
+
+def top1_outcomes(msr: dict, name: str) -> list[int]:
+    """Top-1 outcome (1/0) of a method on every MSR configuration, in record order (a
+    configuration where it chose nothing counts as a failure)."""
+    return [int(bool(o[0])) if (o := r["methods"][name]["outcomes"]) else 0 for r in msr["records"]]
+
+
+def paired_table(msr: dict, reference: str) -> list[str]:
+    """``reference`` against every other MSR method, Top-1, paired by configuration."""
+    ref = top1_outcomes(msr, reference)
+    lines = [
+        _row(["against", f"only {reference} succeeded", "only the other succeeded", "p (McNemar)"]),
+        "|---|---|---|---|",
+    ]
+    for name in msr["methods"]:
+        if name != reference:
+            only_a, only_b, p = mcnemar(ref, top1_outcomes(msr, name))
+            lines.append(_row([name, str(only_a), str(only_b), f"{p:.2g}"]))
+    return [
+        *lines,
+        "",
+        f"Top-1 outcomes on the same {len(ref)} configurations; the exact two-sided test of "
+        "the discordant pairs.",
     ]
 
 
