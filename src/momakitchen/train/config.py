@@ -134,7 +134,7 @@ def preset_config(preset: str, model: str = "navaff", **overrides: Any) -> Train
     512, 64 tokens, 4 heads, dropout 0.1) with 8192 global and 2048 floor points.
     ``cpu``: the same recipe with point counts and widths that train on 2 CPU cores:
     2048 global / 1024 floor points, embedding 128, 32 tokens, quarter-width PointNet++
-    MLPs, half the neighbours per ball, batch 16.
+    MLPs, half the neighbours per ball, batch 16, one DataLoader worker.
     """
     if preset == "paper":
         cfg = TrainConfig(model=model, preset="paper")
@@ -156,6 +156,9 @@ def preset_config(preset: str, model: str = "navaff", **overrides: Any) -> Train
             num_global=2048,
             num_floor=1024,
             batch_size=16,
+            # Reading, collation and the geometry plan in a second process: the
+            # training thread only runs the network (docs/bench/learning.md).
+            num_workers=1,
         )
     else:
         raise MomaError(f"unknown preset {preset!r}; known presets: {', '.join(PRESETS)}")
