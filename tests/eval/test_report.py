@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import shutil
 from pathlib import Path
 
 import pytest
@@ -38,11 +39,13 @@ def _tiny(out: Path, model: str, lambda_zero: float = 0.7) -> Path:
 @pytest.fixture(scope="module")
 def report(real_dataset, tmp_path_factory):
     runs = tmp_path_factory.mktemp("runs")
+    navaff = _tiny(runs / "navaff", "navaff")
     req = BenchmarkRequest(
         data=real_dataset,
-        runs=(_tiny(runs / "navaff", "navaff"),),
+        runs=(navaff,),
         ablations=(_tiny(runs / "no-vam", "navaff-no-vam"),),
-        sweep=(_tiny(runs / "lam1", "navaff", 1.0), _tiny(runs / "lam01", "navaff", 0.1)),
+        # The main run is also the sweep's lambda = 0.7 point.
+        sweep=(_tiny(runs / "lam1", "navaff", 1.0), navaff, _tiny(runs / "lam01", "navaff", 0.1)),
         out=tmp_path_factory.mktemp("bench") / "out",
         max_configs=1,
         examples=1,
@@ -72,7 +75,7 @@ def test_report_tables_and_figures(report):
         "metrics/no-vam.json",
     ):
         assert (req.out / name).stat().st_size > 0
-    assert [s["lambda_zero"] for s in result["sweep"]] == [0.1, 1.0]  # sorted by lambda
+    assert [s["lambda_zero"] for s in result["sweep"]] == [0.1, 0.7, 1.0]  # sorted by lambda
     assert set(result["msr"]) == {"navaff", "random", "nearest", "oracle"}
     msr = json.loads((req.out / "msr.json").read_text())
     assert msr["configurations"] == 1
@@ -139,13 +142,15 @@ def test_report_bad_input(report, tmp_path, capsys):
     assert "oracle" in capsys.readouterr().err
     assert main([*argv, "--ablations", str(tmp_path / "nope")]) == 2
     assert "nope" in capsys.readouterr().err
+    twin = tmp_path / "other" / req.runs[0].name  # another run of the same name
+    shutil.copytree(req.runs[0], twin)
     with pytest.raises(MomaError, match="distinct names"):
         run_benchmark(
             BenchmarkRequest(
                 data=req.data,
                 runs=req.runs,
                 out=tmp_path / "d",
-                sweep=(req.runs[0],),
+                sweep=(twin,),
                 msr=req.out / "msr.json",
             )
         )

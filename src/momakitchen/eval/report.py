@@ -126,7 +126,8 @@ def run_benchmark(req: BenchmarkRequest, log: Callable[[str], None] = print) -> 
     from momakitchen.train.checkpoint import load_checkpoint
 
     data, out = req.data, req.out
-    every = (*req.runs, *req.ablations, *req.sweep)
+    # A run may serve twice (the navaff run is also the sweep's lambda = 0.7 point).
+    every = tuple(dict.fromkeys((*req.runs, *req.ablations, *req.sweep)))
     names = [r.name for r in every]
     if len(set(names)) != len(names):
         raise MomaError(f"run directories need distinct names, got {names}")

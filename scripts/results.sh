@@ -1,0 +1,63 @@
+#!/usr/bin/env bash
+# Remake docs/RESULTS.md from nothing: the 300-scene dataset, every method and ablation
+# trained for the cpu preset's full schedule, map metrics, closed-loop MSR, the report.
+#
+#   bash scripts/results.sh            # DATA=~/mk-data/gt2-300 RUNS=~/mk-runs by default
+#   DATA=/big/disk/mk RUNS=/big/disk/runs bash scripts/results.sh
+#
+# Every step resumes where it stopped: generation skips finished scenes, training continues
+# after its last finished epoch, and finished evaluations and MSR are kept. Run it again
+# after an interruption (e.g. under nohup, one session after another).
+set -euo pipefail
+
+DATA=${DATA:-$HOME/mk-data/gt2-300}
+RUNS=${RUNS:-$HOME/mk-runs}
+OUT=${OUT:-$RUNS/benchmark}
+mkdir -p "$RUNS"
+
+stamp() { echo "[$(date -u +%FT%TZ)] $*"; }
+
+stamp "dataset: $DATA"
+momakitchen generate --out "$DATA" --scenes 300 --first-scene-id 20000 --workers 2 --quiet
+momakitchen check "$DATA"
+
+# name, then train options
+RUN_LIST=(
+  "navaff --model navaff"
+  "pointnet2 --model pointnet2"
+  "votenet --model votenet"
+  "h3dnet --model h3dnet"
+  "navaff-no-robot --model navaff-no-robot"
+  "navaff-no-vam --model navaff-no-vam"
+  "navaff-no-global --model navaff-no-global"
+  "lambda-0.1 --model navaff --lambda-zero 0.1"
+  "lambda-0.3 --model navaff --lambda-zero 0.3"
+  "lambda-0.5 --model navaff --lambda-zero 0.5"
+  "lambda-1.0 --model navaff --lambda-zero 1.0"
+)
+for spec in "${RUN_LIST[@]}"; do
+  read -r name opts <<<"$spec"
+  stamp "train $name"
+  # shellcheck disable=SC2086  # the options are words
+  momakitchen train --data "$DATA" --out "$RUNS/$name" --resume --quiet $opts
+  if [[ ! -f "$RUNS/$name/test.json" || "$RUNS/$name/model.safetensors" -nt "$RUNS/$name/test.json" ]]; then
+    stamp "evaluate $name"
+    momakitchen evaluate --data "$DATA" --checkpoint "$RUNS/$name" --json "$RUNS/$name/test.json" --quiet
+  fi
+done
+
+MAIN=("$RUNS/navaff" "$RUNS/pointnet2" "$RUNS/votenet" "$RUNS/h3dnet")
+if [[ ! -f "$RUNS/msr.json" ]]; then
+  stamp "msr"
+  args=()
+  for r in "${MAIN[@]}"; do args+=(--checkpoint "$r"); done
+  momakitchen msr --data "$DATA" "${args[@]}" --method random --method nearest --method oracle \
+    --json "$RUNS/msr.json" --quiet
+fi
+
+stamp "benchmark -> $OUT"
+momakitchen benchmark --data "$DATA" --runs "${MAIN[@]}" \
+  --ablations "$RUNS/navaff-no-robot" "$RUNS/navaff-no-vam" "$RUNS/navaff-no-global" \
+  --sweep "$RUNS/lambda-0.1" "$RUNS/lambda-0.3" "$RUNS/lambda-0.5" "$RUNS/navaff" "$RUNS/lambda-1.0" \
+  --msr "$RUNS/msr.json" --out "$OUT" --quiet
+stamp "done"
