@@ -12,6 +12,7 @@ from tqdm.auto import tqdm
 from momakitchen.data.batch import EpisodeCollator, episode_maps
 from momakitchen.errors import MomaError
 from momakitchen.metrics import breakdown, map_metrics
+from momakitchen.models.base import PlanningCollator
 from momakitchen.models.inference import predict_batch
 from momakitchen.train.checkpoint import (
     check_preprocessing,
@@ -24,13 +25,15 @@ def evaluate(
     run_dir: str | Path,
     dataset: Dataset,
     batch_size: int = 8,
-    num_workers: int = 0,
+    num_workers: int = 1,
     progress: bool = False,
 ) -> dict[str, Any]:
     """Map metrics of the model in ``run_dir`` on every episode of ``dataset``.
 
     Global clouds are reduced to the run's ``num_global`` points as in training; every
     floor point of an episode is predicted (floor clouds are padded, never sampled down).
+    ``num_workers`` DataLoader processes read and collate the episodes and find their
+    geometry (:meth:`Backbone.plan`) while the model runs (0: all on this thread).
 
     Returns ``{"model", "preset", "episodes", "metrics", "per_robot", "per_scene"}``
     where ``metrics`` maps ``METRIC_NAMES`` to floats and the breakdowns map a robot name
@@ -48,7 +51,9 @@ def evaluate(
         dataset_preprocessing(dataset),
         f"dataset {str(root)!r}" if root is not None else "dataset",
     )
-    collate = EpisodeCollator(run.config.num_global, None, run.config.seed)
+    collate = PlanningCollator(
+        EpisodeCollator(run.config.num_global, None, run.config.seed), run.model.backbone
+    )
     loader = DataLoader(
         dataset, batch_size=batch_size, shuffle=False, collate_fn=collate, num_workers=num_workers
     )

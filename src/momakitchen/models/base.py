@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import torch
@@ -142,3 +143,24 @@ class AffordanceModel(nn.Module):
 
 def num_parameters(model: nn.Module) -> int:
     return sum(p.numel() for p in model.parameters())
+
+
+class PlanningCollator:
+    """Collates a batch and adds the model's geometry plan (:meth:`Backbone.plan`).
+
+    In DataLoader workers this takes farthest point sampling and the neighbour searches
+    off the training thread; the forward pass gives the same result with or without it.
+    The plan depends on the point positions and the model's sizes only, never on the
+    weights, so a worker's copy of the backbone serves as well as the trained one.
+    """
+
+    def __init__(
+        self, collate: Callable[[Sequence[Any]], dict[str, Any]], backbone: Backbone
+    ) -> None:
+        self.collate = collate
+        self.backbone = backbone
+
+    def __call__(self, samples: Sequence[Any]) -> dict[str, Any]:
+        batch = self.collate(samples)
+        batch[PLAN_KEY] = self.backbone.plan(batch)
+        return batch

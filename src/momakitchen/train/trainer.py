@@ -30,7 +30,7 @@ from momakitchen.data.config import Preprocessing
 from momakitchen.errors import MomaError
 from momakitchen.fileio import atomic_write_bytes, atomic_write_text
 from momakitchen.metrics import map_metrics
-from momakitchen.models.base import PLAN_KEY, AffordanceModel, Backbone
+from momakitchen.models.base import AffordanceModel, PlanningCollator
 from momakitchen.models.registry import build_model
 from momakitchen.train.checkpoint import (
     WEIGHTS_FILE,
@@ -74,25 +74,6 @@ class TrainResult:
     model: AffordanceModel
     history: list[dict[str, Any]] = field(default_factory=list)
     global_step: int = 0
-
-
-class PlanningCollator:
-    """Collates a batch and adds the model's geometry plan (:meth:`Backbone.plan`).
-
-    In DataLoader workers this takes farthest point sampling and the neighbour searches
-    off the training thread; the forward pass gives the same result with or without it.
-    The plan depends on the point positions and the model's sizes only, never on the
-    weights, so a worker's copy of the backbone serves as well as the trained one.
-    """
-
-    def __init__(self, collate: EpisodeCollator, backbone: Backbone) -> None:
-        self.collate = collate
-        self.backbone = backbone
-
-    def __call__(self, samples: list[dict[str, Any]]) -> dict[str, Any]:
-        batch = self.collate(samples)
-        batch[PLAN_KEY] = self.backbone.plan(batch)
-        return batch
 
 
 def cosine_lr(config: TrainConfig, step: int, total_steps: int) -> float:
