@@ -11,15 +11,13 @@ from torch import nn
 
 from momakitchen.models.config import ModelConfig
 from momakitchen.models.loss import WeightedMSELoss
-from momakitchen.models.pointnet2 import Geometry, PointMLP
+from momakitchen.models.pointnet2 import Plan, PointMLP
 from momakitchen.robots.spec import DESCRIPTOR_DIM
 
 # Initial value of every prediction (a typical mean label is a few per cent).
 PRIOR = 0.05
 
 
-# The geometry of a batch, by layer (see Backbone.plan).
-Plan = dict[str, Geometry]
 PLAN_KEY = "plan"
 
 

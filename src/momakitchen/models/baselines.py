@@ -23,10 +23,11 @@ from typing import Any
 import torch
 from torch import nn
 
-from momakitchen.models.base import Backbone, Plan
+from momakitchen.models.base import Backbone
 from momakitchen.models.config import ModelConfig
 from momakitchen.models.pointnet2 import (
     FeaturePropagation,
+    Plan,
     PointMLP,
     SetAbstractionMSG,
     ball_query,
@@ -35,6 +36,7 @@ from momakitchen.models.pointnet2 import (
     gather_points,
     interpolation_geometry,
     masked_max,
+    plan_levels,
 )
 
 
@@ -107,9 +109,7 @@ class _Encoder(nn.Module):
 
     def plan(self, batch: dict[str, Any]) -> Plan:
         """The union cloud's set abstractions (keys ``sa1``..``sa3``)."""
-        p1 = self.sa1.sample_and_group(*union_xyz(batch))
-        p2 = self.sa2.sample_and_group(p1["xyz"], p1["mask"])
-        return {"sa1": p1, "sa2": p2, "sa3": self.sa3.sample_and_group(p2["xyz"], p2["mask"])}
+        return plan_levels((self.sa1, self.sa2, self.sa3), *union_xyz(batch))
 
     def forward(self, xyz, feats, mask, plan: Plan):
         l1 = self.sa1(xyz, feats, mask, plan["sa1"])

@@ -24,15 +24,17 @@ from typing import Any
 import torch
 from torch import nn
 
-from momakitchen.models.base import Backbone, Plan
+from momakitchen.models.base import Backbone
 from momakitchen.models.config import ModelConfig
 from momakitchen.models.pointnet2 import (
     FeaturePropagation,
+    Plan,
     PointMLP,
     SetAbstractionMSG,
     fourier_channels,
     fourier_features,
     interpolation_geometry,
+    plan_levels,
 )
 from momakitchen.robots.spec import DESCRIPTOR_DIM
 
@@ -147,9 +149,7 @@ class GlobalEncoder(nn.Module):
 
     def plan(self, xyz: torch.Tensor, mask: torch.Tensor) -> Plan:
         """The three set abstractions' geometry (keys ``sa1``..``sa3``)."""
-        p1 = self.sa1.sample_and_group(xyz, mask)
-        p2 = self.sa2.sample_and_group(p1["xyz"], p1["mask"])
-        return {"sa1": p1, "sa2": p2, "sa3": self.sa3.sample_and_group(p2["xyz"], p2["mask"])}
+        return plan_levels((self.sa1, self.sa2, self.sa3), xyz, mask)
 
     def forward(
         self, xyz: torch.Tensor, feats: torch.Tensor, mask: torch.Tensor, plan: Plan

@@ -26,6 +26,8 @@ _BIG = 1e10
 
 # Precomputed geometry of a layer (see SetAbstractionMSG.sample_and_group): tensors by name.
 Geometry = dict[str, torch.Tensor]
+# The geometry of a batch, by layer (see Backbone.plan).
+Plan = dict[str, Geometry]
 
 
 def fourier_features(xyz: torch.Tensor, num_freqs: int) -> torch.Tensor:
@@ -393,6 +395,16 @@ class SetAbstractionMSG(nn.Module):
             pooled = h.max(dim=2).values * new_mask.unsqueeze(-1).to(h.dtype)
             outs.append(norm(pooled))
         return new_xyz, torch.cat(outs, -1), new_mask
+
+
+def plan_levels(layers: Sequence[SetAbstractionMSG], xyz: torch.Tensor, mask: torch.Tensor) -> Plan:
+    """The geometry of stacked set abstractions, each on the previous one's centroids:
+    keys ``sa1``, ``sa2``, ... (see :meth:`SetAbstractionMSG.sample_and_group`)."""
+    plan: Plan = {}
+    for i, layer in enumerate(layers, 1):
+        plan[f"sa{i}"] = layer.sample_and_group(xyz, mask)
+        xyz, mask = plan[f"sa{i}"]["xyz"], plan[f"sa{i}"]["mask"]
+    return plan
 
 
 class SetAbstractionAll(nn.Module):
