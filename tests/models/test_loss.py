@@ -1,3 +1,5 @@
+import math
+
 import pytest
 import torch
 
@@ -31,3 +33,20 @@ def test_weighting_is_applied_about_half_the_time():
     weighted = sum(abs(v - (0.7 * 0.25 * 2 + 0.25) / 3) < 1e-6 for v in losses)
     assert 150 < weighted < 250
     assert all(abs(v - 0.25) < 1e-6 or abs(v - 0.2) < 1e-6 for v in losses)
+
+
+def test_map_kl_hand_values_padding_and_empty_maps():
+    from momakitchen.models.loss import map_kl
+
+    label = torch.tensor([[0.0, 1.0, 1.0, 0.0], [0.0, 0.0, 0.0, 0.0]])
+    mask = torch.tensor([[True, True, True, False], [True, True, True, True]])
+    # Episode 0: label (0, .5, .5) on its real points; the all-zero episode 1 is left out.
+    pred = torch.tensor([[0.2, 0.2, 0.6, 9.0], [0.3, 0.1, 0.2, 0.4]])
+    expected = 0.5 * math.log(0.5 / 0.2) + 0.5 * math.log(0.5 / 0.6)
+    assert map_kl(pred, label, mask).item() == pytest.approx(expected, rel=1e-4)
+    assert map_kl(label, label, mask).item() == pytest.approx(0.0, abs=1e-6)
+    assert map_kl(pred, torch.zeros_like(label), mask).item() == 0.0
+    crit = WeightedMSELoss(prob=0.0, kl_weight=0.5)
+    plain = WeightedMSELoss(prob=0.0)
+    gap = crit(pred, label, mask)["loss"] - plain(pred, label, mask)["loss"]
+    assert gap.item() == pytest.approx(0.5 * expected, rel=1e-4)

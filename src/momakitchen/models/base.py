@@ -109,7 +109,9 @@ class AffordanceModel(nn.Module):
         self.backbone = backbone
         hidden = max(16, backbone.out_channels)
         self.head = AffordanceHead(backbone.out_channels, hidden, head_uses_robot, config.dropout)
-        self.criterion = WeightedMSELoss(config.lambda_zero, config.zero_weight_prob)
+        self.criterion = WeightedMSELoss(
+            config.lambda_zero, config.zero_weight_prob, kl_weight=config.kl_weight
+        )
 
     def forward(self, batch: dict[str, Any]) -> dict[str, torch.Tensor]:
         feats = self.backbone(batch)

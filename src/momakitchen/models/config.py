@@ -29,6 +29,8 @@ class ModelConfig:
         pos_freqs: sine/cosine frequencies of the point-position encoding (0: raw xyz).
         lambda_zero: weighted-MSE weight on zero-valued labels (0.7).
         zero_weight_prob: probability that a training step applies ``lambda_zero`` (0.5).
+        kl_weight: weight of a KL-divergence term between the normalised label and
+            predicted maps added to the loss (0: the paper's weighted MSE alone).
     """
 
     embed_dim: int = 512
@@ -44,6 +46,7 @@ class ModelConfig:
     pos_freqs: int = 4
     lambda_zero: float = 0.7
     zero_weight_prob: float = 0.5
+    kl_weight: float = 0.0
 
     def __post_init__(self) -> None:
         def bad(name: str, rule: str) -> MomaError:
@@ -78,6 +81,8 @@ class ModelConfig:
             raise bad("lambda_zero", "must be >= 0")
         if not 0.0 <= self.zero_weight_prob <= 1.0:
             raise bad("zero_weight_prob", "must be in [0, 1]")
+        if not 0.0 <= self.kl_weight <= 10.0:
+            raise bad("kl_weight", "must be in [0, 10]")
 
     def ch(self, channels: int) -> int:
         """A reference MLP width scaled by ``width`` (at least 8)."""

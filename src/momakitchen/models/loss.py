@@ -20,11 +20,18 @@ class WeightedMSELoss(nn.Module):
           unweighted), both tensors
     """
 
-    def __init__(self, lambda_zero: float = 0.7, prob: float = 0.5, zero_eps: float = 1e-6) -> None:
+    def __init__(
+        self,
+        lambda_zero: float = 0.7,
+        prob: float = 0.5,
+        zero_eps: float = 1e-6,
+        kl_weight: float = 0.0,
+    ) -> None:
         super().__init__()
         self.lambda_zero = float(lambda_zero)
         self.prob = float(prob)
         self.zero_eps = float(zero_eps)
+        self.kl_weight = float(kl_weight)
 
     def forward(
         self, pred: torch.Tensor, label: torch.Tensor, mask: torch.Tensor
@@ -38,4 +45,26 @@ class WeightedMSELoss(nn.Module):
             loss = (sq * w).sum() / count
         else:
             loss = mse
+        if self.kl_weight > 0:
+            loss = loss + self.kl_weight * map_kl(pred, label, mask)
         return {"loss": loss, "mse": mse.detach()}
+
+
+def map_kl(pred: torch.Tensor, label: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
+    """Mean KL divergence of each episode's label map from its predicted map, both
+    normalised to sum 1 over the real points (as saliency models are trained); episodes
+    whose label is all zero are left out (0 if every one is).
+
+    Shapes:
+        - ``pred``, ``label``: (B, N) float; ``mask``: (B, N) bool; output: scalar
+    """
+    eps = 1e-7
+    m = mask.to(pred.dtype)
+    g, p = label.clamp_min(0) * m, pred * m
+    total = g.sum(1)
+    keep = total > 0
+    if not bool(keep.any()):
+        return pred.sum() * 0.0
+    gn = g[keep] / total[keep].unsqueeze(1)
+    pn = p[keep] / (p[keep].sum(1, keepdim=True) + eps)
+    return (gn * (torch.log(gn + eps) - torch.log(pn + eps))).sum(1).mean()

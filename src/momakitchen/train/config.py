@@ -134,7 +134,8 @@ def preset_config(preset: str, model: str = "navaff", **overrides: Any) -> Train
     512, 64 tokens, 4 heads, dropout 0.1) with 8192 global and 2048 floor points.
     ``cpu``: the same recipe with point counts and widths that train on 2 CPU cores:
     2048 global / 1024 floor points, embedding 128, 32 tokens, quarter-width PointNet++
-    MLPs, half the neighbours per ball, batch 16, one DataLoader worker.
+    MLPs, half the neighbours per ball, position encodings down to 12.5 cm wavelength
+    (6 frequencies), batch 16, one DataLoader worker.
     """
     if preset == "paper":
         cfg = TrainConfig(model=model, preset="paper")
@@ -152,6 +153,9 @@ def preset_config(preset: str, model: str = "navaff", **overrides: Any) -> Train
                 global_npoints=(512, 128),
                 floor_npoints=128,
                 nsample_scale=0.5,
+                # Wavelengths down to 12.5 cm, the labelling grid's spacing: PCC 0.46 ->
+                # 0.55 on unseen scenes in equal short runs (docs/RESULTS.md).
+                pos_freqs=6,
             ),
             num_global=2048,
             num_floor=1024,
