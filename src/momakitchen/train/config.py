@@ -135,7 +135,8 @@ def preset_config(preset: str, model: str = "navaff", **overrides: Any) -> Train
     ``cpu``: the same recipe with point counts and widths that train on 2 CPU cores:
     2048 global / 1024 floor points, embedding 128, 32 tokens, quarter-width PointNet++
     MLPs, half the neighbours per ball, position encodings down to 12.5 cm wavelength
-    (6 frequencies), batch 16, one DataLoader worker.
+    (6 frequencies), a KL term of weight 0.05 next to the weighted MSE, batch 16, one
+    DataLoader worker.
     """
     if preset == "paper":
         cfg = TrainConfig(model=model, preset="paper")
@@ -156,6 +157,9 @@ def preset_config(preset: str, model: str = "navaff", **overrides: Any) -> Train
                 # Wavelengths down to 12.5 cm, the labelling grid's spacing: PCC 0.46 ->
                 # 0.55 on unseen scenes in equal short runs (docs/RESULTS.md).
                 pos_freqs=6,
+                # Concentrates the predicted mass where the label has it: SIM 0.30 ->
+                # 0.375, PCC 0.546 -> 0.567 in the same pilot runs.
+                kl_weight=0.05,
             ),
             num_global=2048,
             num_floor=1024,
