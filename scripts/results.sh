@@ -4,6 +4,8 @@
 #
 #   bash scripts/results.sh            # DATA=~/mk-data/gt2-300 RUNS=~/mk-runs by default
 #   DATA=/big/disk/mk RUNS=/big/disk/runs bash scripts/results.sh
+#   DATA=/tmp/mk SCENES=4 FIRST=0 TRAIN_OPTS="--max-steps 2" RUNS=/tmp/runs bash scripts/results.sh
+#                                      # a smoke run of the whole pipeline in minutes
 #
 # Every step resumes where it stopped: generation skips finished scenes, training continues
 # after its last finished epoch, and finished evaluations and MSR are kept. Run it again
@@ -13,12 +15,15 @@ set -euo pipefail
 DATA=${DATA:-$HOME/mk-data/gt2-300}
 RUNS=${RUNS:-$HOME/mk-runs}
 OUT=${OUT:-$RUNS/benchmark}
+SCENES=${SCENES:-300}
+FIRST=${FIRST:-20000}
+TRAIN_OPTS=${TRAIN_OPTS:-}
 mkdir -p "$RUNS"
 
 stamp() { echo "[$(date -u +%FT%TZ)] $*"; }
 
 stamp "dataset: $DATA"
-momakitchen generate --out "$DATA" --scenes 300 --first-scene-id 20000 --workers 2 --quiet
+momakitchen generate --out "$DATA" --scenes "$SCENES" --first-scene-id "$FIRST" --workers 2 --quiet
 momakitchen check "$DATA"
 
 # name, then train options
@@ -39,7 +44,7 @@ for spec in "${RUN_LIST[@]}"; do
   read -r name opts <<<"$spec"
   stamp "train $name"
   # shellcheck disable=SC2086  # the options are words
-  momakitchen train --data "$DATA" --out "$RUNS/$name" --resume --quiet $opts
+  momakitchen train --data "$DATA" --out "$RUNS/$name" --resume --quiet $opts $TRAIN_OPTS
   if [[ ! -f "$RUNS/$name/test.json" || "$RUNS/$name/model.safetensors" -nt "$RUNS/$name/test.json" ]]; then
     stamp "evaluate $name"
     momakitchen evaluate --data "$DATA" --checkpoint "$RUNS/$name" --json "$RUNS/$name/test.json" --quiet
