@@ -272,8 +272,8 @@ def mcnemar(a: Sequence[int], b: Sequence[int]) -> tuple[int, int, float]:
 
     if len(a) != len(b):
         raise MomaError(f"paired outcomes differ in length: {len(a)} and {len(b)}")
-    only_a = sum(1 for x, y in zip(a, b, strict=True) if x and not y)
-    only_b = sum(1 for x, y in zip(a, b, strict=True) if y and not x)
+    pairs = [(bool(x), bool(y)) for x, y in zip(a, b, strict=True)]
+    only_a, only_b = pairs.count((True, False)), pairs.count((False, True))
     n = only_a + only_b
     return only_a, only_b, float(binomtest(only_a, n, 0.5).pvalue) if n else 1.0
 

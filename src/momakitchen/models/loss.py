@@ -65,6 +65,6 @@ def map_kl(pred: torch.Tensor, label: torch.Tensor, mask: torch.Tensor) -> torch
     keep = total > 0
     if not bool(keep.any()):
         return pred.sum() * 0.0
-    gn = g[keep] / total[keep].unsqueeze(1)
-    pn = p[keep] / (p[keep].sum(1, keepdim=True) + eps)
+    gn, pk = g[keep] / total[keep].unsqueeze(1), p[keep]
+    pn = pk / (pk.sum(1, keepdim=True) + eps)
     return (gn * (torch.log(gn + eps) - torch.log(pn + eps))).sum(1).mean()
