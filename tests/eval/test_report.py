@@ -80,6 +80,18 @@ def test_report_tables_and_figures(report):
     msr = json.loads((req.out / "msr.json").read_text())
     assert msr["configurations"] == 1
     assert "### navaff against each method" in text and "| oracle |" in text
+    assert "| PCC / SIM per robot |" in text and "| PCC / SIM per target |" in text
+    # The per-target map metrics cover every test episode, grouped by the manifest's targets.
+    rep = json.loads((req.out / "metrics/navaff.json").read_text())
+    manifest = json.loads((req.data / "manifest.json").read_text())
+    test_cats = {
+        t.split("/")[0]
+        for e in manifest["shards"].values()
+        if e["split"] == "test"
+        for t in e["targets"]
+    }
+    assert set(rep["per_category"]) <= test_cats
+    assert sum(m["episodes"] for m in rep["per_category"].values()) == rep["episodes"]
     ablation = text.split("## Ablations")[1].split("##")[0]
     assert "| navaff-no-vam |" in ablation and "+0.0000 |" in ablation  # full model row
 

@@ -36,9 +36,11 @@ def evaluate(
     geometry (:meth:`Backbone.plan`) while the model runs (0: all on this thread).
 
     Returns ``{"model", "preset", "episodes", "metrics", "per_robot", "per_scene"}``
-    where ``metrics`` maps ``METRIC_NAMES`` to floats and the breakdowns map a robot name
-    or scene id to metrics plus an ``episodes`` count. A dataset whose manifest records
-    other cloud preprocessing than the run was trained with is refused (MomaError).
+    (plus ``"per_category"`` when the dataset has a manifest naming each configuration's
+    target) where ``metrics`` maps ``METRIC_NAMES`` to floats and the breakdowns map a robot
+    name, scene id or target category to metrics plus an ``episodes`` count. A dataset
+    whose manifest records other cloud preprocessing than the run was trained with is
+    refused (MomaError).
     """
     if len(cast(Sized, dataset)) == 0:  # map-style datasets have a length
         raise MomaError("the evaluation dataset is empty")
@@ -57,7 +59,8 @@ def evaluate(
     loader = DataLoader(
         dataset, batch_size=batch_size, shuffle=False, collate_fn=collate, num_workers=num_workers
     )
-    preds, gts, scenes, robots = [], [], [], []
+    targets = _targets(getattr(dataset, "manifest", None))
+    preds, gts, scenes, robots, configs = [], [], [], [], []
     for batch in tqdm(loader, desc="evaluate", disable=not progress):
         if "floor_label" not in batch:
             raise MomaError("evaluation needs floor labels (floor_label) in every episode")
@@ -66,7 +69,8 @@ def evaluate(
         gts += g
         scenes += list(batch["scene_id"])
         robots += list(batch["robot_name"])
-    return {
+        configs += list(zip(batch["scene_id"], batch["config_index"], strict=True))
+    out = {
         "model": run.config.model,
         "preset": run.config.preset,
         "episodes": len(preds),
@@ -74,3 +78,20 @@ def evaluate(
         "per_robot": breakdown(preds, gts, robots),
         "per_scene": breakdown(preds, gts, scenes),
     }
+    if targets is not None and all(c in targets for c in configs):
+        out["per_category"] = breakdown(preds, gts, [targets[c] for c in configs])
+    return out
+
+
+def _targets(manifest: dict[str, Any] | None) -> dict[tuple[int, int], str] | None:
+    """(scene id, configuration index) -> target category ("fridge/door" -> "fridge") from
+    a dataset manifest's shard entries; None where the manifest does not name targets."""
+    if not isinstance(manifest, dict) or not isinstance(manifest.get("shards"), dict):
+        return None
+    out = {}
+    for entry in manifest["shards"].values():
+        if "targets" not in entry:
+            return None
+        for c, target in enumerate(entry["targets"]):
+            out[int(entry["scene_id"]), c] = str(target).split("/")[0]
+    return out

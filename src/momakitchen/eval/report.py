@@ -162,6 +162,7 @@ def run_benchmark(req: BenchmarkRequest, log: Callable[[str], None] = print) -> 
 
     main_reports = [metrics[r] for r in req.runs]
     lines = ["## Methods", "", *main_table(main_reports, msr), "", *msr_breakdown(msr)]
+    lines += ["", *map_breakdown(main_reports)]
     lines += ["", f"### {models[0]} against each method", "", *paired_table(msr, models[0])]
     if req.ablations:
         full = metrics[req.runs[models.index("navaff")]]
@@ -338,6 +339,26 @@ def msr_breakdown(msr: dict) -> list[str]:
                 ]
             )
         )
+    return lines
+
+
+def map_breakdown(reports: Sequence[dict]) -> list[str]:
+    """PCC / SIM of each run per robot and per target category (the latter where every
+    report has it: ``evaluate`` on a dataset whose manifest names the targets)."""
+    lines: list[str] = []
+    for key, title in (("per_robot", "robot"), ("per_category", "target")):
+        if not all(key in r for r in reports):
+            continue
+        groups = sorted({g for r in reports for g in r[key]})
+        if lines:
+            lines.append("")
+        lines += [_row([f"PCC / SIM per {title}", *groups]), "|---" * (len(groups) + 1) + "|"]
+        for r in reports:
+            cells = [
+                f"{r[key][g]['pcc']:.2f} / {r[key][g]['sim']:.2f}" if g in r[key] else "–"
+                for g in groups
+            ]
+            lines.append(_row([r["model"], *cells]))
     return lines
 
 
