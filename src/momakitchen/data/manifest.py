@@ -116,6 +116,11 @@ def finalize(manifest: dict[str, Any], complete: bool) -> dict[str, Any]:
     return manifest
 
 
+def target_category(target: str) -> str:
+    """The category of a configuration's target: ``"fridge/door"`` -> ``"fridge"``."""
+    return target.split("/")[0]
+
+
 def compute_counts(shards: Any) -> dict[str, Any]:
     """Scenes, configurations, episodes and trials per split, robot and target category."""
     counts: dict[str, Any] = {"total": _zero()}
@@ -136,7 +141,7 @@ def compute_counts(shards: Any) -> dict[str, Any]:
             sh["covering_views"],
             strict=True,
         ):
-            category = target.split("/")[0]
+            category = target_category(target)
             for key in ("total", split):
                 c = counts[key]
                 c["configurations"] += 1

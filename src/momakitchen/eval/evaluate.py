@@ -10,6 +10,7 @@ from torch.utils.data import DataLoader, Dataset
 from tqdm.auto import tqdm
 
 from momakitchen.data.batch import EpisodeCollator, episode_maps
+from momakitchen.data.manifest import target_category
 from momakitchen.errors import MomaError
 from momakitchen.metrics import breakdown, map_metrics
 from momakitchen.models.base import PlanningCollator
@@ -78,20 +79,18 @@ def evaluate(
         "per_robot": breakdown(preds, gts, robots),
         "per_scene": breakdown(preds, gts, scenes),
     }
-    if targets is not None and all(c in targets for c in configs):
+    if targets is not None:
         out["per_category"] = breakdown(preds, gts, [targets[c] for c in configs])
     return out
 
 
 def _targets(manifest: dict[str, Any] | None) -> dict[tuple[int, int], str] | None:
-    """(scene id, configuration index) -> target category ("fridge/door" -> "fridge") from
-    a dataset manifest's shard entries; None where the manifest does not name targets."""
-    if not isinstance(manifest, dict) or not isinstance(manifest.get("shards"), dict):
+    """(scene id, configuration index) -> target category, from a dataset manifest's shard
+    entries (None without a manifest, e.g. synthetic episodes)."""
+    if manifest is None:
         return None
-    out = {}
-    for entry in manifest["shards"].values():
-        if "targets" not in entry:
-            return None
-        for c, target in enumerate(entry["targets"]):
-            out[int(entry["scene_id"]), c] = str(target).split("/")[0]
-    return out
+    return {
+        (int(entry["scene_id"]), c): target_category(target)
+        for entry in manifest["shards"].values()
+        for c, target in enumerate(entry["targets"])
+    }

@@ -323,7 +323,7 @@ def _summary(records: list[dict[str, Any]], name: str) -> dict[str, Any]:
     }
     for r in records:
         groups["per_robot"][r["robot"]].append(r)
-        groups["per_category"][r["target"].split("/")[0]].append(r)
+        groups["per_category"][mf.target_category(r["target"])].append(r)
     overall = rates(records)
     feasible = rates([r for r in records if r["feasible"]])
     return {
