@@ -220,3 +220,24 @@ def test_overfitting_four_episodes_tenfold(tmp_path, make_config):
     """200 steps on 4 episodes drop the MSE at least tenfold."""
     before, after = _overfit(tmp_path, make_config, 200)
     assert after < before / 10, (before, after)
+
+
+def test_resume_across_a_changed_preset(tmp_path, tiny_sets, make_config):
+    """A preset change in a size the model never reads does not block a resume; one in a
+    size it does read is refused, naming the field."""
+    train_set, _ = tiny_sets
+    first = make_config(epochs=1, model="pointnet2")
+    run = tmp_path / "pointnet2"
+    train(first, train_set, None, run)
+    wider = first.model_config.__class__(
+        **{**first.model_config.to_dict(), "floor_npoints": 2 * first.model_config.floor_npoints}
+    )
+    resumed = train(first.replace(epochs=2, model_config=wider), train_set, None, run, resume=True)
+    assert resumed.global_step == 4
+    saved = json.loads((run / "config.json").read_text())["train_config"]["model_config"]
+    assert saved["floor_npoints"] == first.model_config.floor_npoints
+
+    navaff = make_config(epochs=1)
+    train(navaff, train_set, None, tmp_path / "navaff")
+    with pytest.raises(MomaError, match=r"floor_npoints 32 vs 64\)"):
+        train(navaff.replace(model_config=wider), train_set, None, tmp_path / "navaff", resume=True)

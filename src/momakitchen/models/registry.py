@@ -22,12 +22,15 @@ class ModelEntry:
         head_uses_robot: whether the head is conditioned on the robot descriptor (the
             baselines; NavAff reads the robot through its attention tokens instead).
         description: one line for listings and docs.
+        unused_config: ``ModelConfig`` fields the architecture never reads, so a run may
+            resume under a preset that has changed them since.
     """
 
     name: str
     build_backbone: Callable[[ModelConfig], Backbone]
     head_uses_robot: bool
     description: str
+    unused_config: frozenset[str] = frozenset()
 
 
 MODELS: Registry[ModelEntry] = Registry("model")
@@ -55,11 +58,29 @@ def build_model(name: str, config: ModelConfig | None = None) -> AffordanceModel
     return AffordanceModel(name, cfg, entry.build_backbone(cfg), entry.head_uses_robot)
 
 
+# The baselines have no attention and no separate floor encoder.
+_BASELINE_UNUSED = frozenset(
+    {"embed_dim", "num_heads", "num_robot_tokens", "attention_layers", "floor_npoints"}
+)
 for _entry in (
     ModelEntry("navaff", NavAffBackbone, False, "NavAff (visual alignment, global + robot keys)"),
-    ModelEntry("pointnet2", PointNet2Backbone, True, "PointNet++ segmentation baseline"),
-    ModelEntry("votenet", VoteNetBackbone, True, "VoteNet-style (voting kept, no box heads)"),
-    ModelEntry("h3dnet", H3DNetBackbone, True, "H3DNet-style (primitives kept, no box heads)"),
+    ModelEntry(
+        "pointnet2", PointNet2Backbone, True, "PointNet++ segmentation baseline", _BASELINE_UNUSED
+    ),
+    ModelEntry(
+        "votenet",
+        VoteNetBackbone,
+        True,
+        "VoteNet-style (voting kept, no box heads)",
+        _BASELINE_UNUSED,
+    ),
+    ModelEntry(
+        "h3dnet",
+        H3DNetBackbone,
+        True,
+        "H3DNet-style (primitives kept, no box heads)",
+        _BASELINE_UNUSED,
+    ),
     ModelEntry(
         "navaff-no-robot",
         lambda c: NavAffBackbone(c, use_robot=False),

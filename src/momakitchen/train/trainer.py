@@ -15,7 +15,7 @@ import math
 import os
 import time
 from collections.abc import Sized
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any, cast
 
@@ -31,7 +31,8 @@ from momakitchen.errors import MomaError
 from momakitchen.fileio import atomic_write_bytes, atomic_write_text
 from momakitchen.metrics import map_metrics
 from momakitchen.models.base import AffordanceModel, PlanningCollator
-from momakitchen.models.registry import build_model
+from momakitchen.models.config import ModelConfig
+from momakitchen.models.registry import build_model, get_model_entry
 from momakitchen.train.checkpoint import (
     WEIGHTS_FILE,
     dataset_preprocessing,
@@ -101,10 +102,11 @@ def _barrier(world: int) -> None:
 
 def _check_resume(
     config: TrainConfig, run_dir: Path, resume: bool, preprocessing: Preprocessing
-) -> bool:
-    """Whether to resume; raises MomaError on a mismatching or unexpected checkpoint."""
+) -> TrainConfig | None:
+    """The config to resume with (``config`` with the run's model sizes), or None to start
+    afresh; raises MomaError on a mismatching or unexpected checkpoint."""
     if not has_checkpoint(run_dir):
-        return False
+        return None
     if not resume:
         raise MomaError(
             f"run directory {str(run_dir)!r} already holds a checkpoint; pass resume=True "
@@ -116,10 +118,17 @@ def _check_resume(
             f"cannot resume: {str(run_dir)!r} holds model {saved.model!r}, "
             f"the config asks for {config.model!r}"
         )
-    if saved.model_config != config.model_config:
+    unused = get_model_entry(config.model).unused_config
+    pairs = {
+        f.name: (getattr(saved.model_config, f.name), getattr(config.model_config, f.name))
+        for f in fields(ModelConfig)
+        if f.name not in unused
+    }
+    differ = [f"{k} {a!r} vs {b!r}" for k, (a, b) in pairs.items() if a != b]
+    if differ:
         raise MomaError(
             f"cannot resume: model sizes in {str(run_dir)!r} differ from the config "
-            f"({saved.model_config} vs {config.model_config})"
+            f"({', '.join(differ)})"
         )
     saved_pre = run_preprocessing(info, run_dir)
     if saved_pre != preprocessing:
@@ -127,7 +136,7 @@ def _check_resume(
             f"cannot resume: {str(run_dir)!r} was trained on clouds with "
             f"{saved_pre.describe()}, the training data has {preprocessing.describe()}"
         )
-    return True
+    return replace(config, model_config=saved.model_config)
 
 
 def _read_log(path: Path, max_step: int) -> list[dict[str, str]]:
@@ -247,7 +256,10 @@ def _train(
         torch.set_num_threads(max(1, (os.cpu_count() or 1) // world))
     # The model learns the clouds of its training data: record how they were built.
     preprocessing = dataset_preprocessing(train_set) or Preprocessing()
-    resuming = _check_resume(config, run_dir, resume, preprocessing)
+    resumed = _check_resume(config, run_dir, resume, preprocessing)
+    resuming = resumed is not None
+    if resumed is not None:
+        config = resumed
     if rank == 0:
         run_dir.mkdir(parents=True, exist_ok=True)
         if not resuming:
