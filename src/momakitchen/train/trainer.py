@@ -15,7 +15,7 @@ import math
 import os
 import time
 from collections.abc import Sized
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, cast
 
@@ -31,7 +31,6 @@ from momakitchen.errors import MomaError
 from momakitchen.fileio import atomic_write_bytes, atomic_write_text
 from momakitchen.metrics import map_metrics
 from momakitchen.models.base import AffordanceModel, PlanningCollator
-from momakitchen.models.config import ModelConfig
 from momakitchen.models.registry import build_model, get_model_entry
 from momakitchen.train.checkpoint import (
     WEIGHTS_FILE,
@@ -119,12 +118,10 @@ def _check_resume(
             f"the config asks for {config.model!r}"
         )
     unused = get_model_entry(config.model).unused_config
-    pairs = {
-        f.name: (getattr(saved.model_config, f.name), getattr(config.model_config, f.name))
-        for f in fields(ModelConfig)
-        if f.name not in unused
-    }
-    differ = [f"{k} {a!r} vs {b!r}" for k, (a, b) in pairs.items() if a != b]
+    before, now = saved.model_config.to_dict(), config.model_config.to_dict()
+    differ = [
+        f"{k} {before[k]!r} vs {now[k]!r}" for k in now if k not in unused and before[k] != now[k]
+    ]
     if differ:
         raise MomaError(
             f"cannot resume: model sizes in {str(run_dir)!r} differ from the config "
