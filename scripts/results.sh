@@ -9,7 +9,9 @@
 #
 # Every step resumes where it stopped: generation skips finished scenes, training continues
 # after its last finished epoch, and finished evaluations and MSR are kept. Run it again
-# after an interruption (e.g. under nohup, one session after another).
+# after an interruption (e.g. under nohup, one session after another). MSR is kept per
+# compared model (RUN/msr.json, as soon as the model is trained) and for the baselines
+# ($RUNS/msr-baselines.json); benchmark merges them (same seed: the same views).
 set -euo pipefail
 
 DATA=${DATA:-$HOME/mk-data/gt2-300}
@@ -46,6 +48,7 @@ RUN_LIST=(
   "lambda-0.5 --model navaff --lambda-zero 0.5"
   "lambda-1.0 --model navaff --lambda-zero 1.0"
 )
+MAIN=(navaff pointnet2 votenet h3dnet)  # compared in closed loop
 for spec in "${RUN_LIST[@]}"; do
   read -r name opts <<<"$spec"
   stamp "train $name"
@@ -55,20 +58,24 @@ for spec in "${RUN_LIST[@]}"; do
     stamp "evaluate $name"
     momakitchen evaluate --data "$DATA" --checkpoint "$RUNS/$name" --json "$RUNS/$name/test.json" --quiet
   fi
+  if [[ " ${MAIN[*]} " == *" $name "* ]] &&
+    [[ ! -f "$RUNS/$name/msr.json" || "$RUNS/$name/model.safetensors" -nt "$RUNS/$name/msr.json" ]]; then
+    stamp "msr $name"
+    momakitchen msr --data "$DATA" --checkpoint "$RUNS/$name" --json "$RUNS/$name/msr.json" --quiet
+  fi
 done
 
-MAIN=("$RUNS/navaff" "$RUNS/pointnet2" "$RUNS/votenet" "$RUNS/h3dnet")
-if [[ ! -f "$RUNS/msr.json" ]]; then
-  stamp "msr"
-  args=()
-  for r in "${MAIN[@]}"; do args+=(--checkpoint "$r"); done
-  momakitchen msr --data "$DATA" "${args[@]}" --method random --method nearest --method oracle \
-    --json "$RUNS/msr.json" --quiet
+if [[ ! -f "$RUNS/msr-baselines.json" ]]; then
+  stamp "msr baselines"
+  momakitchen msr --data "$DATA" --method random --method nearest --method oracle \
+    --json "$RUNS/msr-baselines.json" --quiet
 fi
 
 stamp "benchmark -> $OUT"
-momakitchen benchmark --data "$DATA" --runs "${MAIN[@]}" \
+msr_files=("$RUNS/msr-baselines.json")
+for name in "${MAIN[@]}"; do msr_files+=("$RUNS/$name/msr.json"); done
+momakitchen benchmark --data "$DATA" --runs "${MAIN[@]/#/$RUNS/}" \
   --ablations "$RUNS/navaff-no-robot" "$RUNS/navaff-no-vam" "$RUNS/navaff-no-global" \
   --sweep "$RUNS/lambda-0.1" "$RUNS/lambda-0.3" "$RUNS/lambda-0.5" "$RUNS/navaff" "$RUNS/lambda-1.0" \
-  --msr "$RUNS/msr.json" --out "$OUT" --quiet
+  --msr "${msr_files[@]}" --out "$OUT" --quiet
 stamp "done"

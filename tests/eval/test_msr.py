@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from momakitchen.errors import MomaError
-from momakitchen.eval.msr import MsrConfig, run_msr
+from momakitchen.eval.msr import MsrConfig, merge_msr, run_msr
 from momakitchen.frames import base_to_world_xy, world_to_base
 from momakitchen.models.inference import select_points
 from momakitchen.sim.trials import TrialRunner
@@ -72,8 +72,10 @@ def test_msr_is_deterministic_and_oracle_beats_random(real_dataset, tiny_run):
     cfg = MsrConfig(seed=3)
     methods = ["oracle", "random", "nearest"]
     a = run_msr(real_dataset, [tiny_run], methods, config=cfg)
-    b = run_msr(real_dataset, [tiny_run], methods, config=cfg)
-    assert a == b
+    # Run apart (one file per model, one for the baselines) and merged: the same result.
+    model_only = run_msr(real_dataset, [tiny_run], config=cfg)
+    baselines = run_msr(real_dataset, methods=methods, config=cfg)
+    assert merge_msr([("model", model_only), ("baselines", baselines)]) == a
     assert a["configurations"] == 2
     m = a["methods"]
     assert list(m) == ["navaff", *methods]
@@ -183,3 +185,38 @@ def test_msr_checks_every_shard_before_the_first_configuration(
     assert len(err.splitlines()) == 1 and "scene_000005.h5" in err and "truncated" in err
     assert "Unable to" not in err and "HDF5" not in err
     assert calls == [] and not (tmp_path / "m.json").exists()
+
+
+def test_merge_msr_refuses_parts_that_do_not_fit():
+    def part(methods, seed=0, scenes=(1, 2)):
+        recs = [
+            {
+                "scene_id": sid,
+                "config_index": 0,
+                "episode_index": 3,
+                "robot": "panda",
+                "target": "mug",
+                "feasible": True,
+                "methods": {m: {"outcomes": [1]} for m in methods},
+            }
+            for sid in scenes
+        ]
+        return {
+            "dataset": "/d",
+            "config": {"seed": seed},
+            "configurations": len(recs),
+            "methods": {m: {"top1": 1.0} for m in methods},
+            "records": recs,
+        }
+
+    merged = merge_msr([("a", part(["navaff"])), ("b", part(["oracle", "random"]))])
+    assert list(merged["methods"]) == ["navaff", "oracle", "random"]
+    assert all(set(r["methods"]) == {"navaff", "oracle", "random"} for r in merged["records"])
+    for parts, message in (
+        ([("a", part(["navaff"])), ("b", part(["oracle"], seed=1))], "settings of 'b'"),
+        ([("a", part(["navaff"])), ("b", part(["oracle"], scenes=(1, 3)))], "different config"),
+        ([("a", part(["navaff"])), ("b", part(["navaff", "oracle"]))], r"\['navaff'\]"),
+        ([("a", part(["navaff"])), ("b", [])], "'b' is not a `momakitchen msr` result"),
+    ):
+        with pytest.raises(MomaError, match=message):
+            merge_msr(parts)

@@ -110,6 +110,16 @@ def test_report_reuses_metrics_and_msr(report, monkeypatch, tmp_path):
 
     monkeypatch.setattr(evaluate_module, "evaluate", fail)
     monkeypatch.setattr(msr_module, "run_msr", fail)
+    # MSR kept as one file per run plus one for the baselines, as scripts/results.sh does.
+    whole = json.loads((req.out / "msr.json").read_text())
+    parts = []
+    for name, methods in (("model", ["navaff"]), ("baselines", ["random", "nearest", "oracle"])):
+        part = {**whole, "methods": {m: whole["methods"][m] for m in methods}}
+        part["records"] = [
+            {**r, "methods": {m: r["methods"][m] for m in methods}} for r in whole["records"]
+        ]
+        parts.append(tmp_path / f"{name}.json")
+        parts[-1].write_text(json.dumps(part))
     out = tmp_path / "again"
     assert (
         main(
@@ -120,7 +130,7 @@ def test_report_reuses_metrics_and_msr(report, monkeypatch, tmp_path):
                 "--runs",
                 str(run),
                 "--msr",
-                str(req.out / "msr.json"),
+                *map(str, parts),
                 "--out",
                 str(out),
                 "--examples",
@@ -152,6 +162,10 @@ def test_report_bad_input(report, tmp_path, capsys):
     ]
     assert main([*argv, "--msr", str(partial)]) == 2
     assert "oracle" in capsys.readouterr().err
+    corrupt = tmp_path / "corrupt.json"
+    corrupt.write_text('{"methods": ')
+    assert main([*argv, "--msr", str(partial), str(corrupt)]) == 2
+    assert "corrupt.json" in capsys.readouterr().err
     assert main([*argv, "--ablations", str(tmp_path / "nope")]) == 2
     assert "nope" in capsys.readouterr().err
     twin = tmp_path / "other" / req.runs[0].name  # another run of the same name
@@ -163,7 +177,7 @@ def test_report_bad_input(report, tmp_path, capsys):
                 runs=req.runs,
                 out=tmp_path / "d",
                 sweep=(twin,),
-                msr=req.out / "msr.json",
+                msr=(req.out / "msr.json",),
             )
         )
 

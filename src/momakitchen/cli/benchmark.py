@@ -42,9 +42,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument(
         "--msr",
-        default=None,
+        nargs="+",
+        default=[],
         metavar="JSON",
-        help="reuse a `momakitchen msr` result covering --runs and the baselines",
+        help="reuse `momakitchen msr` results that together cover --runs and the "
+        "baselines (e.g. one per run and one for the baselines)",
     )
     p.add_argument(
         "--max-configs",
@@ -70,7 +72,7 @@ def run(args: argparse.Namespace) -> int:
         out=Path(args.out),
         ablations=tuple(map(Path, args.ablations)),
         sweep=tuple(map(Path, args.sweep)),
-        msr=Path(args.msr) if args.msr else None,
+        msr=tuple(map(Path, args.msr)),
         max_configs=args.max_configs,
         examples=args.examples,
         progress=not args.quiet,

@@ -336,6 +336,58 @@ def _summary(records: list[dict[str, Any]], name: str) -> dict[str, Any]:
     }
 
 
+# What identifies a configuration's record apart from the methods' picks.
+_RECORD_KEYS = ("scene_id", "config_index", "episode_index", "robot", "target", "feasible")
+
+
+def merge_msr(parts: Sequence[tuple[str, dict[str, Any]]]) -> dict[str, Any]:
+    """One MSR result from several runs over the same configurations, each with its own
+    methods (e.g. one ``momakitchen msr`` per trained model, kept beside its run, and one
+    for the baselines). Valid because a configuration's view and random picks depend only
+    on ``(seed, scene, configuration)``, not on which methods ran together.
+
+    Args:
+        parts: ``(label, result)`` pairs; the label names a part in errors (its file).
+
+    Returns:
+        the result as if every method had run at once (methods in the order given).
+
+    Raises:
+        MomaError: the parts differ in dataset, settings or configurations, or share a
+            method, or one is not an MSR result.
+    """
+    if not parts:
+        raise MomaError("no MSR results to merge")
+    (label0, first), *rest = parts
+    for label, part in parts:
+        if not isinstance(part, dict) or not {"config", "methods", "records"} <= set(part):
+            raise MomaError(f"{label!r} is not a `momakitchen msr` result")
+    merged = {k: v for k, v in first.items() if k != "seconds"}
+    merged["methods"] = dict(first["methods"])
+    merged["records"] = [{**r, "methods": dict(r["methods"])} for r in first["records"]]
+    for label, part in rest:
+        if part["config"] != first["config"]:
+            raise MomaError(
+                f"MSR settings of {label!r} ({part['config']}) differ from {label0!r} "
+                f"({first['config']})"
+            )
+        if Path(str(part.get("dataset"))).resolve() != Path(str(first.get("dataset"))).resolve():
+            raise MomaError(
+                f"{label!r} is on dataset {part.get('dataset')!r}, {label0!r} on "
+                f"{first.get('dataset')!r}"
+            )
+        keys = [tuple(r[k] for k in _RECORD_KEYS) for r in part["records"]]
+        if keys != [tuple(r[k] for k in _RECORD_KEYS) for r in first["records"]]:
+            raise MomaError(f"{label!r} and {label0!r} cover different configurations or views")
+        shared = sorted(set(part["methods"]) & set(merged["methods"]))
+        if shared:
+            raise MomaError(f"{label!r} repeats methods {shared} of an earlier MSR result")
+        merged["methods"].update(part["methods"])
+        for into, rec in zip(merged["records"], part["records"], strict=True):
+            into["methods"].update(rec["methods"])
+    return merged
+
+
 def format_msr_table(result: dict[str, Any]) -> str:
     """A plain-text table: method, Top-1 and Top-k MSR (all and feasible configurations),
     trials run."""

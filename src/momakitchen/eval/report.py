@@ -13,8 +13,9 @@ From trained runs and the dataset it writes, into one directory:
 
 Map metrics come from ``RUN/test.json`` when ``momakitchen evaluate`` already wrote it for
 this dataset's test split, otherwise the run is evaluated now. MSR covers the main runs and
-the ``random``, ``nearest`` and ``oracle`` baselines; a previous ``momakitchen msr`` JSON can
-be passed instead of running it again.
+the ``random``, ``nearest`` and ``oracle`` baselines; earlier ``momakitchen msr`` JSONs can
+be passed instead of running it again: one covering every method, or several (e.g. one per
+model and one for the baselines) that together do.
 """
 
 from __future__ import annotations
@@ -52,7 +53,8 @@ class BenchmarkRequest:
         ablations: runs of ablated models (``navaff-no-*``), compared with the ``navaff`` run
             of ``runs`` on the map metrics.
         sweep: runs that differ only in the loss weight on zero labels (lambda).
-        msr: a ``momakitchen msr`` JSON covering ``runs`` and the baselines; None: run MSR.
+        msr: ``momakitchen msr`` JSONs that together cover ``runs`` and the baselines
+            (merged with :func:`momakitchen.eval.msr.merge_msr`); empty: run MSR.
         max_configs: MSR on only the first N test configurations (0: all).
         examples: rows of the qualitative figure.
         progress: progress bars.
@@ -63,13 +65,13 @@ class BenchmarkRequest:
     out: Path
     ablations: tuple[Path, ...] = ()
     sweep: tuple[Path, ...] = ()
-    msr: Path | None = None
+    msr: tuple[Path, ...] = ()
     max_configs: int = 0
     examples: int = 4
     progress: bool = True
 
     def __post_init__(self) -> None:
-        for name in ("runs", "ablations", "sweep"):
+        for name in ("runs", "ablations", "sweep", "msr"):
             object.__setattr__(self, name, tuple(Path(r) for r in getattr(self, name)))
         object.__setattr__(self, "data", Path(self.data))
         object.__setattr__(self, "out", Path(self.out))
@@ -80,8 +82,8 @@ class BenchmarkRequest:
         for run in (*self.runs, *self.ablations, *self.sweep):
             if not (Path(run) / "config.json").is_file():
                 raise MomaError(f"{str(run)!r} is not a run directory (no config.json)")
-        if self.msr is not None:
-            existing_file(self.msr, "MSR file")
+        for path in self.msr:
+            existing_file(path, "MSR file")
         if self.max_configs < 0:
             raise MomaError(f"max_configs must be >= 0, got {self.max_configs}")
         if not 1 <= self.examples <= 12:
@@ -119,10 +121,17 @@ def run_metrics(run: Path, data: Path, out_dir: Path, progress: bool) -> dict[st
     return json.loads(text)  # as read back from a file (string keys), whatever its source
 
 
+def _read_json(path: Path, what: str) -> Any:
+    try:
+        return json.loads(Path(path).read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise MomaError(f"unreadable {what} {str(path)!r} ({exc})") from exc
+
+
 def run_benchmark(req: BenchmarkRequest, log: Callable[[str], None] = print) -> dict[str, Any]:
     """Compute and write the report (see the module docstring). Returns ``benchmark.json``'s
     content."""
-    from momakitchen.eval.msr import BASELINES, MsrConfig, run_msr
+    from momakitchen.eval.msr import BASELINES, MsrConfig, merge_msr, run_msr
     from momakitchen.train.checkpoint import load_checkpoint
 
     data, out = req.data, req.out
@@ -144,11 +153,12 @@ def run_benchmark(req: BenchmarkRequest, log: Callable[[str], None] = print) -> 
     for r in every:
         log(f"map metrics: {r}")
         metrics[r] = run_metrics(r, data, out / "metrics", req.progress)
-    if req.msr is not None:
-        msr = json.loads(Path(req.msr).read_text())
-        missing = [m for m in (*models, *BASELINES) if m not in msr.get("methods", {})]
+    if req.msr:
+        msr = merge_msr([(str(p), _read_json(p, "MSR file")) for p in req.msr])
+        missing = [m for m in (*models, *BASELINES) if m not in msr["methods"]]
         if missing:
-            raise MomaError(f"MSR file {str(req.msr)!r} lacks methods {missing}")
+            files = ", ".join(repr(str(p)) for p in req.msr)
+            raise MomaError(f"MSR files {files} lack methods {missing}")
     else:
         log("MSR: models and baselines in closed loop")
         msr = run_msr(
