@@ -217,6 +217,7 @@ def test_merge_msr_refuses_parts_that_do_not_fit():
         ([("a", part(["navaff"])), ("b", part(["oracle"], scenes=(1, 3)))], "different config"),
         ([("a", part(["navaff"])), ("b", part(["navaff", "oracle"]))], r"\['navaff'\]"),
         ([("a", part(["navaff"])), ("b", [])], "'b' is not a `momakitchen msr` result"),
+        ([("a", part(["navaff"])), ("b", {**part(["oracle"]), "records": [{}]})], "malformed"),
     ):
         with pytest.raises(MomaError, match=message):
             merge_msr(parts)

@@ -340,6 +340,13 @@ def _summary(records: list[dict[str, Any]], name: str) -> dict[str, Any]:
 _RECORD_KEYS = ("scene_id", "config_index", "episode_index", "robot", "target", "feasible")
 
 
+def _record_keys(label: str, result: dict[str, Any]) -> list[tuple]:
+    try:
+        return [tuple(r[k] for k in _RECORD_KEYS) for r in result["records"]]
+    except (KeyError, TypeError) as exc:
+        raise MomaError(f"{label!r} has a malformed record: {exc!r}") from exc
+
+
 def merge_msr(parts: Sequence[tuple[str, dict[str, Any]]]) -> dict[str, Any]:
     """One MSR result from several runs over the same configurations, each with its own
     methods (e.g. one ``momakitchen msr`` per trained model, kept beside its run, and one
@@ -376,8 +383,7 @@ def merge_msr(parts: Sequence[tuple[str, dict[str, Any]]]) -> dict[str, Any]:
                 f"{label!r} is on dataset {part.get('dataset')!r}, {label0!r} on "
                 f"{first.get('dataset')!r}"
             )
-        keys = [tuple(r[k] for k in _RECORD_KEYS) for r in part["records"]]
-        if keys != [tuple(r[k] for k in _RECORD_KEYS) for r in first["records"]]:
+        if _record_keys(label, part) != _record_keys(label0, first):
             raise MomaError(f"{label!r} and {label0!r} cover different configurations or views")
         shared = sorted(set(part["methods"]) & set(merged["methods"]))
         if shared:
