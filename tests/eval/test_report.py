@@ -12,7 +12,7 @@ import pytest
 
 from momakitchen.cli.main import main
 from momakitchen.errors import MomaError
-from momakitchen.eval.report import BenchmarkRequest, mcnemar, run_benchmark
+from momakitchen.eval.report import BenchmarkRequest, mcnemar, paired_map_table, run_benchmark
 
 
 def _tiny(out: Path, model: str, lambda_zero: float = 0.7) -> Path:
@@ -193,3 +193,23 @@ def test_mcnemar_counts_discordant_pairs_and_tests_them_exactly():
     assert mcnemar([1] * 3 + [0] * 2, [0] * 3 + [1] * 2)[2] > 0.5
     with pytest.raises(MomaError, match="length"):
         mcnemar([1, 0], [1])
+
+
+def test_paired_map_table_counts_scenes_where_the_first_run_is_better():
+    def report(model, pcc, rmse):
+        scenes = {
+            str(i): {"pcc": p, "sim": p, "rmse": r, "ciou": p}
+            for i, (p, r) in enumerate(zip(pcc, rmse, strict=True))
+        }
+        return {"model": model, "per_scene": scenes}
+
+    ref = report("navaff", [0.8, 0.7, 0.9, 0.6, 0.75, 0.85], [0.1, 0.2, 0.1, 0.3, 0.2, 0.1])
+    # worse everywhere but scene 3 on PCC; RMSE higher (worse) everywhere
+    other = report("pointnet2", [0.7, 0.6, 0.8, 0.65, 0.7, 0.8], [0.2, 0.3, 0.2, 0.4, 0.3, 0.2])
+    row = next(line for line in paired_map_table([ref, other]) if line.startswith("| pointnet2"))
+    cells = [c.strip() for c in row.strip("|").split("|")]
+    assert cells[1].startswith("5 of 6, ") and cells[3].startswith("6 of 6, ")
+    assert float(cells[3].split(", ")[1]) < 0.05  # six of six scenes: exact p = 1/32
+    fewer = report("votenet", [0.8] * 5, [0.1] * 5)
+    with pytest.raises(MomaError, match="different scenes"):
+        paired_map_table([ref, fewer])

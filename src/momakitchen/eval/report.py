@@ -174,6 +174,8 @@ def run_benchmark(req: BenchmarkRequest, log: Callable[[str], None] = print) -> 
     lines = ["## Methods", "", *main_table(main_reports, msr), "", *msr_breakdown(msr)]
     lines += ["", *map_breakdown(main_reports)]
     lines += ["", f"### {models[0]} against each method", "", *paired_table(msr, models[0])]
+    if len(main_reports) > 1:
+        lines += ["", *paired_map_table(main_reports)]
     if req.ablations:
         full = metrics[req.runs[models.index("navaff")]]
         lines += [
@@ -311,6 +313,41 @@ def paired_table(msr: dict, reference: str) -> list[str]:
         "",
         f"Top-1 outcomes on the same {len(ref)} configurations; the exact two-sided test of "
         "the discordant pairs.",
+    ]
+
+
+# Map metrics compared scene by scene, and whether lower is better.
+PAIRED_MAP_METRICS = (("pcc", False), ("sim", False), ("rmse", True), ("ciou", False))
+
+
+def paired_map_table(reports: Sequence[dict]) -> list[str]:
+    """The first run against every other on the map metrics, paired by test scene: the
+    scenes where the first is better, and the two-sided Wilcoxon signed-rank p-value of the
+    per-scene differences."""
+    from scipy.stats import wilcoxon
+
+    ref = reports[0]
+    scenes = sorted(ref["per_scene"], key=int)
+    head = [
+        "against",
+        *(f"{k.upper()}: scenes {ref['model']} better, p" for k, _ in PAIRED_MAP_METRICS),
+    ]
+    lines = [_row(head), "|---" * len(head) + "|"]
+    for other in reports[1:]:
+        if sorted(other["per_scene"], key=int) != scenes:
+            raise MomaError(f"runs {ref['model']} and {other['model']} cover different scenes")
+        cells = [other["model"]]
+        for key, lower in PAIRED_MAP_METRICS:
+            d = np.array([ref["per_scene"][s][key] - other["per_scene"][s][key] for s in scenes])
+            d = -d if lower else d  # > 0: the first run is better
+            p = float(wilcoxon(d).pvalue) if np.any(d != 0) else 1.0
+            cells.append(f"{int((d > 0).sum())} of {len(d)}, {p:.2g}")
+        lines.append(_row(cells))
+    return [
+        *lines,
+        "",
+        f"Map metrics per test scene (mean over its episodes), {ref['model']} against each "
+        "run; p: Wilcoxon signed-rank test of the per-scene differences, two-sided.",
     ]
 
 
