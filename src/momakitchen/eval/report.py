@@ -317,7 +317,12 @@ def paired_table(msr: dict, reference: str) -> list[str]:
 
 
 # Map metrics compared scene by scene, and whether lower is better.
-PAIRED_MAP_METRICS = (("pcc", False), ("sim", False), ("rmse", True), ("ciou", False))
+PAIRED_MAP_METRICS = (
+    ("pcc", "PCC", False),
+    ("sim", "SIM", False),
+    ("rmse", "RMSE", True),
+    ("ciou", "cIoU", False),
+)
 
 
 def paired_map_table(reports: Sequence[dict]) -> list[str]:
@@ -330,14 +335,14 @@ def paired_map_table(reports: Sequence[dict]) -> list[str]:
     scenes = sorted(ref["per_scene"], key=int)
     head = [
         "against",
-        *(f"{k.upper()}: scenes {ref['model']} better, p" for k, _ in PAIRED_MAP_METRICS),
+        *(f"{label}: scenes {ref['model']} better, p" for _, label, _ in PAIRED_MAP_METRICS),
     ]
     lines = [_row(head), "|---" * len(head) + "|"]
     for other in reports[1:]:
         if sorted(other["per_scene"], key=int) != scenes:
             raise MomaError(f"runs {ref['model']} and {other['model']} cover different scenes")
         cells = [other["model"]]
-        for key, lower in PAIRED_MAP_METRICS:
+        for key, _, lower in PAIRED_MAP_METRICS:
             d = np.array([ref["per_scene"][s][key] - other["per_scene"][s][key] for s in scenes])
             d = -d if lower else d  # > 0: the first run is better
             p = float(wilcoxon(d).pvalue) if np.any(d != 0) else 1.0
