@@ -28,7 +28,7 @@ from momakitchen.eval.msr import merge_msr
 from momakitchen.frames import base_to_world_xy
 from momakitchen.sim.labels import dense_map
 
-BINS = (1e-3, 0.3, 0.6, 0.9, 1.0 + 1e-9)  # above 0
+BINS = (0.0, 0.3, 0.6, 0.9, 1.0 + 1e-9)  # above 0: (0, 0.3), [0.3, 0.6), ...
 COLUMNS = ("0, masked", "0, no success near", "(0, 0.3)", "[0.3, 0.6)", "[0.6, 0.9)", "[0.9, 1]")
 
 
@@ -70,6 +70,8 @@ def main() -> None:
     ap.add_argument("--versus", default=None, help="a method to compare the others with")
     args = ap.parse_args()
     msr = merge_msr([(str(p), json.loads(p.read_text())) for p in args.msr])
+    if args.versus is not None and args.versus not in msr["methods"]:
+        ap.error(f"--versus {args.versus!r}: the MSR results have {list(msr['methods'])}")
     labels, raw = labels_at_picks(args.data, msr)
     ok = {
         m: np.array([bool(r["methods"][m]["outcomes"][:1] == [1]) for r in msr["records"]])
@@ -80,7 +82,9 @@ def main() -> None:
     for m, lab in labels.items():
         zero = lab == 0
         groups = [zero & (raw[m] > 0), zero & (raw[m] == 0)]
-        groups += [(lab >= a) & (lab < b) for a, b in itertools.pairwise(BINS)]
+        groups += [
+            (lab > a if a == 0 else lab >= a) & (lab < b) for a, b in itertools.pairwise(BINS)
+        ]
         cells = [f"{ok[m][g].mean():.0%} of {g.sum()}" if g.any() else "–" for g in groups]
         print(f"| {m} | " + " | ".join(cells) + " |")
     if args.versus:
