@@ -14,6 +14,7 @@ trials succeed, docs/RESULTS.md), and the first run against each other paired by
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -23,6 +24,7 @@ from tqdm.auto import tqdm
 
 from momakitchen.data import EpisodeDataset
 from momakitchen.data.batch import EpisodeCollator, episode_maps
+from momakitchen.errors import MomaError
 from momakitchen.models.base import PlanningCollator
 from momakitchen.models.inference import predict_batch
 from momakitchen.train.checkpoint import load_checkpoint
@@ -73,4 +75,8 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    try:
+        main()
+    except MomaError as exc:  # bad input: one line, exit status 2, as the CLI does
+        print(f"argmax_labels.py: error: {exc}", file=sys.stderr)
+        sys.exit(2)

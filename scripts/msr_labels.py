@@ -17,14 +17,17 @@ from __future__ import annotations
 
 import argparse
 import itertools
-import json
+import sys
 from pathlib import Path
 
 import numpy as np
 
 from momakitchen.data.config import GenerationConfig
+from momakitchen.data.manifest import load_manifest
 from momakitchen.data.shard import SceneShard
+from momakitchen.errors import MomaError
 from momakitchen.eval.msr import merge_msr
+from momakitchen.fileio import read_json_object
 from momakitchen.frames import base_to_world_xy
 from momakitchen.sim.labels import dense_map
 
@@ -36,7 +39,7 @@ def labels_at_picks(data: Path, msr: dict) -> tuple[dict[str, np.ndarray], dict[
     """Ground-truth label at every method's Top-1 point, and the grid trials' interpolation
     there without the standable mask, per record: two {method: (R,)} (NaN where the method
     chose no point)."""
-    manifest = json.loads((data / "manifest.json").read_text())
+    manifest = load_manifest(data)
     dense = GenerationConfig.from_dict(manifest["config"]).dense
     out = {m: np.full(len(msr["records"]), np.nan) for m in msr["methods"]}
     raw = {m: np.full(len(msr["records"]), np.nan) for m in msr["methods"]}
@@ -69,7 +72,7 @@ def main() -> None:
     ap.add_argument("--msr", type=Path, nargs="+", required=True)
     ap.add_argument("--versus", default=None, help="a method to compare the others with")
     args = ap.parse_args()
-    msr = merge_msr([(str(p), json.loads(p.read_text())) for p in args.msr])
+    msr = merge_msr([(str(p), read_json_object(p)) for p in args.msr])
     if args.versus is not None and args.versus not in msr["methods"]:
         ap.error(f"--versus {args.versus!r}: the MSR results have {list(msr['methods'])}")
     labels, raw = labels_at_picks(args.data, msr)
@@ -101,4 +104,8 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    try:
+        main()
+    except MomaError as exc:  # bad input: one line, exit status 2, as the CLI does
+        print(f"msr_labels.py: error: {exc}", file=sys.stderr)
+        sys.exit(2)

@@ -1,15 +1,16 @@
-"""Atomic file writes (a reader never sees a half-written file) and the checks of the
-directories that commands read."""
+"""Atomic file writes (a reader never sees a half-written file), the checks of the
+directories and files that commands read, and reading a JSON object with a clear error."""
 
 from __future__ import annotations
 
 import io
+import json
 import os
 import zipfile
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from momakitchen.errors import MomaError
 
@@ -78,3 +79,16 @@ def existing_file(path: str | os.PathLike, what: str) -> Path:
     if not path.is_file():
         raise MomaError(f"{what} {str(path)!r} is not a file")
     return path
+
+
+def read_json_object(path: str | os.PathLike) -> dict[str, Any]:
+    """The JSON object in ``path``; MomaError naming the file if it cannot be read, is not
+    JSON or holds something other than an object."""
+    path = Path(path)
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise MomaError(f"{path}: cannot read JSON ({exc})") from None
+    if not isinstance(data, dict):
+        raise MomaError(f"{path}: expected a JSON object")
+    return data

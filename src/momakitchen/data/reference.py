@@ -39,7 +39,7 @@ from momakitchen.data.episode import ConfigurationLabels, Episode
 from momakitchen.data.ply import read_ply, write_ply
 from momakitchen.data.shard import SCENES_DIR, SceneShard, list_shards, write_shard
 from momakitchen.errors import MomaError
-from momakitchen.fileio import existing_dir
+from momakitchen.fileio import existing_dir, read_json_object
 from momakitchen.frames import float3
 from momakitchen.robots.spec import get_robot_spec, robot_descriptor
 
@@ -156,16 +156,6 @@ def _export_episode(ep: Episode, folder: Path, image_module: Any) -> None:
     (folder / "camera.json").write_text(json.dumps(camera) + "\n")
 
 
-def _read_json(path: Path) -> dict[str, Any]:
-    try:
-        data = json.loads(path.read_text())
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise MomaError(f"{path}: cannot read JSON ({exc})") from None
-    if not isinstance(data, dict):
-        raise MomaError(f"{path}: expected a JSON object")
-    return data
-
-
 def _discover(src: Path) -> list[tuple[str, str | None]]:
     """(item, split) pairs from the split files, or every episode folder under rgbd/."""
     split_dir = src / "data_split"
@@ -265,7 +255,7 @@ def _episode_from_folder(
         if (folder / "semantic.png").is_file()
         else np.zeros((h, w), np.uint8)
     )
-    cam = _read_json(folder / "camera.json") if (folder / "camera.json").is_file() else {}
+    cam = read_json_object(folder / "camera.json") if (folder / "camera.json").is_file() else {}
     return Episode(
         scene_id=sid,
         config_index=c,
@@ -338,7 +328,7 @@ def import_reference(src: str | os.PathLike, out: str | os.PathLike) -> dict[str
                 raise MomaError(
                     f"{head}: no {TRIAL_INFO} (looked in info/{detail}/ and rgbd/{head}/)"
                 )
-            info = _read_json(info_path)
+            info = read_json_object(info_path)
             if "robot_name" not in info:
                 raise MomaError(f"{info_path}: no robot_name")
             robot = ROBOT_ALIASES.get(info["robot_name"], info["robot_name"])

@@ -31,7 +31,12 @@ import numpy as np
 
 from momakitchen.errors import MomaError
 from momakitchen.eval.msr import RATE_KEYS
-from momakitchen.fileio import atomic_write_bytes, atomic_write_text, existing_file
+from momakitchen.fileio import (
+    atomic_write_bytes,
+    atomic_write_text,
+    existing_file,
+    read_json_object,
+)
 
 MAP_COLUMNS = (
     ("rmse", "RMSE ↓"),
@@ -121,13 +126,6 @@ def run_metrics(run: Path, data: Path, out_dir: Path, progress: bool) -> dict[st
     return json.loads(text)  # as read back from a file (string keys), whatever its source
 
 
-def _read_json(path: Path, what: str) -> Any:
-    try:
-        return json.loads(Path(path).read_text())
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise MomaError(f"unreadable {what} {str(path)!r} ({exc})") from exc
-
-
 def run_benchmark(req: BenchmarkRequest, log: Callable[[str], None] = print) -> dict[str, Any]:
     """Compute and write the report (see the module docstring). Returns ``benchmark.json``'s
     content."""
@@ -154,7 +152,7 @@ def run_benchmark(req: BenchmarkRequest, log: Callable[[str], None] = print) -> 
         log(f"map metrics: {r}")
         metrics[r] = run_metrics(r, data, out / "metrics", req.progress)
     if req.msr:
-        msr = merge_msr([(str(p), _read_json(p, "MSR file")) for p in req.msr])
+        msr = merge_msr([(str(p), read_json_object(p)) for p in req.msr])
         missing = [m for m in (*models, *BASELINES) if m not in msr["methods"]]
         if missing:
             files = ", ".join(repr(str(p)) for p in req.msr)
