@@ -19,27 +19,17 @@ from pathlib import Path
 
 import numpy as np
 from scipy.stats import wilcoxon
-from torch.utils.data import DataLoader
-from tqdm.auto import tqdm
 
 from momakitchen.data import EpisodeDataset
-from momakitchen.data.batch import EpisodeCollator, episode_maps
 from momakitchen.errors import MomaError
-from momakitchen.models.base import PlanningCollator
-from momakitchen.models.inference import predict_batch
+from momakitchen.eval.evaluate import predicted_maps
 from momakitchen.train.checkpoint import load_checkpoint
 
 
 def argmax_labels(run_dir: Path, data: EpisodeDataset) -> dict[tuple[int, int, int], float]:
     """{(scene, configuration, episode): label at the predicted maximum} over ``data``."""
-    run = load_checkpoint(run_dir)
-    collate = PlanningCollator(
-        EpisodeCollator(run.config.num_global, None, run.config.seed), run.model.backbone
-    )
-    loader = DataLoader(data, batch_size=8, collate_fn=collate, num_workers=1)
     out = {}
-    for batch in tqdm(loader, desc=run_dir.name):
-        preds, gts = episode_maps(batch, predict_batch(run.model, batch))
+    for batch, preds, gts in predicted_maps(load_checkpoint(run_dir), data, progress=True):
         keys = zip(batch["scene_id"], batch["config_index"], batch["episode_index"], strict=True)
         for (sid, ci, ep), p, g in zip(keys, preds, gts, strict=True):
             out[int(sid), int(ci), int(ep)] = float(g[np.argmax(p)])

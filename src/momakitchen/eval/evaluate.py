@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
-from collections.abc import Sized
+from collections.abc import Iterator, Sized
 from pathlib import Path
 from typing import Any, cast
 
+import numpy as np
 from torch.utils.data import DataLoader, Dataset
 from tqdm.auto import tqdm
 
@@ -16,6 +17,7 @@ from momakitchen.metrics import breakdown, map_metrics
 from momakitchen.models.base import PlanningCollator
 from momakitchen.models.inference import predict_batch
 from momakitchen.train.checkpoint import (
+    LoadedRun,
     check_preprocessing,
     dataset_preprocessing,
     load_checkpoint,
@@ -48,24 +50,9 @@ def evaluate(
     if batch_size < 1:
         raise MomaError(f"batch_size must be >= 1, got {batch_size}")
     run = load_checkpoint(run_dir)
-    root = getattr(dataset, "root", None)
-    check_preprocessing(
-        run,
-        dataset_preprocessing(dataset),
-        f"dataset {str(root)!r}" if root is not None else "dataset",
-    )
-    collate = PlanningCollator(
-        EpisodeCollator(run.config.num_global, None, run.config.seed), run.model.backbone
-    )
-    loader = DataLoader(
-        dataset, batch_size=batch_size, shuffle=False, collate_fn=collate, num_workers=num_workers
-    )
     targets = _targets(getattr(dataset, "manifest", None))
     preds, gts, scenes, robots, configs = [], [], [], [], []
-    for batch in tqdm(loader, desc="evaluate", disable=not progress):
-        if "floor_label" not in batch:
-            raise MomaError("evaluation needs floor labels (floor_label) in every episode")
-        p, g = episode_maps(batch, predict_batch(run.model, batch))
+    for batch, p, g in predicted_maps(run, dataset, batch_size, num_workers, progress):
         preds += p
         gts += g
         scenes += list(batch["scene_id"])
@@ -82,6 +69,39 @@ def evaluate(
     if targets is not None:
         out["per_category"] = breakdown(preds, gts, [targets[c] for c in configs])
     return out
+
+
+def predicted_maps(
+    run: LoadedRun,
+    dataset: Dataset,
+    batch_size: int = 8,
+    num_workers: int = 1,
+    progress: bool = False,
+) -> Iterator[tuple[dict[str, Any], list[np.ndarray], list[np.ndarray]]]:
+    """The predicted and ground-truth map of every episode of ``dataset``, batch by batch,
+    as ``evaluate`` scores them (the run's cloud down-sampling; every floor point).
+
+    ``run`` comes from :func:`momakitchen.train.checkpoint.load_checkpoint`; a dataset
+    preprocessed otherwise than its training data is refused (MomaError). Yields
+    ``(batch, preds, labels)``: the collated batch and two lists of B arrays of shape
+    (nf_i,) over each episode's real floor points.
+    """
+    root = getattr(dataset, "root", None)
+    check_preprocessing(
+        run,
+        dataset_preprocessing(dataset),
+        f"dataset {str(root)!r}" if root is not None else "dataset",
+    )
+    collate = PlanningCollator(
+        EpisodeCollator(run.config.num_global, None, run.config.seed), run.model.backbone
+    )
+    loader = DataLoader(
+        dataset, batch_size=batch_size, shuffle=False, collate_fn=collate, num_workers=num_workers
+    )
+    for batch in tqdm(loader, desc="evaluate", disable=not progress):
+        if "floor_label" not in batch:
+            raise MomaError("evaluation needs floor labels (floor_label) in every episode")
+        yield (batch, *episode_maps(batch, predict_batch(run.model, batch)))
 
 
 def _targets(manifest: dict[str, Any] | None) -> dict[tuple[int, int], str] | None:
