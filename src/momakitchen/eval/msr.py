@@ -372,6 +372,7 @@ def merge_msr(parts: Sequence[tuple[str, dict[str, Any]]]) -> dict[str, Any]:
     merged = {k: v for k, v in first.items() if k != "seconds"}
     merged["methods"] = dict(first["methods"])
     merged["records"] = [{**r, "methods": dict(r["methods"])} for r in first["records"]]
+    keys = _record_keys(label0, first)
     for label, part in rest:
         if part["config"] != first["config"]:
             raise MomaError(
@@ -383,7 +384,7 @@ def merge_msr(parts: Sequence[tuple[str, dict[str, Any]]]) -> dict[str, Any]:
                 f"{label!r} is on dataset {part.get('dataset')!r}, {label0!r} on "
                 f"{first.get('dataset')!r}"
             )
-        if _record_keys(label, part) != _record_keys(label0, first):
+        if _record_keys(label, part) != keys:
             raise MomaError(f"{label!r} and {label0!r} cover different configurations or views")
         shared = sorted(set(part["methods"]) & set(merged["methods"]))
         if shared:

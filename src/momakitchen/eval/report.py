@@ -314,13 +314,8 @@ def paired_table(msr: dict, reference: str) -> list[str]:
     ]
 
 
-# Map metrics compared scene by scene, and whether lower is better.
-PAIRED_MAP_METRICS = (
-    ("pcc", "PCC", False),
-    ("sim", "SIM", False),
-    ("rmse", "RMSE", True),
-    ("ciou", "cIoU", False),
-)
+# Map metrics compared scene by scene (names and directions from MAP_COLUMNS).
+PAIRED_MAP_METRICS = ("pcc", "sim", "rmse", "ciou")
 
 
 def paired_map_table(reports: Sequence[dict]) -> list[str]:
@@ -331,18 +326,19 @@ def paired_map_table(reports: Sequence[dict]) -> list[str]:
 
     ref = reports[0]
     scenes = sorted(ref["per_scene"], key=int)
+    columns = dict(MAP_COLUMNS)
     head = [
         "against",
-        *(f"{label}: scenes {ref['model']} better, p" for _, label, _ in PAIRED_MAP_METRICS),
+        *(f"{columns[k].split()[0]}: scenes {ref['model']} better, p" for k in PAIRED_MAP_METRICS),
     ]
     lines = [_row(head), "|---" * len(head) + "|"]
     for other in reports[1:]:
         if sorted(other["per_scene"], key=int) != scenes:
             raise MomaError(f"runs {ref['model']} and {other['model']} cover different scenes")
         cells = [other["model"]]
-        for key, _, lower in PAIRED_MAP_METRICS:
+        for key in PAIRED_MAP_METRICS:
             d = np.array([ref["per_scene"][s][key] - other["per_scene"][s][key] for s in scenes])
-            d = -d if lower else d  # > 0: the first run is better
+            d = -d if columns[key].endswith("↓") else d  # > 0: the first run is better
             p = float(wilcoxon(d).pvalue) if np.any(d != 0) else 1.0
             cells.append(f"{int((d > 0).sum())} of {len(d)}, {p:.2g}")
         lines.append(_row(cells))
