@@ -144,6 +144,13 @@ def run_benchmark(req: BenchmarkRequest, log: Callable[[str], None] = print) -> 
         raise MomaError(f"--runs need one run per model, got models {models}")
     if req.ablations and "navaff" not in models:
         raise MomaError("the ablation table needs a navaff run among --runs")
+    msr = None
+    if req.msr:  # checked before any map metric is computed: bad files fail at once
+        msr = merge_msr([(str(p), read_json_object(p)) for p in req.msr])
+        missing = [m for m in (*models, *BASELINES) if m not in msr["methods"]]
+        if missing:
+            files = ", ".join(repr(str(p)) for p in req.msr)
+            raise MomaError(f"MSR files {files} lack methods {missing}")
     out.mkdir(parents=True, exist_ok=True)
 
     t0 = time.perf_counter()
@@ -151,13 +158,7 @@ def run_benchmark(req: BenchmarkRequest, log: Callable[[str], None] = print) -> 
     for r in every:
         log(f"map metrics: {r}")
         metrics[r] = run_metrics(r, data, out / "metrics", req.progress)
-    if req.msr:
-        msr = merge_msr([(str(p), read_json_object(p)) for p in req.msr])
-        missing = [m for m in (*models, *BASELINES) if m not in msr["methods"]]
-        if missing:
-            files = ", ".join(repr(str(p)) for p in req.msr)
-            raise MomaError(f"MSR files {files} lack methods {missing}")
-    else:
+    if msr is None:
         log("MSR: models and baselines in closed loop")
         msr = run_msr(
             data,
