@@ -15,9 +15,12 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.spatial import cKDTree
 from scipy.stats import wilcoxon
 
 from momakitchen.data import EpisodeDataset
@@ -26,13 +29,33 @@ from momakitchen.eval.evaluate import predicted_maps
 from momakitchen.train.checkpoint import load_checkpoint
 
 
-def argmax_labels(run_dir: Path, data: EpisodeDataset) -> dict[tuple[int, int, int], float]:
-    """{(scene, configuration, episode): label at the predicted maximum} over ``data``."""
-    out = {}
+def smoothed(xy: np.ndarray, values: np.ndarray, radius: float) -> np.ndarray:
+    """Each point's mean of ``values`` over the points within ``radius`` of it (itself too).
+
+    Shapes: ``xy`` (N, 2), ``values`` (N,) -> (N,)
+    """
+    n = len(xy)
+    pairs = cKDTree(xy).query_pairs(radius, output_type="ndarray")  # i < j, 0 distance too
+    rows = np.concatenate([pairs[:, 0], pairs[:, 1], np.arange(n)])
+    cols = np.concatenate([pairs[:, 1], pairs[:, 0], np.arange(n)])
+    near = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n)).tocsr()
+    return (near @ values) / np.asarray(near.sum(1)).ravel()
+
+
+def argmax_labels(
+    run_dir: Path, data: EpisodeDataset, radii: Sequence[float] = (0.0,)
+) -> dict[float, dict[tuple[int, int, int], float]]:
+    """{radius: {(scene, configuration, episode): label at the predicted maximum}} over
+    ``data``; for a radius > 0 (m), the maximum of the map smoothed over that radius."""
+    out: dict[float, dict[tuple[int, int, int], float]] = {r: {} for r in radii}
     for batch, preds, gts in predicted_maps(load_checkpoint(run_dir), data, progress=True):
         keys = zip(batch["scene_id"], batch["config_index"], batch["episode_index"], strict=True)
-        for (sid, ci, ep), p, g in zip(keys, preds, gts, strict=True):
-            out[int(sid), int(ci), int(ep)] = float(g[np.argmax(p)])
+        masks = batch["floor_mask"].numpy()
+        for i, ((sid, ci, ep), p, g) in enumerate(zip(keys, preds, gts, strict=True)):
+            xy = batch["floor_xyz"][i].numpy()[masks[i], :2]
+            for r in radii:
+                score = smoothed(xy, p, r) if r > 0 else p
+                out[r][int(sid), int(ci), int(ep)] = float(g[np.argmax(score)])
     return out
 
 
@@ -40,9 +63,16 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--data", type=Path, required=True)
     ap.add_argument("--checkpoint", type=Path, nargs="+", required=True)
+    ap.add_argument(
+        "--smooth", type=float, default=0.0, help="also pick on the map averaged within this (m)"
+    )
     args = ap.parse_args()
     data = EpisodeDataset(args.data, "test")
-    runs = {r.name: argmax_labels(r, data) for r in args.checkpoint}
+    radii = (0.0, args.smooth) if args.smooth > 0 else (0.0,)
+    runs = {}
+    for run in args.checkpoint:
+        for r, labels in argmax_labels(run, data, radii).items():
+            runs[run.name + (f" (smoothed {r:g} m)" if r else "")] = labels
     keys = sorted(next(iter(runs.values())))
     print("| run | views | mean label at the best point | label >= 0.6 |")
     print("| --- | ---: | ---: | ---: |")

@@ -50,3 +50,28 @@ def test_map_kl_hand_values_padding_and_empty_maps():
     plain = WeightedMSELoss(prob=0.0)
     gap = crit(pred, label, mask)["loss"] - plain(pred, label, mask)["loss"]
     assert gap.item() == pytest.approx(0.5 * expected, rel=1e-4)
+
+
+def test_peak_kl_hand_values_padding_and_empty_maps():
+    from momakitchen.models.loss import peak_kl
+
+    label = torch.tensor([[0.0, 1.0, 0.5, 0.0], [0.0, 0.0, 0.0, 0.0]])
+    mask = torch.tensor([[True, True, True, False], [True, True, True, True]])
+    pred = torch.tensor([[0.2, 0.3, 0.6, 9.0], [0.3, 0.1, 0.2, 0.4]])
+    t = 0.5
+    q = torch.softmax(torch.tensor([0.0, 1.0, 0.5]) / t, 0)
+    p = torch.softmax(torch.tensor([0.2, 0.3, 0.6]) / t, 0)
+    expected = float((q * (q.log() - p.log())).sum())
+    # The padded point (pred 9.0) and the all-zero episode 1 do not count.
+    assert peak_kl(pred, label, mask, t).item() == pytest.approx(expected, rel=1e-5)
+    assert peak_kl(label, label, mask, t).item() == pytest.approx(0.0, abs=1e-6)
+    assert peak_kl(pred, torch.zeros_like(label), mask).item() == 0.0
+    # Ranking the best point first lowers it: the term is about order at the top.
+    swapped = torch.tensor([[0.2, 0.6, 0.3, 9.0], [0.3, 0.1, 0.2, 0.4]])
+    assert peak_kl(swapped, label, mask, t) < peak_kl(pred, label, mask, t)
+    crit = WeightedMSELoss(prob=0.0, peak_weight=0.2, peak_temperature=t)
+    gap = crit(pred, label, mask)["loss"] - WeightedMSELoss(prob=0.0)(pred, label, mask)["loss"]
+    assert gap.item() == pytest.approx(0.2 * expected, rel=1e-5)
+    g = pred.clone().requires_grad_(True)
+    peak_kl(g, label, mask, t).backward()
+    assert torch.isfinite(g.grad).all() and g.grad[0, 3] == 0 and (g.grad[1] == 0).all()

@@ -57,6 +57,10 @@ def test_model_config_validation_names_the_bad_value():
         ModelConfig(num_tokens=64, global_npoints=(128, 32))
     with pytest.raises(MomaError, match=r"dropout.*1\.5"):
         ModelConfig(dropout=1.5)
+    with pytest.raises(MomaError, match=r"peak_temperature.*0\.0"):
+        ModelConfig(peak_temperature=0.0)
+    with pytest.raises(MomaError, match=r"peak_weight.*-1"):
+        ModelConfig(peak_weight=-1)
     cfg = ModelConfig(global_npoints=[512, 128])
     assert ModelConfig.from_dict(cfg.to_dict()) == cfg
 

@@ -110,7 +110,11 @@ class AffordanceModel(nn.Module):
         hidden = max(16, backbone.out_channels)
         self.head = AffordanceHead(backbone.out_channels, hidden, head_uses_robot, config.dropout)
         self.criterion = WeightedMSELoss(
-            config.lambda_zero, config.zero_weight_prob, kl_weight=config.kl_weight
+            config.lambda_zero,
+            config.zero_weight_prob,
+            kl_weight=config.kl_weight,
+            peak_weight=config.peak_weight,
+            peak_temperature=config.peak_temperature,
         )
 
     def forward(self, batch: dict[str, Any]) -> dict[str, torch.Tensor]:

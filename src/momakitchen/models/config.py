@@ -31,6 +31,11 @@ class ModelConfig:
         zero_weight_prob: probability that a training step applies ``lambda_zero`` (0.5).
         kl_weight: weight of a KL-divergence term between the normalised label and
             predicted maps added to the loss (0: the paper's weighted MSE alone).
+        peak_weight: weight of a listwise ranking term (the KL divergence of the
+            softmax of the labels from that of the prediction, temperature
+            ``peak_temperature``) that rewards ranking the map's best points first
+            (0: none).
+        peak_temperature: its temperature, in label units (0.1).
     """
 
     embed_dim: int = 512
@@ -47,6 +52,8 @@ class ModelConfig:
     lambda_zero: float = 0.7
     zero_weight_prob: float = 0.5
     kl_weight: float = 0.0
+    peak_weight: float = 0.0
+    peak_temperature: float = 0.1
 
     def __post_init__(self) -> None:
         def bad(name: str, rule: str) -> MomaError:
@@ -83,6 +90,10 @@ class ModelConfig:
             raise bad("zero_weight_prob", "must be in [0, 1]")
         if not 0.0 <= self.kl_weight <= 10.0:
             raise bad("kl_weight", "must be in [0, 10]")
+        if not 0.0 <= self.peak_weight <= 10.0:
+            raise bad("peak_weight", "must be in [0, 10]")
+        if not 0.01 <= self.peak_temperature <= 10.0:
+            raise bad("peak_temperature", "must be in [0.01, 10]")
 
     def ch(self, channels: int) -> int:
         """A reference MLP width scaled by ``width`` (at least 8)."""

@@ -26,12 +26,16 @@ class WeightedMSELoss(nn.Module):
         prob: float = 0.5,
         zero_eps: float = 1e-6,
         kl_weight: float = 0.0,
+        peak_weight: float = 0.0,
+        peak_temperature: float = 0.1,
     ) -> None:
         super().__init__()
         self.lambda_zero = float(lambda_zero)
         self.prob = float(prob)
         self.zero_eps = float(zero_eps)
         self.kl_weight = float(kl_weight)
+        self.peak_weight = float(peak_weight)
+        self.peak_temperature = float(peak_temperature)
 
     def forward(
         self, pred: torch.Tensor, label: torch.Tensor, mask: torch.Tensor
@@ -47,6 +51,8 @@ class WeightedMSELoss(nn.Module):
             loss = mse
         if self.kl_weight > 0:
             loss = loss + self.kl_weight * map_kl(pred, label, mask)
+        if self.peak_weight > 0:
+            loss = loss + self.peak_weight * peak_kl(pred, label, mask, self.peak_temperature)
         return {"loss": loss, "mse": mse.detach()}
 
 
@@ -68,3 +74,28 @@ def map_kl(pred: torch.Tensor, label: torch.Tensor, mask: torch.Tensor) -> torch
     gn, pk = g[keep] / total[keep].unsqueeze(1), p[keep]
     pn = pk / (pk.sum(1, keepdim=True) + eps)
     return (gn * (torch.log(gn + eps) - torch.log(pn + eps))).sum(1).mean()
+
+
+def peak_kl(
+    pred: torch.Tensor, label: torch.Tensor, mask: torch.Tensor, temperature: float = 0.1
+) -> torch.Tensor:
+    """Mean KL divergence of softmax(label / T) from softmax(pred / T) over each episode's
+    real points (a listwise ranking loss, ListNet's top-one form); episodes whose label is
+    all zero are left out (0 if every one is).
+
+    With T well below the label range the target puts nearly all its mass on the map's
+    best points, so the term rewards ranking those first: the point a robot is sent to
+    is the argmax, which the MSE and the linear KL (:func:`map_kl`) weigh like any other.
+    Zero when ``pred`` equals ``label``, like the other terms.
+
+    Shapes:
+        - ``pred``, ``label``: (B, N) float; ``mask``: (B, N) bool; output: scalar
+    """
+    keep = ((label > 0) & mask).any(1)
+    if not bool(keep.any()):
+        return pred.sum() * 0.0
+    m = mask[keep]
+    neg = torch.finfo(pred.dtype).min
+    logq = torch.log_softmax((label[keep] / temperature).masked_fill(~m, neg), 1)
+    logp = torch.log_softmax((pred[keep] / temperature).masked_fill(~m, neg), 1)
+    return (logq.exp() * (logq - logp)).masked_fill(~m, 0.0).sum(1).mean()

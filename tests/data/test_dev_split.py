@@ -1,0 +1,43 @@
+"""scripts/dev_split.py: a tuning view of a dataset that never holds its test scenes."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+from momakitchen.data import EpisodeDataset
+from momakitchen.data.manifest import load_manifest
+
+SCRIPT = Path(__file__).resolve().parents[2] / "scripts" / "dev_split.py"
+
+
+def test_dev_view_holds_out_train_scenes_only(small_dataset, tmp_path):
+    source = load_manifest(small_dataset)
+    out = tmp_path / "dev"
+    run = subprocess.run(
+        [sys.executable, SCRIPT, "--data", small_dataset, "--out", out, "--every", "2"],
+        capture_output=True,
+        text=True,
+    )
+    assert run.returncode == 0, run.stderr
+    dev = load_manifest(out)
+    train = source["splits"]["train"]
+    assert dev["splits"]["test"] == train[::2]
+    assert dev["splits"]["train"] == [s for s in train if s not in train[::2]]
+    assert not set(source["splits"]["test"]) & {int(k) for k in dev["shards"]}
+    held = EpisodeDataset(out, "test")
+    assert {key[1] for key in held.index} == set(train[::2])
+    assert held[0]["floor_label"].shape[0] > 0  # the shards are read through the link
+    assert dev["counts"]["total"]["episodes"] == source["counts"]["train"]["episodes"]
+
+
+def test_bad_every_is_one_line_and_exit_2(small_dataset, tmp_path):
+    run = subprocess.run(
+        [sys.executable, SCRIPT, "--data", small_dataset, "--out", tmp_path / "d", "--every", "1"],
+        capture_output=True,
+        text=True,
+    )
+    assert run.returncode == 2
+    assert run.stderr.strip() == "dev_split.py: error: --every must be >= 2, got 1"
+    assert not (tmp_path / "d").exists()
