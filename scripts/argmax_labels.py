@@ -19,34 +19,21 @@ from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
-from scipy.sparse import coo_matrix
-from scipy.spatial import cKDTree
 from scipy.stats import wilcoxon
 
 from momakitchen.data import EpisodeDataset
 from momakitchen.errors import MomaError
 from momakitchen.eval.evaluate import predicted_maps
+from momakitchen.models.inference import local_mean
 from momakitchen.train.checkpoint import load_checkpoint
-
-
-def smoothed(xy: np.ndarray, values: np.ndarray, radius: float) -> np.ndarray:
-    """Each point's mean of ``values`` over the points within ``radius`` of it (itself too).
-
-    Shapes: ``xy`` (N, 2), ``values`` (N,) -> (N,)
-    """
-    n = len(xy)
-    pairs = cKDTree(xy).query_pairs(radius, output_type="ndarray")  # i < j, 0 distance too
-    rows = np.concatenate([pairs[:, 0], pairs[:, 1], np.arange(n)])
-    cols = np.concatenate([pairs[:, 1], pairs[:, 0], np.arange(n)])
-    near = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n)).tocsr()
-    return (near @ values) / np.asarray(near.sum(1)).ravel()
 
 
 def argmax_labels(
     run_dir: Path, data: EpisodeDataset, radii: Sequence[float] = (0.0,)
 ) -> dict[float, dict[tuple[int, int, int], float]]:
     """{radius: {(scene, configuration, episode): label at the predicted maximum}} over
-    ``data``; for a radius > 0 (m), the maximum of the map smoothed over that radius."""
+    ``data``; for a radius > 0 (m), the maximum of the map averaged over that radius (the
+    ranking `msr` and `predict` use with their pick radius)."""
     out: dict[float, dict[tuple[int, int, int], float]] = {r: {} for r in radii}
     for batch, preds, gts in predicted_maps(load_checkpoint(run_dir), data, progress=True):
         keys = zip(batch["scene_id"], batch["config_index"], batch["episode_index"], strict=True)
@@ -54,7 +41,7 @@ def argmax_labels(
         for i, ((sid, ci, ep), p, g) in enumerate(zip(keys, preds, gts, strict=True)):
             xy = batch["floor_xyz"][i].numpy()[masks[i], :2]
             for r in radii:
-                score = smoothed(xy, p, r) if r > 0 else p
+                score = local_mean(xy, p, r) if r > 0 else p
                 out[r][int(sid), int(ci), int(ep)] = float(g[np.argmax(score)])
     return out
 
@@ -64,11 +51,15 @@ def main() -> None:
     ap.add_argument("--data", type=Path, required=True)
     ap.add_argument("--checkpoint", type=Path, nargs="+", required=True)
     ap.add_argument(
-        "--smooth", type=float, default=0.0, help="also pick on the map averaged within this (m)"
+        "--smooth",
+        type=float,
+        nargs="*",
+        default=[],
+        help="also pick on the map averaged over each of these radii (m)",
     )
     args = ap.parse_args()
     data = EpisodeDataset(args.data, "test")
-    radii = (0.0, args.smooth) if args.smooth > 0 else (0.0,)
+    radii = (0.0, *(r for r in args.smooth if r > 0))
     runs = {}
     for run in args.checkpoint:
         for r, labels in argmax_labels(run, data, radii).items():

@@ -35,7 +35,7 @@ def _inputs(ep):
 def test_predict_gives_evaluates_map_on_a_dataset_episode(real_view, episode, tiny_run):
     from momakitchen.data import EpisodeDataset
     from momakitchen.data.batch import EpisodeCollator
-    from momakitchen.models.inference import predict_batch
+    from momakitchen.models.inference import PICK_RADIUS, local_mean, predict_batch
     from momakitchen.train import load_checkpoint
 
     run = load_checkpoint(tiny_run)
@@ -57,7 +57,21 @@ def test_predict_gives_evaluates_map_on_a_dataset_episode(real_view, episode, ti
     np.testing.assert_array_equal(pred.floor_xyz.astype(np.float32), ep.floor_xyz)
     np.testing.assert_allclose(pred.affordance, expected, rtol=0, atol=1e-6)
     assert pred.poses.shape == (5, 3) and (pred.uncertainty >= 0).all()
-    assert pred.pose_scores[0] == pytest.approx(pred.affordance.max())
+    # The first pose: the best point of the map averaged over the pick radius (0: the raw
+    # map's best point).
+    smooth = local_mean(pred.floor_xyz[:, :2], pred.affordance, PICK_RADIUS)
+    assert np.allclose(pred.poses[0, :2], pred.floor_xyz[np.argmax(smooth), :2])
+    assert pred.pose_scores[0] == pred.affordance[np.argmax(smooth)]
+    raw = momakitchen.predict(
+        **_inputs(ep),
+        rgb=ep.rgb,
+        obstacle_masks=[ep.semantic == OBSTACLE],
+        checkpoint=tiny_run,
+        episode_id=(3, 0, ep.episode_index),
+        pick_radius=0.0,
+        mc_samples=0,
+    )
+    assert raw.pose_scores[0] == pytest.approx(pred.affordance.max())
     # the yaw faces the target centroid
     dx, dy = pred.target_xyz[:2] - pred.poses[0, :2]
     assert np.cos(pred.poses[0, 2] - np.arctan2(dy, dx)) == pytest.approx(1.0)
@@ -94,6 +108,7 @@ def test_predict_bad_input(episode, tiny_run):
         "not a rigid transform": dict(camera_to_base=ep.camera_to_base * 2),
         "unknown robot": dict(robot="r2d2"),
         "fx, fy, cx, cy": dict(intrinsics=[1.0, 2.0]),
+        r"pick_radius must be in \[0, 1\] m, got 2": dict(pick_radius=2.0),
     }
     for message, change in cases.items():
         with pytest.raises(MomaError, match=message):

@@ -10,7 +10,7 @@ import pytest
 from momakitchen.errors import MomaError
 from momakitchen.eval.msr import MsrConfig, merge_msr, run_msr
 from momakitchen.frames import base_to_world_xy, world_to_base
-from momakitchen.models.inference import select_points
+from momakitchen.models.inference import local_mean, select_points
 from momakitchen.sim.trials import TrialRunner
 
 
@@ -21,6 +21,29 @@ def test_select_points_orders_by_score_and_spreads():
     assert select_points(xy, scores, 5, 0.0) == [0, 1, 2, 4, 3]
     assert select_points(xy, scores, 3, 0.2, accept=lambda i: i != 2) == [0, 4, 3]
     assert select_points(xy, scores, 10, 0.6) == [0, 4]  # fewer than k spread points exist
+
+
+def test_local_mean_hand_values():
+    xy = np.array([[0.0, 0.0], [0.05, 0.0], [1.0, 0.0], [1.0, 0.0], [3.0, 0.0]])
+    values = np.array([1.0, 0.0, 3.0, 5.0, 2.0])
+    # 0 and 1 are within 0.1 m of each other; 2 and 3 coincide (distance 0 counts); 4 alone.
+    np.testing.assert_allclose(local_mean(xy, values, 0.1), [0.5, 0.5, 4.0, 4.0, 2.0])
+    np.testing.assert_allclose(local_mean(xy, values, 1e-9), [1.0, 0.0, 4.0, 4.0, 2.0])
+
+
+def test_pick_radius_prefers_a_region_to_a_lone_peak():
+    # A spike at x = 0 among low points, and a plateau around x = 1 (rim 0.8, centre 0.9),
+    # on a 5 cm line of floor points.
+    xs = np.r_[-0.05, 0.0, 0.05, np.arange(0.8, 1.21, 0.05)]
+    xy = np.stack([xs, np.zeros_like(xs)], 1)
+    scores = np.r_[0.1, 1.0, 0.1, 0.8, 0.85, 0.85, 0.9, 0.9, 0.9, 0.85, 0.85, 0.8]
+    assert select_points(xy, scores, 1, 0.2) == [1]
+    best = select_points(xy, scores, 1, 0.2, radius=0.1)[0]
+    assert xs[best] == pytest.approx(1.0, abs=0.06)  # the plateau's centre, not its rim
+    # Then the plateau's rims (local means 0.825), then the spike's spot (0.4 on all three).
+    assert select_points(xy, scores, 4, 0.2, radius=0.1)[1:] == [3, 11, 0]
+    with pytest.raises(MomaError, match=r"pick_radius.*1\.5"):
+        MsrConfig(pick_radius=1.5)
 
 
 def test_base_to_world_inverts_world_to_base():
@@ -79,10 +102,11 @@ def test_msr_is_deterministic_and_oracle_beats_random(real_dataset, tiny_run):
     assert a["configurations"] == 2
     m = a["methods"]
     assert list(m) == ["navaff", *methods]
+    assert a["config"]["pick_radius"] == 0.1
     for rec in a["records"]:  # the model's own view of its chosen points
         chosen = rec["methods"]["navaff"]
         assert len(chosen["affordance"]) == len(chosen["uncertainty"]) == len(chosen["points"])
-        assert chosen["affordance"] == sorted(chosen["affordance"], reverse=True)
+        assert all(0.0 <= v <= 1.0 for v in chosen["affordance"])
     assert m["oracle"]["topk"] >= m["random"]["topk"]
     assert set(m["oracle"]["per_robot"]) == {r["robot"] for r in a["records"]}
     for rec in a["records"]:

@@ -12,7 +12,7 @@ import argparse
 import json
 import time
 
-from momakitchen.cli.common import non_negative_int, output_file, positive_int
+from momakitchen.cli.common import non_negative_float, non_negative_int, output_file, positive_int
 from momakitchen.fileio import atomic_write_text, existing_dir
 
 # momakitchen.eval.msr's BASELINES and SPLITS, spelled out so that building the parser
@@ -48,6 +48,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         default=0.2,
         help="minimum distance between the Top-k points (m, 0.2)",
     )
+    ms.add_argument(
+        "--pick-radius",
+        type=non_negative_float,
+        default=None,
+        help="models and the oracle rank points by their map averaged over this radius "
+        "(m, 0.1; 0: the raw map)",
+    )
     ms.add_argument("--seed", type=non_negative_int, default=0)
     ms.add_argument(
         "--max-configs",
@@ -65,12 +72,14 @@ def run(args: argparse.Namespace) -> int:
     for run_dir in args.checkpoint:
         existing_dir(run_dir, "checkpoint directory")
     out = output_file(args.json)  # an unwritable --json fails now, not after the trials
+    radius = {} if args.pick_radius is None else {"pick_radius": args.pick_radius}
     config = MsrConfig(
         top_k=args.top_k,
         min_spread=args.min_spread,
         seed=args.seed,
         split=args.split,
         max_configs=args.max_configs,
+        **radius,
     )
     t0 = time.perf_counter()
     result = run_msr(args.data, args.checkpoint, args.method, config, progress=not args.quiet)

@@ -16,6 +16,7 @@ import time
 
 from momakitchen.cli.common import (
     add_robot_yaml,
+    non_negative_float,
     non_negative_int,
     output_dir,
     planned_output_dir,
@@ -54,6 +55,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--checkpoint", default=None, help="run directory (default: bundled model)")
     p.add_argument("--top-k", type=positive_int, default=5)
+    p.add_argument(
+        "--pick-radius",
+        type=non_negative_float,
+        default=None,
+        help="rank the poses by the map averaged over this radius (m, 0.1; 0: the raw map)",
+    )
     p.add_argument(
         "--mc-samples",
         type=non_negative_int,
@@ -99,6 +106,7 @@ def run(args: argparse.Namespace) -> int:
         checkpoint=args.checkpoint,
         top_k=args.top_k,
         mc_samples=args.mc_samples,
+        **({} if args.pick_radius is None else {"pick_radius": args.pick_radius}),
     )
     seconds = time.perf_counter() - t0
     fx, fy, cx, cy = args.intrinsics  # argparse nargs=4

@@ -25,7 +25,7 @@ import numpy as np
 
 from momakitchen.errors import MomaError
 from momakitchen.fileio import existing_file
-from momakitchen.models.inference import MC_SAMPLES, Prediction
+from momakitchen.models.inference import MC_SAMPLES, PICK_RADIUS, Prediction
 
 
 # ------------------------------------------------------------------------------ inputs
@@ -179,6 +179,7 @@ def predict(
     checkpoint: str | os.PathLike | Any | None = None,
     top_k: int = 5,
     min_spread: float = 0.2,
+    pick_radius: float = PICK_RADIUS,
     mc_samples: int = MC_SAMPLES,
     episode_id: tuple[int, int, int] | None = None,
     threads: int | None = 1,
@@ -199,6 +200,8 @@ def predict(
         checkpoint: a run directory (``momakitchen train``) or a loaded run; default: the
             bundled model.
         top_k, min_spread: number of poses and their minimum spacing (m).
+        pick_radius: poses are ranked by the map averaged over this radius (m; 0: the
+            raw map), which keeps them off the rim of a high region.
         mc_samples: MC-dropout passes for the uncertainty (0: none).
         episode_id: ``(scene_id, config_index, episode_index)`` of a dataset episode, which
             seeds the cloud down-sampling exactly as ``evaluate`` does; None for live frames.
@@ -215,6 +218,8 @@ def predict(
         raise MomaError(f"top_k must be in [1, 50], got {top_k}")
     if mc_samples < 0:
         raise MomaError(f"mc_samples must be >= 0, got {mc_samples}")
+    if not 0.0 <= pick_radius <= 1.0:
+        raise MomaError(f"pick_radius must be in [0, 1] m, got {pick_radius}")
     if threads is not None and threads < 1:
         raise MomaError(f"threads must be >= 1 or None, got {threads}")
     d = load_depth(depth)
@@ -269,6 +274,7 @@ def predict(
         descriptor,
         top_k=top_k,
         min_spread=min_spread,
+        pick_radius=pick_radius,
         mc_samples=mc_samples,
         episode_id=episode_id,
         threads=threads,

@@ -30,7 +30,7 @@ from momakitchen.data.shard import SceneShard
 from momakitchen.data.torch_dataset import CLOUD_FIELDS, episode_sample
 from momakitchen.errors import MomaError
 from momakitchen.frames import base_to_world_xy
-from momakitchen.models.inference import MC_SAMPLES, run_model, select_points
+from momakitchen.models.inference import MC_SAMPLES, PICK_RADIUS, run_model, select_points
 
 BASELINES = ("random", "nearest", "oracle")
 SPLITS = ("test", "train", "all")
@@ -43,6 +43,8 @@ class MsrConfig:
     Attributes:
         top_k: points tried per method and configuration (Top-k MSR).
         min_spread: minimum distance (m) between the Top-k points.
+        pick_radius: models and the oracle rank points by their map averaged over this
+            radius (m; 0: the raw map), as ``predict`` does.
         seed: seeds the episode chosen per configuration and the random baseline.
         split: configurations of which split (``test``, ``train`` or ``all``).
         max_configs: evaluate only the first this many configurations (0: all).
@@ -50,6 +52,7 @@ class MsrConfig:
 
     top_k: int = 5
     min_spread: float = 0.2
+    pick_radius: float = PICK_RADIUS
     seed: int = 0
     split: str = "test"
     max_configs: int = 0
@@ -59,6 +62,8 @@ class MsrConfig:
             raise MomaError(f"MsrConfig.top_k must be in [1, 20], got {self.top_k!r}")
         if not 0.0 <= self.min_spread <= 2.0:
             raise MomaError(f"MsrConfig.min_spread must be in [0, 2] m, got {self.min_spread!r}")
+        if not 0.0 <= self.pick_radius <= 1.0:
+            raise MomaError(f"MsrConfig.pick_radius must be in [0, 1] m, got {self.pick_radius!r}")
         if self.seed < 0:
             raise MomaError(f"MsrConfig.seed must be >= 0, got {self.seed!r}")
         if self.split not in SPLITS:
@@ -150,20 +155,25 @@ def run_configuration(
         trials: dict[int, Any] = {}
         try:
             for name in names:
-                accept, std = None, None
+                # Maps (models, oracle) are ranked by their local mean; the baselines'
+                # scores are not maps.
+                accept, std, radius = None, None, config.pick_radius
                 if name == "oracle":
                     scores = episode.floor_label.astype(np.float64)
                 elif name == "random":
                     scores = np.random.default_rng([config.seed, sid, ci, 1]).random(len(dist))
+                    radius = 0.0
                     if (dist <= reach).any():
                         scores = np.where(dist <= reach, scores, -1.0)
                 elif name == "nearest":
-                    scores = -dist
+                    scores, radius = -dist, 0.0
                     accept = _base_free(runner, world_xy)
                 else:
                     arrays = {f: getattr(episode, f) for f in CLOUD_FIELDS}
                     scores, std = models[name](episode_sample(arrays, sid, ci, ep, cfg.robot))
-                chosen = select_points(floor_xy, scores, config.top_k, config.min_spread, accept)
+                chosen = select_points(
+                    floor_xy, scores, config.top_k, config.min_spread, accept, radius
+                )
                 for i in chosen:
                     if i not in trials:
                         trials[i] = runner.run(*world_xy[i])
@@ -294,6 +304,7 @@ def run_msr(
         "config": {
             "top_k": config.top_k,
             "min_spread": config.min_spread,
+            "pick_radius": config.pick_radius,
             "seed": config.seed,
             "split": config.split,
             "max_configs": config.max_configs,
