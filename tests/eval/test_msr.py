@@ -102,11 +102,11 @@ def test_msr_is_deterministic_and_oracle_beats_random(real_dataset, tiny_run):
     assert a["configurations"] == 2
     m = a["methods"]
     assert list(m) == ["navaff", *methods]
-    assert a["config"]["pick_radius"] == 0.1
+    assert a["config"]["pick_radius"] == 0.0
     for rec in a["records"]:  # the model's own view of its chosen points
         chosen = rec["methods"]["navaff"]
         assert len(chosen["affordance"]) == len(chosen["uncertainty"]) == len(chosen["points"])
-        assert all(0.0 <= v <= 1.0 for v in chosen["affordance"])
+        assert chosen["affordance"] == sorted(chosen["affordance"], reverse=True)
     assert m["oracle"]["topk"] >= m["random"]["topk"]
     assert set(m["oracle"]["per_robot"]) == {r["robot"] for r in a["records"]}
     for rec in a["records"]:
@@ -212,7 +212,7 @@ def test_msr_checks_every_shard_before_the_first_configuration(
 
 
 def test_merge_msr_refuses_parts_that_do_not_fit():
-    def part(methods, seed=0, scenes=(1, 2)):
+    def part(methods, seed=0, scenes=(1, 2), **settings):
         recs = [
             {
                 "scene_id": sid,
@@ -227,7 +227,7 @@ def test_merge_msr_refuses_parts_that_do_not_fit():
         ]
         return {
             "dataset": "/d",
-            "config": {"seed": seed},
+            "config": {"seed": seed, **settings},
             "configurations": len(recs),
             "methods": {m: {"top1": 1.0} for m in methods},
             "records": recs,
@@ -236,8 +236,13 @@ def test_merge_msr_refuses_parts_that_do_not_fit():
     merged = merge_msr([("a", part(["navaff"])), ("b", part(["oracle", "random"]))])
     assert list(merged["methods"]) == ["navaff", "oracle", "random"]
     assert all(set(r["methods"]) == {"navaff", "oracle", "random"} for r in merged["records"])
+    # A file from before the pick radius existed ranked by the raw map: radius 0.
+    old = merge_msr([("a", part(["navaff"])), ("b", part(["oracle"], pick_radius=0.0))])
+    assert old["config"] == {"seed": 0, "pick_radius": 0.0}
     for parts, message in (
         ([("a", part(["navaff"])), ("b", part(["oracle"], seed=1))], "settings of 'b'"),
+        ([("a", part(["navaff"])), ("b", part(["oracle"], pick_radius=0.1))], "settings of"),
+        ([("a", part(["navaff"])), ("b", {**part(["oracle"]), "config": 3})], "not a `mom"),
         ([("a", part(["navaff"])), ("b", part(["oracle"], scenes=(1, 3)))], "different config"),
         ([("a", part(["navaff"])), ("b", part(["navaff", "oracle"]))], r"\['navaff'\]"),
         ([("a", part(["navaff"])), ("b", [])], "'b' is not a `momakitchen msr` result"),

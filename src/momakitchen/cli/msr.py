@@ -53,7 +53,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         type=non_negative_float,
         default=None,
         help="models and the oracle rank points by their map averaged over this radius "
-        "(m, 0.1; 0: the raw map)",
+        "(m; default 0: the raw map)",
     )
     ms.add_argument("--seed", type=non_negative_int, default=0)
     ms.add_argument(

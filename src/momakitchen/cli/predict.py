@@ -59,7 +59,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "--pick-radius",
         type=non_negative_float,
         default=None,
-        help="rank the poses by the map averaged over this radius (m, 0.1; 0: the raw map)",
+        help="rank the poses by the map averaged over this radius (m; default 0: the raw map)",
     )
     p.add_argument(
         "--mc-samples",

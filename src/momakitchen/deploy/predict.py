@@ -200,8 +200,8 @@ def predict(
         checkpoint: a run directory (``momakitchen train``) or a loaded run; default: the
             bundled model.
         top_k, min_spread: number of poses and their minimum spacing (m).
-        pick_radius: poses are ranked by the map averaged over this radius (m; 0: the
-            raw map), which keeps them off the rim of a high region.
+        pick_radius: rank the poses by the map averaged over this radius (m; 0, the
+            default: the raw map).
         mc_samples: MC-dropout passes for the uncertainty (0: none).
         episode_id: ``(scene_id, config_index, episode_index)`` of a dataset episode, which
             seeds the cloud down-sampling exactly as ``evaluate`` does; None for live frames.

@@ -44,7 +44,7 @@ class MsrConfig:
         top_k: points tried per method and configuration (Top-k MSR).
         min_spread: minimum distance (m) between the Top-k points.
         pick_radius: models and the oracle rank points by their map averaged over this
-            radius (m; 0: the raw map), as ``predict`` does.
+            radius (m; 0, the default: the raw map), as ``predict`` does.
         seed: seeds the episode chosen per configuration and the random baseline.
         split: configurations of which split (``test``, ``train`` or ``all``).
         max_configs: evaluate only the first this many configurations (0: all).
@@ -358,6 +358,12 @@ def _record_keys(label: str, result: dict[str, Any]) -> list[tuple]:
         raise MomaError(f"{label!r} has a malformed record: {exc!r}") from exc
 
 
+def _settings(result: dict[str, Any]) -> dict[str, Any]:
+    """An MSR result's settings; files written before ``pick_radius`` existed ranked by the
+    raw map, i.e. radius 0."""
+    return {"pick_radius": 0.0, **result["config"]}
+
+
 def merge_msr(parts: Sequence[tuple[str, dict[str, Any]]]) -> dict[str, Any]:
     """One MSR result from several runs over the same configurations, each with its own
     methods (e.g. one ``momakitchen msr`` per trained model, kept beside its run, and one
@@ -378,17 +384,22 @@ def merge_msr(parts: Sequence[tuple[str, dict[str, Any]]]) -> dict[str, Any]:
         raise MomaError("no MSR results to merge")
     (label0, first), *rest = parts
     for label, part in parts:
-        if not isinstance(part, dict) or not {"config", "methods", "records"} <= set(part):
+        if (
+            not isinstance(part, dict)
+            or not {"config", "methods", "records"} <= set(part)
+            or not isinstance(part["config"], dict)
+        ):
             raise MomaError(f"{label!r} is not a `momakitchen msr` result")
     merged = {k: v for k, v in first.items() if k != "seconds"}
+    merged["config"] = _settings(first)
     merged["methods"] = dict(first["methods"])
     merged["records"] = [{**r, "methods": dict(r["methods"])} for r in first["records"]]
     keys = _record_keys(label0, first)
     for label, part in rest:
-        if part["config"] != first["config"]:
+        if _settings(part) != _settings(first):
             raise MomaError(
-                f"MSR settings of {label!r} ({part['config']}) differ from {label0!r} "
-                f"({first['config']})"
+                f"MSR settings of {label!r} ({_settings(part)}) differ from {label0!r} "
+                f"({_settings(first)})"
             )
         if Path(str(part.get("dataset"))).resolve() != Path(str(first.get("dataset"))).resolve():
             raise MomaError(
