@@ -9,6 +9,8 @@ cloud down-sampling); its best point is MSR's Top-1 pick on that view. Prints, p
 mean label there and the share of views where it is >= 0.6 (where 95-100 % of closed-loop
 trials succeed, docs/RESULTS.md), and the first run against each other paired by test scene
 (Wilcoxon signed-rank test of the per-scene means: views of a scene are not independent).
+``--smooth R ...`` adds, per run and radius, the best point of the map averaged over R
+metres (MSR's and predict's ``--pick-radius R``).
 """
 
 from __future__ import annotations

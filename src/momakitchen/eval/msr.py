@@ -155,7 +155,7 @@ def run_configuration(
         trials: dict[int, Any] = {}
         try:
             for name in names:
-                # Maps (models, oracle) are ranked by their local mean; the baselines'
+                # Only maps (models, oracle) take the pick radius: random's and nearest's
                 # scores are not maps.
                 accept, std, radius = None, None, config.pick_radius
                 if name == "oracle":
