@@ -391,15 +391,14 @@ def merge_msr(parts: Sequence[tuple[str, dict[str, Any]]]) -> dict[str, Any]:
         ):
             raise MomaError(f"{label!r} is not a `momakitchen msr` result")
     merged = {k: v for k, v in first.items() if k != "seconds"}
-    merged["config"] = _settings(first)
+    merged["config"] = settings0 = _settings(first)
     merged["methods"] = dict(first["methods"])
     merged["records"] = [{**r, "methods": dict(r["methods"])} for r in first["records"]]
     keys = _record_keys(label0, first)
     for label, part in rest:
-        if _settings(part) != _settings(first):
+        if (settings := _settings(part)) != settings0:
             raise MomaError(
-                f"MSR settings of {label!r} ({_settings(part)}) differ from {label0!r} "
-                f"({_settings(first)})"
+                f"MSR settings of {label!r} ({settings}) differ from {label0!r} ({settings0})"
             )
         if Path(str(part.get("dataset"))).resolve() != Path(str(first.get("dataset"))).resolve():
             raise MomaError(
