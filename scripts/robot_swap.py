@@ -1,0 +1,104 @@
+"""How much each model's map depends on the robot: every test view scored once with its own
+robot's descriptor and once with each other robot's.
+
+    python scripts/robot_swap.py --data ~/mk-data/gt2-300 --every 20 \
+        --checkpoint ~/mk-runs/navaff ~/mk-runs/pointnet2
+
+Per run and robot, prints the PCC of the map with the label and the ground-truth label at
+the map's best point (MSR's Top-1 pick), with the right descriptor and averaged over the
+five wrong ones, and how far the map moves (mean |difference| over the mean of the map).
+A model that ignored the robot would score the same either way.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+import torch
+from torch.utils.data import DataLoader, Subset
+
+from momakitchen.data import EpisodeDataset
+from momakitchen.data.batch import EpisodeCollator, episode_maps
+from momakitchen.errors import MomaError
+from momakitchen.models.base import PlanningCollator
+from momakitchen.models.inference import predict_batch
+from momakitchen.robots.spec import ROBOTS, robot_descriptor
+from momakitchen.train.checkpoint import load_checkpoint
+
+
+def pcc(a: np.ndarray, b: np.ndarray) -> float:
+    """Pearson correlation; 0 when either map is flat (as the map metrics count it)."""
+    return 0.0 if a.std() == 0 or b.std() == 0 else float(np.corrcoef(a, b)[0, 1])
+
+
+def swap_rows(run_dir: Path, data: Subset) -> list[tuple[str, float, float, float, float, float]]:
+    """Per view: (robot, PCC right, PCC wrong, relative change, label at max right, wrong)."""
+    run = load_checkpoint(run_dir)
+    descs = {
+        n: torch.tensor(robot_descriptor(ROBOTS.get_entry(n)), dtype=torch.float32)
+        for n in ROBOTS.names()
+    }
+    collate = PlanningCollator(
+        EpisodeCollator(run.config.num_global, None, run.config.seed), run.model.backbone
+    )
+    rows = []
+    for batch in DataLoader(data, batch_size=8, collate_fn=collate):
+        own = batch["robot"]
+        preds, labels = episode_maps(batch, predict_batch(run.model, batch))
+        swapped = {}
+        for name, d in descs.items():
+            other = {**batch, "robot": d.expand_as(own).clone()}
+            swapped[name] = episode_maps(other, predict_batch(run.model, other))[0]
+        for i, (p, g) in enumerate(zip(preds, labels, strict=True)):
+            robot = next(n for n, d in descs.items() if torch.allclose(d, own[i]))
+            wrong = [swapped[n][i] for n in descs if n != robot]
+            rows.append(
+                (
+                    robot,
+                    pcc(p, g),
+                    float(np.mean([pcc(w, g) for w in wrong])),
+                    float(np.mean([np.abs(w - p).mean() for w in wrong]) / max(p.mean(), 1e-6)),
+                    float(g[np.argmax(p)]),
+                    float(np.mean([g[np.argmax(w)] for w in wrong])),
+                )
+            )
+    return rows
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--data", type=Path, required=True)
+    ap.add_argument("--checkpoint", type=Path, nargs="+", required=True)
+    ap.add_argument("--every", type=int, default=20, help="score every N-th test view")
+    args = ap.parse_args()
+    if args.every < 1:
+        raise MomaError(f"--every must be >= 1, got {args.every}")
+    torch.set_num_threads(1)
+    data = EpisodeDataset(args.data, "test")
+    subset = Subset(data, range(0, len(data), args.every))
+    print(
+        "| run | robot | views | PCC, own robot | PCC, other robots | map change | "
+        "label at best point, own | other |"
+    )
+    print("| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: |")
+    for run in args.checkpoint:
+        rows = swap_rows(run, subset)
+        for robot in ("all", *ROBOTS.names()):
+            sel = np.array([r[1:] for r in rows if robot in ("all", r[0])], dtype=float)
+            if len(sel):
+                m = sel.mean(0)
+                print(
+                    f"| {run.name} | {robot} | {len(sel)} | {m[0]:.3f} | {m[1]:.3f} | "
+                    f"{m[2]:.2f} | {m[3]:.3f} | {m[4]:.3f} |"
+                )
+
+
+if __name__ == "__main__":
+    try:
+        main()
+    except MomaError as exc:  # bad input: one line, exit status 2, as the CLI does
+        print(f"robot_swap.py: error: {exc}", file=sys.stderr)
+        sys.exit(2)
