@@ -6,6 +6,8 @@
 #   DATA=/big/disk/mk RUNS=/big/disk/runs bash scripts/results.sh
 #   DATA=/tmp/mk SCENES=4 FIRST=0 TRAIN_OPTS="--max-steps 2" RUNS=/tmp/runs bash scripts/results.sh
 #                                      # a smoke run of the whole pipeline in minutes
+#   PARALLEL=1 bash scripts/results.sh # one run at a time with every core (default: two
+#                                      # runs side by side, one thread each)
 #
 # Every step resumes where it stopped: generation skips finished scenes, training continues
 # after its last finished epoch, and finished evaluations and MSR are kept. Run it again
@@ -49,11 +51,16 @@ RUN_LIST=(
   "lambda-1.0 --model navaff --lambda-zero 1.0"
 )
 MAIN=(navaff pointnet2 votenet h3dnet)  # compared in closed loop
-for spec in "${RUN_LIST[@]}"; do
-  read -r name opts <<<"$spec"
+# Runs at a time. Two one-thread trainings side by side train about a fifth more samples
+# per second in total than one two-thread training on a 2-core machine.
+PARALLEL=${PARALLEL:-2}
+
+run_one() {  # name, then train options: train, evaluate, MSR (MAIN only); each resumes
+  local name=$1
+  shift
   stamp "train $name"
   # shellcheck disable=SC2086  # the options are words
-  momakitchen train --data "$DATA" --out "$RUNS/$name" --resume --quiet $opts $TRAIN_OPTS
+  momakitchen train --data "$DATA" --out "$RUNS/$name" --resume --quiet "$@" $TRAIN_OPTS
   if [[ ! -f "$RUNS/$name/test.json" || "$RUNS/$name/model.safetensors" -nt "$RUNS/$name/test.json" ]]; then
     stamp "evaluate $name"
     momakitchen evaluate --data "$DATA" --checkpoint "$RUNS/$name" --json "$RUNS/$name/test.json" --quiet
@@ -63,6 +70,24 @@ for spec in "${RUN_LIST[@]}"; do
     stamp "msr $name"
     momakitchen msr --data "$DATA" --checkpoint "$RUNS/$name" --json "$RUNS/$name/msr.json" --quiet
   fi
+}
+
+threads=()
+if ((PARALLEL > 1)); then threads=(--threads 1); fi
+running=0
+for spec in "${RUN_LIST[@]}"; do
+  read -r name opts <<<"$spec"
+  # shellcheck disable=SC2086
+  run_one "$name" $opts "${threads[@]}" &
+  running=$((running + 1))
+  if ((running >= PARALLEL)); then
+    wait -n  # a failed run stops the script (set -e)
+    running=$((running - 1))
+  fi
+done
+while ((running > 0)); do
+  wait -n
+  running=$((running - 1))
 done
 
 if [[ ! -f "$RUNS/msr-baselines.json" ]]; then
