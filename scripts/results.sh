@@ -55,18 +55,21 @@ MAIN=(navaff pointnet2 votenet h3dnet)  # compared in closed loop
 # per second in total than one two-thread training on a 2-core machine.
 PARALLEL=${PARALLEL:-2}
 
+# A result is stale when its model is newer or it predates inference at the training
+# floor density (no "floor_context" in it).
+stale() { [[ ! -f "$1" || "$2" -nt "$1" ]] || ! grep -q '"floor_context"' "$1"; }
+
 run_one() {  # name, then train options: train, evaluate, MSR (MAIN only); each resumes
   local name=$1
   shift
   stamp "train $name"
   # shellcheck disable=SC2086  # the options are words
   momakitchen train --data "$DATA" --out "$RUNS/$name" --resume --quiet "$@" $TRAIN_OPTS
-  if [[ ! -f "$RUNS/$name/test.json" || "$RUNS/$name/model.safetensors" -nt "$RUNS/$name/test.json" ]]; then
+  if stale "$RUNS/$name/test.json" "$RUNS/$name/model.safetensors"; then
     stamp "evaluate $name"
     momakitchen evaluate --data "$DATA" --checkpoint "$RUNS/$name" --json "$RUNS/$name/test.json" --quiet
   fi
-  if [[ " ${MAIN[*]} " == *" $name "* ]] &&
-    [[ ! -f "$RUNS/$name/msr.json" || "$RUNS/$name/model.safetensors" -nt "$RUNS/$name/msr.json" ]]; then
+  if [[ " ${MAIN[*]} " == *" $name "* ]] && stale "$RUNS/$name/msr.json" "$RUNS/$name/model.safetensors"; then
     stamp "msr $name"
     momakitchen msr --data "$DATA" --checkpoint "$RUNS/$name" --json "$RUNS/$name/msr.json" --quiet
   fi

@@ -21,10 +21,10 @@ import torch
 from torch.utils.data import DataLoader, Subset
 
 from momakitchen.data import EpisodeDataset
-from momakitchen.data.batch import EpisodeCollator, episode_maps
+from momakitchen.data.batch import episode_maps
 from momakitchen.errors import MomaError
 from momakitchen.models.base import PlanningCollator
-from momakitchen.models.inference import predict_batch
+from momakitchen.models.inference import inference_collator, predict_batch
 from momakitchen.robots.spec import ROBOTS, robot_descriptor
 from momakitchen.train.checkpoint import load_checkpoint
 
@@ -41,9 +41,7 @@ def swap_rows(run_dir: Path, data: Subset) -> list[tuple[str, float, float, floa
         n: torch.tensor(robot_descriptor(ROBOTS.get_entry(n)), dtype=torch.float32)
         for n in ROBOTS.names()
     }
-    collate = PlanningCollator(
-        EpisodeCollator(run.config.num_global, None, run.config.seed), run.model.backbone
-    )
+    collate = PlanningCollator(inference_collator(run.config), run.model.backbone)
     rows = []
     for batch in DataLoader(data, batch_size=8, collate_fn=collate):
         own = batch["robot"]

@@ -96,6 +96,27 @@ def test_collate_samples_down_deterministically(data):
     assert all(tuple(p) in pts for p in a["floor_xyz"][0].numpy().tolist())
 
 
+def test_the_floor_context_is_the_floor_training_would_draw(data):
+    """Inference predicts every floor point but encodes the floor at the training density:
+    the context must be exactly the points a training collation would have kept."""
+    samples = [data[i] for i in range(4)]
+    trained = EpisodeCollator(num_global=128, num_floor=64, seed=7)(samples)
+    infer = EpisodeCollator(num_global=128, num_floor=None, seed=7, num_context=64)(samples)
+    assert torch.equal(infer["context_xyz"], trained["floor_xyz"])
+    assert torch.equal(infer["context_mask"], trained["floor_mask"])
+    assert torch.equal(infer["global_xyz"], trained["global_xyz"])
+    nf = max(s["floor_xyz"].shape[0] for s in samples)
+    assert infer["floor_xyz"].shape == (4, nf, 3)  # every floor point is still predicted
+    assert "context_xyz" not in trained
+    # a floor smaller than the context is kept whole, padded
+    small = EpisodeCollator(num_global=128, seed=7, num_context=nf + 10)(samples[:1])
+    n0 = samples[0]["floor_xyz"].shape[0]
+    assert small["context_mask"][0].sum() == n0
+    assert torch.equal(small["context_xyz"][0, :n0], samples[0]["floor_xyz"])
+    with pytest.raises(MomaError, match="num_context must be a positive int, got 0"):
+        EpisodeCollator(num_context=0)
+
+
 def test_bad_samples_raise_moma_error(data):
     s = dict(data[0])
     with pytest.raises(MomaError, match="global_rgb must have shape"):

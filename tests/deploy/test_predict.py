@@ -43,9 +43,12 @@ def test_predict_gives_evaluates_map_on_a_dataset_episode(real_view, episode, ti
     sample = next(
         data[i] for i in range(len(data)) if data[i]["episode_index"] == episode.episode_index
     )
-    expected = predict_batch(
-        run.model, EpisodeCollator(run.config.num_global, None, run.config.seed)([sample])
-    )[0].numpy()
+    # every floor point predicted, the floor encoded at the training density
+    assert len(sample["floor_xyz"]) > run.config.num_floor
+    collate = EpisodeCollator(
+        run.config.num_global, None, run.config.seed, num_context=run.config.num_floor
+    )
+    expected = predict_batch(run.model, collate([sample]))[0].numpy()
     ep = episode
     pred = momakitchen.predict(
         **_inputs(ep),

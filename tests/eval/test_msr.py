@@ -12,6 +12,7 @@ from momakitchen.eval.msr import MsrConfig, merge_msr, run_msr
 from momakitchen.frames import base_to_world_xy, world_to_base
 from momakitchen.models.inference import local_mean, select_points
 from momakitchen.sim.trials import TrialRunner
+from momakitchen.train.checkpoint import load_checkpoint
 
 
 def test_select_points_orders_by_score_and_spreads():
@@ -101,6 +102,8 @@ def test_msr_is_deterministic_and_oracle_beats_random(real_dataset, tiny_run):
     assert merge_msr([("model", model_only), ("baselines", baselines)]) == a
     assert a["configurations"] == 2
     m = a["methods"]
+    assert m["navaff"]["floor_context"] == load_checkpoint(tiny_run).config.num_floor
+    assert "floor_context" not in m["random"]
     assert list(m) == ["navaff", *methods]
     assert a["config"]["pick_radius"] == 0.0
     for rec in a["records"]:  # the model's own view of its chosen points

@@ -193,6 +193,28 @@ def test_a_plan_computed_ahead_gives_the_same_outputs_and_gradients(name, tiny_c
     assert all(torch.equal(a, b) for a, b in zip(*grads, strict=True))
 
 
+@pytest.mark.parametrize("name", sorted(EXPECTED))
+def test_with_a_floor_context_each_point_scores_as_in_the_context_alone(name, tiny_config, samples):
+    """Inference encodes the floor at the training density and interpolates to every floor
+    point: a point of the context must get the value the context alone gives it."""
+    torch.manual_seed(0)
+    model = build_model(name, tiny_config).eval()
+    with torch.no_grad():  # the head starts flat: make the map depend on the features
+        model.head.out.weight.normal_(0.0, 1.0)
+    trained = collate_episodes(samples, 200, 40, seed=3)
+    infer = collate_episodes(samples, 200, None, seed=3, num_context=40)
+    assert infer["floor_xyz"].shape[1] > 40
+    with torch.no_grad():
+        alone, full = model(trained)["pred"], model(infer)["pred"]
+    for i in range(len(samples)):
+        ctx = trained["floor_xyz"][i][trained["floor_mask"][i]]
+        hit = (infer["floor_xyz"][i][:, None] == ctx[None]).all(-1)  # (Nf, Nc)
+        assert (hit.sum(0) == 1).all()
+        torch.testing.assert_close(full[i, hit.float().argmax(0)], alone[i, : len(ctx)])
+    # the other floor points are scored too, and not all alike
+    assert full[infer["floor_mask"]].std() > 1e-3
+
+
 @pytest.mark.parametrize("name", ["navaff", "pointnet2"])
 def test_backward_copies_no_slices(name, tiny_config, samples):
     """In-place ops on views (a ReLU after a Linear on a 4-D tensor) make autograd copy

@@ -158,9 +158,10 @@ def test_evaluate_matches_metrics_of_predictions(tmp_path, tiny_sets, make_confi
     report = evaluate(run, val_set, batch_size=3)
     assert report["model"] == "navaff" and report["episodes"] == len(val_set)
     loaded = load_checkpoint(run)
+    assert report["floor_context"] == loaded.config.num_floor
     preds, gts = [], []
     for i in range(len(val_set)):
-        batch = collate_episodes([val_set[i]], 256, None)
+        batch = collate_episodes([val_set[i]], 256, None, num_context=loaded.config.num_floor)
         p, g = episode_maps(batch, predict_batch(loaded.model, batch))
         preds += p
         gts += g

@@ -35,6 +35,11 @@ Batch (after :class:`EpisodeCollator`, ``B`` samples, ``Ng``/``Nf`` fixed point 
 - ``floor_xyz`` (B, Nf, 3) float32, ``floor_mask`` (B, Nf) bool
 - ``floor_label`` (B, Nf) float32 (present when every sample has labels; 0 on padding)
 - ``robot`` (B, D) float32
+- ``context_xyz`` (B, Nc, 3) float32, ``context_mask`` (B, Nc) bool (only with
+  ``num_context``): the floor points the model encodes, while it predicts every point of
+  ``floor_xyz``. Training samples each floor cloud down to ``Nf`` points; at inference
+  every floor point is predicted, so the model encodes the same density it was trained on
+  (the points training would have drawn) and interpolates to the rest.
 - ``scene_id``, ``config_index``, ``episode_index``: lists of int; ``robot_name``: list of str
 
 Padding entries are zeros. Real points always come first in each row (masks are prefix
@@ -166,20 +171,26 @@ class EpisodeCollator:
         seed: clouds larger than the target count are sampled down without replacement by
             a generator seeded from ``(seed, scene_id, config_index, episode_index)``, so
             the same episode is always reduced the same way whatever batch it lands in.
+        num_context: Nc, adds the floor context (``context_xyz``, ``context_mask``): each
+            floor cloud sampled down to this many points as ``num_floor=num_context``
+            would sample it. ``None``: no context (the model encodes ``floor_xyz``).
     """
 
     num_global: int | None = None
     num_floor: int | None = None
     seed: int = 0
+    num_context: int | None = None
 
     def __post_init__(self) -> None:
-        for name in ("num_global", "num_floor"):
+        for name in ("num_global", "num_floor", "num_context"):
             value = getattr(self, name)
             if value is not None and (not isinstance(value, int) or value < 1):
                 raise MomaError(f"EpisodeCollator.{name} must be a positive int, got {value!r}")
 
     def __call__(self, samples: Sequence[Mapping[str, Any]]) -> Batch:
-        return collate_episodes(samples, self.num_global, self.num_floor, self.seed)
+        return collate_episodes(
+            samples, self.num_global, self.num_floor, self.seed, self.num_context
+        )
 
 
 def collate_episodes(
@@ -187,13 +198,15 @@ def collate_episodes(
     num_global: int | None = None,
     num_floor: int | None = None,
     seed: int = 0,
+    num_context: int | None = None,
 ) -> Batch:
     """Stack samples into a batch with fixed point counts and masks.
 
     Shapes:
         - input: a list of B samples (``global_xyz`` (ng_i, 3), ``floor_xyz`` (nf_i, 3), ...)
         - output: ``global_*`` (B, Ng, ...), ``floor_*`` (B, Nf, ...), ``robot`` (B, D),
-          masks (B, Ng) / (B, Nf) bool. Ng = ``num_global`` or max ng_i; Nf likewise.
+          masks (B, Ng) / (B, Nf) bool. Ng = ``num_global`` or max ng_i; Nf likewise;
+          with ``num_context``, ``context_xyz`` (B, Nc, 3) and ``context_mask`` (B, Nc).
     """
     if len(samples) == 0:
         raise MomaError("cannot collate an empty list of samples")
@@ -213,6 +226,9 @@ def collate_episodes(
     }
     if has_label:
         out["floor_label"] = np.zeros((b, nf), np.float32)
+    if num_context is not None:
+        out["context_xyz"] = np.zeros((b, num_context, 3), np.float32)
+        out["context_mask"] = np.zeros((b, num_context), bool)
     for i, s in enumerate(clean):
         rng = _sample_seed(seed, s, i)
         gi = _fit(s["global_xyz"].shape[0], ng, rng)
@@ -224,6 +240,13 @@ def collate_episodes(
         out["floor_mask"][i, : len(fi)] = True
         if has_label:
             out["floor_label"][i, : len(fi)] = s["floor_label"][fi]
+        if num_context is not None:
+            # The draws of a collation with num_floor=num_context: global first, then floor.
+            ctx_rng = _sample_seed(seed, s, i)
+            _fit(s["global_xyz"].shape[0], ng, ctx_rng)
+            ci = _fit(s["floor_xyz"].shape[0], num_context, ctx_rng)
+            out["context_xyz"][i, : len(ci)] = s["floor_xyz"][ci]
+            out["context_mask"][i, : len(ci)] = True
     batch: Batch = {k: torch.from_numpy(v) for k, v in out.items()}
     for key in META_KEYS:
         batch[key] = [s[key] for s in clean]

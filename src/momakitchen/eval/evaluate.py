@@ -10,12 +10,12 @@ import numpy as np
 from torch.utils.data import DataLoader, Dataset
 from tqdm.auto import tqdm
 
-from momakitchen.data.batch import EpisodeCollator, episode_maps
+from momakitchen.data.batch import episode_maps
 from momakitchen.data.manifest import target_category
 from momakitchen.errors import MomaError
 from momakitchen.metrics import breakdown, map_metrics
 from momakitchen.models.base import PlanningCollator
-from momakitchen.models.inference import predict_batch
+from momakitchen.models.inference import inference_collator, predict_batch
 from momakitchen.train.checkpoint import (
     LoadedRun,
     check_preprocessing,
@@ -34,16 +34,17 @@ def evaluate(
     """Map metrics of the model in ``run_dir`` on every episode of ``dataset``.
 
     Global clouds are reduced to the run's ``num_global`` points as in training; every
-    floor point of an episode is predicted (floor clouds are padded, never sampled down).
+    floor point of an episode is predicted, the floor encoded at the training density
+    (``floor_context``: the run's ``num_floor`` points, see :func:`inference_collator`).
     ``num_workers`` DataLoader processes read and collate the episodes and find their
     geometry (:meth:`Backbone.plan`) while the model runs (0: all on this thread).
 
-    Returns ``{"model", "preset", "episodes", "metrics", "per_robot", "per_scene"}``
-    (plus ``"per_category"`` when the dataset has a manifest naming each configuration's
-    target) where ``metrics`` maps ``METRIC_NAMES`` to floats and the breakdowns map a robot
-    name, scene id or target category to metrics plus an ``episodes`` count. A dataset
-    whose manifest records other cloud preprocessing than the run was trained with is
-    refused (MomaError).
+    Returns ``{"model", "preset", "episodes", "floor_context", "metrics", "per_robot",
+    "per_scene"}`` (plus ``"per_category"`` when the dataset has a manifest naming each
+    configuration's target) where ``metrics`` maps ``METRIC_NAMES`` to floats and the
+    breakdowns map a robot name, scene id or target category to metrics plus an
+    ``episodes`` count. A dataset whose manifest records other cloud preprocessing than the
+    run was trained with is refused (MomaError).
     """
     if len(cast(Sized, dataset)) == 0:  # map-style datasets have a length
         raise MomaError("the evaluation dataset is empty")
@@ -62,6 +63,7 @@ def evaluate(
         "model": run.config.model,
         "preset": run.config.preset,
         "episodes": len(preds),
+        "floor_context": run.config.num_floor,
         "metrics": map_metrics(preds, gts),
         "per_robot": breakdown(preds, gts, robots),
         "per_scene": breakdown(preds, gts, scenes),
@@ -92,9 +94,7 @@ def predicted_maps(
         dataset_preprocessing(dataset),
         f"dataset {str(root)!r}" if root is not None else "dataset",
     )
-    collate = PlanningCollator(
-        EpisodeCollator(run.config.num_global, None, run.config.seed), run.model.backbone
-    )
+    collate = PlanningCollator(inference_collator(run.config), run.model.backbone)
     loader = DataLoader(
         dataset, batch_size=batch_size, shuffle=False, collate_fn=collate, num_workers=num_workers
     )

@@ -229,7 +229,8 @@ def run_msr(
     (neither given: the bundled model).
 
     Returns ``{"config", "configurations", "methods": {name: {"top1", "topk", "trials",
-    "per_robot", "per_category"}}, "records": [...]}`` (``topk``: Top-``top_k`` MSR). A
+    "per_robot", "per_category"}}, "records": [...]}`` (``topk``: Top-``top_k`` MSR; trained
+    runs' entries also give ``floor_context``, the floor points encoded per view). A
     record holds, per configuration and method, the chosen world points, their outcomes
     (1 success, 0 failure) and stages. The same dataset, methods and config give the same
     result.
@@ -299,6 +300,9 @@ def run_msr(
         if shard is not None:
             shard.close()
 
+    summaries = {name: _summary(records, name) for name in names}
+    for name, model in models.items():  # the floor points each model encodes per view
+        summaries[name]["floor_context"] = model.run.config.num_floor
     return {
         "dataset": str(root),
         "config": {
@@ -311,7 +315,7 @@ def run_msr(
         },
         "configurations": len(records),
         "feasible_configurations": sum(r["feasible"] for r in records),
-        "methods": {name: _summary(records, name) for name in names},
+        "methods": summaries,
         "records": records,
     }
 

@@ -540,8 +540,7 @@ def qualitative_figure(data_dir: Path, runs: Sequence[Path], examples: int) -> b
     """Ground truth and every run's map on the same test episodes: the last view of the first
     ``examples`` test configurations that have a successful trial. PNG bytes."""
     from momakitchen.data import EpisodeDataset
-    from momakitchen.data.batch import EpisodeCollator
-    from momakitchen.models.inference import predict_batch
+    from momakitchen.models.inference import inference_collator, predict_batch
     from momakitchen.perception.figures import floor_map, png_bytes, pyplot
     from momakitchen.train.checkpoint import load_checkpoint
 
@@ -576,7 +575,7 @@ def qualitative_figure(data_dir: Path, runs: Sequence[Path], examples: int) -> b
             f"ground truth: scene {sample['scene_id']}, {sample['robot_name']}",
         )
         for col, run in enumerate(loaded, start=1):
-            batch = EpisodeCollator(run.config.num_global, None, run.config.seed)([sample])
+            batch = inference_collator(run.config)([sample])
             pred = predict_batch(run.model, batch)[0].numpy()
             floor_map(
                 axes[row, col],

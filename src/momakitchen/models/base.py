@@ -21,6 +21,19 @@ PRIOR = 0.05
 PLAN_KEY = "plan"
 
 
+def context_floor(batch: dict[str, Any]) -> tuple[torch.Tensor, torch.Tensor]:
+    """The floor points a backbone encodes: the batch's floor context when it carries one
+    (inference: the training density, see :mod:`momakitchen.data.batch`), else the floor
+    points themselves. Features are then interpolated to every point of ``floor_xyz``.
+
+    Shapes:
+        - output: xyz (B, Nc, 3), mask (B, Nc) bool
+    """
+    if "context_xyz" in batch:
+        return batch["context_xyz"], batch["context_mask"]
+    return batch["floor_xyz"], batch["floor_mask"]
+
+
 class Backbone(nn.Module):
     """Maps a batch to per-floor-point features.
 

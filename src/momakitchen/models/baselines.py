@@ -23,7 +23,7 @@ from typing import Any
 import torch
 from torch import nn
 
-from momakitchen.models.base import Backbone
+from momakitchen.models.base import Backbone, context_floor
 from momakitchen.models.config import ModelConfig
 from momakitchen.models.pointnet2 import (
     FeaturePropagation,
@@ -47,13 +47,13 @@ def union_channels(pos_freqs: int) -> int:
 def union_cloud(
     batch: dict[str, Any], pos_freqs: int
 ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
-    """The global and floor clouds as one cloud with per-point features.
+    """The global and the (context) floor clouds as one cloud with per-point features.
 
     Shapes:
-        - output: xyz (B, Ng+Nf, 3), feats (B, Ng+Nf, ``union_channels``), mask
-          (B, Ng+Nf) bool
+        - output: xyz (B, Ng+Nc, 3), feats (B, Ng+Nc, ``union_channels``), mask
+          (B, Ng+Nc) bool
     """
-    gxyz, fxyz = batch["global_xyz"], batch["floor_xyz"]
+    gxyz, fxyz = batch["global_xyz"], context_floor(batch)[0]
     b, nf = fxyz.shape[:2]
     ng = gxyz.shape[1]
     gfeat = torch.cat(
@@ -73,9 +73,10 @@ def union_cloud(
 
 
 def union_xyz(batch: dict[str, Any]) -> tuple[torch.Tensor, torch.Tensor]:
-    """Positions (B, Ng+Nf, 3) and mask (B, Ng+Nf) of :func:`union_cloud`."""
-    xyz = torch.cat([batch["global_xyz"], batch["floor_xyz"]], 1)
-    return xyz, torch.cat([batch["global_mask"], batch["floor_mask"]], 1)
+    """Positions (B, Ng+Nc, 3) and mask (B, Ng+Nc) of :func:`union_cloud`."""
+    cxyz, cmask = context_floor(batch)
+    xyz = torch.cat([batch["global_xyz"], cxyz], 1)
+    return xyz, torch.cat([batch["global_mask"], cmask], 1)
 
 
 class _Encoder(nn.Module):

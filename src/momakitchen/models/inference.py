@@ -116,13 +116,22 @@ def torch_threads(n: int | None) -> Iterator[None]:
             torch.set_num_threads(before)
 
 
+def inference_collator(config: Any) -> EpisodeCollator:
+    """How a run's episodes are collated for inference (``config``: its TrainConfig): the
+    global cloud reduced to ``num_global`` points as in training, every floor point
+    predicted, and the floor encoded at the training density (``num_floor`` points, the
+    ones training would have drawn; the rest are interpolated). Models trained on a
+    sampled-down floor score a denser one worse when it is encoded whole."""
+    return EpisodeCollator(config.num_global, None, config.seed, num_context=config.num_floor)
+
+
 def run_model(
     run: Any, sample: dict[str, Any], mc_samples: int
 ) -> tuple[dict[str, Any], np.ndarray, np.ndarray]:
     """A loaded run on one sample, collated as ``evaluate`` does (every floor point): the
     batch, the map (Nf,) and its MC-dropout standard deviation (Nf,; zeros if
     ``mc_samples`` is 0)."""
-    batch = EpisodeCollator(run.config.num_global, None, run.config.seed)([sample])
+    batch = inference_collator(run.config)([sample])
     affordance = predict_batch(run.model, batch)[0].numpy().astype(np.float64)
     if not mc_samples:
         return batch, affordance, np.zeros_like(affordance)

@@ -24,7 +24,7 @@ from typing import Any
 import torch
 from torch import nn
 
-from momakitchen.models.base import Backbone
+from momakitchen.models.base import Backbone, context_floor
 from momakitchen.models.config import ModelConfig
 from momakitchen.models.pointnet2 import (
     FeaturePropagation,
@@ -238,22 +238,22 @@ class NavAffBackbone(Backbone):
     def plan(self, batch: dict[str, Any]) -> Plan:
         """Global encoder (``global.sa1``..``global.sa3``), floor set abstractions
         (``floor.sa1``, ``floor.sa2``) and feature propagation (``fp2``, ``fp1``)."""
-        fxyz, fmask = batch["floor_xyz"], batch["floor_mask"]
         plan: Plan = {}
         if self.use_global:
             for k, v in self.global_encoder.plan(batch["global_xyz"], batch["global_mask"]).items():
                 plan[f"global.{k}"] = v
-        f1 = plan["floor.sa1"] = self.floor_sa1.sample_and_group(fxyz, fmask)
+        f1 = plan["floor.sa1"] = self.floor_sa1.sample_and_group(*context_floor(batch))
         f2 = plan["floor.sa2"] = self.floor_sa2.sample_and_group(f1["xyz"], f1["mask"])
         plan["fp2"] = interpolation_geometry(f1["xyz"], f2["xyz"], f2["mask"])
-        plan["fp1"] = interpolation_geometry(fxyz, f1["xyz"], f1["mask"])
+        plan["fp1"] = interpolation_geometry(batch["floor_xyz"], f1["xyz"], f1["mask"])
         return plan
 
     def encode(self, batch: dict[str, Any]) -> dict[str, torch.Tensor]:
         """Everything before the cross-attention (no dropout): keys, floor tokens and the
         floor hierarchy that feature propagation needs."""
         plan = self.batch_plan(batch)
-        fxyz, fmask = batch["floor_xyz"], batch["floor_mask"]
+        fxyz = batch["floor_xyz"]
+        cxyz, cmask = context_floor(batch)
         b = fxyz.shape[0]
         keys, pads = [], []
         if self.use_global:
@@ -278,7 +278,8 @@ class NavAffBackbone(Backbone):
                 batch["global_xyz"], batch["global_align"], batch["global_mask"]
             )
         fpos = floor_features(fxyz, target, self.pos_freqs)
-        x1, f1, m1 = self.floor_sa1(fxyz, fpos, fmask, plan["floor.sa1"])
+        cpos = fpos if cxyz is fxyz else floor_features(cxyz, target, self.pos_freqs)
+        x1, f1, m1 = self.floor_sa1(cxyz, cpos, cmask, plan["floor.sa1"])
         x2, f2, m2 = self.floor_sa2(x1, f1, m1, plan["floor.sa2"])
         nn2, nn1 = plan["fp2"], plan["fp1"]
         return {
