@@ -53,8 +53,8 @@ def union_cloud(
         - output: xyz (B, Ng+Nc, 3), feats (B, Ng+Nc, ``union_channels``), mask
           (B, Ng+Nc) bool
     """
-    gxyz, fxyz = batch["global_xyz"], context_floor(batch)[0]
-    b, nf = fxyz.shape[:2]
+    gxyz, cxyz = batch["global_xyz"], context_floor(batch)[0]
+    b, nc = cxyz.shape[:2]
     ng = gxyz.shape[1]
     gfeat = torch.cat(
         [
@@ -65,11 +65,11 @@ def union_cloud(
         ],
         -1,
     )
-    ffeat = torch.cat(
-        [fourier_features(fxyz, pos_freqs), fxyz.new_zeros(b, nf, 4), fxyz.new_ones(b, nf, 1)], -1
+    cfeat = torch.cat(
+        [fourier_features(cxyz, pos_freqs), cxyz.new_zeros(b, nc, 4), cxyz.new_ones(b, nc, 1)], -1
     )
     xyz, mask = union_xyz(batch)
-    return xyz, torch.cat([gfeat, ffeat], 1), mask
+    return xyz, torch.cat([gfeat, cfeat], 1), mask
 
 
 def union_xyz(batch: dict[str, Any]) -> tuple[torch.Tensor, torch.Tensor]:
