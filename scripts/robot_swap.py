@@ -18,20 +18,20 @@ from pathlib import Path
 
 import numpy as np
 import torch
-from torch.utils.data import DataLoader, Subset
+from torch.utils.data import Subset
 
 from momakitchen.data import EpisodeDataset
 from momakitchen.data.batch import episode_maps
 from momakitchen.errors import MomaError
-from momakitchen.models.base import PlanningCollator
-from momakitchen.models.inference import inference_collator, predict_batch
+from momakitchen.eval.evaluate import predicted_maps
+from momakitchen.metrics import episode_metrics
+from momakitchen.models.inference import predict_batch
 from momakitchen.robots.spec import ROBOTS, robot_descriptor
 from momakitchen.train.checkpoint import load_checkpoint
 
 
-def pcc(a: np.ndarray, b: np.ndarray) -> float:
-    """Pearson correlation; 0 when either map is flat (as the map metrics count it)."""
-    return 0.0 if a.std() == 0 or b.std() == 0 else float(np.corrcoef(a, b)[0, 1])
+def pcc(pred: np.ndarray, label: np.ndarray) -> float:
+    return episode_metrics(pred, label)["pcc"]
 
 
 def swap_rows(run_dir: Path, data: Subset) -> list[tuple[str, float, float, float, float, float]]:
@@ -41,17 +41,14 @@ def swap_rows(run_dir: Path, data: Subset) -> list[tuple[str, float, float, floa
         n: torch.tensor(robot_descriptor(ROBOTS.get_entry(n)), dtype=torch.float32)
         for n in ROBOTS.names()
     }
-    collate = PlanningCollator(inference_collator(run.config), run.model.backbone)
     rows = []
-    for batch in DataLoader(data, batch_size=8, collate_fn=collate):
-        own = batch["robot"]
-        preds, labels = episode_maps(batch, predict_batch(run.model, batch))
+    for batch, preds, labels in predicted_maps(run, data):
         swapped = {}
         for name, d in descs.items():
-            other = {**batch, "robot": d.expand_as(own).clone()}
+            other = {**batch, "robot": d.expand_as(batch["robot"]).clone()}
             swapped[name] = episode_maps(other, predict_batch(run.model, other))[0]
         for i, (p, g) in enumerate(zip(preds, labels, strict=True)):
-            robot = next(n for n, d in descs.items() if torch.allclose(d, own[i]))
+            robot = batch["robot_name"][i]
             wrong = [swapped[n][i] for n in descs if n != robot]
             rows.append(
                 (

@@ -48,6 +48,7 @@ masks), but models must rely on the masks only.
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -232,6 +233,9 @@ def collate_episodes(
     for i, s in enumerate(clean):
         rng = _sample_seed(seed, s, i)
         gi = _fit(s["global_xyz"].shape[0], ng, rng)
+        ci = None
+        if num_context is not None:  # the floor draw of a collation with num_floor=num_context
+            ci = _fit(s["floor_xyz"].shape[0], num_context, copy.deepcopy(rng))
         fi = _fit(s["floor_xyz"].shape[0], nf, rng)
         for key in GLOBAL_KEYS:
             out[key][i, : len(gi)] = s[key][gi]
@@ -240,11 +244,7 @@ def collate_episodes(
         out["floor_mask"][i, : len(fi)] = True
         if has_label:
             out["floor_label"][i, : len(fi)] = s["floor_label"][fi]
-        if num_context is not None:
-            # The draws of a collation with num_floor=num_context: global first, then floor.
-            ctx_rng = _sample_seed(seed, s, i)
-            _fit(s["global_xyz"].shape[0], ng, ctx_rng)
-            ci = _fit(s["floor_xyz"].shape[0], num_context, ctx_rng)
+        if ci is not None:
             out["context_xyz"][i, : len(ci)] = s["floor_xyz"][ci]
             out["context_mask"][i, : len(ci)] = True
     batch: Batch = {k: torch.from_numpy(v) for k, v in out.items()}
