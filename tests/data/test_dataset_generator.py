@@ -239,3 +239,70 @@ def test_a_dataset_of_an_older_schema_is_recognised_as_old(tmp_path):
     path.write_text(json.dumps(data))
     with pytest.raises(MomaError, match=r"schema version 1 \(written by momakitchen 0\.1\.0\)"):
         load_manifest(root)
+
+
+def _split_request(root: Path, scenes: int, split: str | None) -> dict:
+    return generate_dataset(
+        GenerateRequest(out=root, num_scenes=scenes, split=split),
+        synthetic_scene_records,
+        SMALL,
+        progress=False,
+        write_card=False,
+    )
+
+
+def test_a_split_run_makes_that_split_and_a_full_run_adds_the_rest(tmp_path):
+    from momakitchen.data.manifest import scene_split
+
+    staged, whole = tmp_path / "staged", tmp_path / "whole"
+    m = _split_request(staged, 10, "test")
+    test_ids = [s for s in range(10) if scene_split(s) == "test"]
+    assert len(test_ids) == 2 and m["splits"] == {"train": [], "test": test_ids}
+    assert sorted(p.name for p in (staged / "scenes").iterdir()) == [
+        f"scene_{s:06d}.h5" for s in test_ids
+    ]
+    assert m["complete"] and m["requested"]["split"] == "test"
+    assert check_dataset(staged)["episodes"] == 2 * 6  # a complete test-only dataset
+    # Made whole, it is the dataset one run makes, manifest included, byte for byte.
+    _split_request(staged, 10, None)
+    make_dataset(whole, scenes=10)
+    assert _digests(staged) == _digests(whole)
+
+
+def test_a_split_run_interrupted_counts_only_its_split_as_missing(tmp_path, capsys):
+    def stop_at_five(sid, config):  # scene 5 is a test scene (ids 5-9: one of five)
+        if sid == 5:
+            raise KeyboardInterrupt
+        return synthetic_scene_records(sid, config)
+
+    root = tmp_path / "ds"
+    with pytest.raises(KeyboardInterrupt):
+        generate_dataset(
+            GenerateRequest(out=root, num_scenes=10, split="test"),
+            stop_at_five,
+            SMALL,
+            progress=False,
+            write_card=False,
+        )
+    assert main(["check", str(root), "--quiet"]) == 2
+    assert "1 of 2 requested scenes missing" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--split", "val"], "invalid choice: 'val'"),
+        (
+            ["--scenes", "1", "--first-scene-id", "1", "--split", "test"],
+            "no test scene among ids 1..1",
+        ),
+    ],
+)
+def test_a_bad_split_request_is_one_line_exit_2(tmp_path, capsys, args, message):
+    base = ["generate", "--out", str(tmp_path / "ds"), "--synthetic", "--quiet"]
+    if "--scenes" not in args:
+        base += ["--scenes", "5"]
+    assert main([*base, *args]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert message in err[-1]
+    assert not (tmp_path / "ds").exists()

@@ -2,8 +2,10 @@
 
 Scenes ``S .. S+N-1`` become one HDF5 shard each under ``DIR/scenes``; ``DIR/manifest.json``
 and the dataset card ``DIR/README.md`` are (re)written at the end. Killed runs resume:
-run the same command again. ``--synthetic`` writes synthetic records of the same format in
-seconds (for smoke tests of training pipelines); the manifest records the producer.
+run the same command again. ``--split test`` makes only the test scenes of the range (all
+that ``evaluate`` and ``msr`` read); the same command without it adds the rest.
+``--synthetic`` writes synthetic records of the same format in seconds (for smoke tests of
+training pipelines); the manifest records the producer.
 
 ``--config FILE`` (YAML or JSON) sets generation options: any subset of the sections
 ``scene``, ``trial``, ``dense``, ``camera``, ``views`` and ``cloud`` and of their fields;
@@ -39,6 +41,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     parser.add_argument(
         "--first-scene-id", type=non_negative_int, default=0, help="first scene id (default 0)"
+    )
+    parser.add_argument(
+        "--split",
+        choices=("train", "test"),
+        default=None,
+        help="make only this split's scenes of the range (e.g. the test scenes, enough to "
+        "evaluate a trained model); run again without it to add the rest",
     )
     parser.add_argument(
         "--workers",
@@ -80,6 +89,7 @@ def run(args: argparse.Namespace) -> int:
         first_scene_id=args.first_scene_id,
         workers=args.workers,
         backend=args.backend,
+        split=args.split,
     )
     scene_fn: Any
     config: Any
@@ -111,7 +121,7 @@ def run(args: argparse.Namespace) -> int:
         + ("" if manifest["complete"] else " - incomplete")
     )
     empty = [s for s in ("train", "test") if not c[s]["scenes"]]
-    if empty and manifest["complete"]:
+    if empty and manifest["complete"] and args.split is None:
         from momakitchen.data.manifest import scenes_for_both_splits
 
         # A one-scene try-out is a test-only dataset, which `train` refuses: say so now.

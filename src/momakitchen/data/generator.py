@@ -117,6 +117,9 @@ class GenerateRequest:
         first_scene_id: first scene id.
         workers: parallel workers (processes for ``local``, CPUs for a local Ray instance).
         backend: one of ``BACKENDS``.
+        split: None for every scene of the range, or ``"train"`` / ``"test"`` for only
+            that split's scenes (e.g. the test scenes, to evaluate a trained model; a later
+            run without a split adds the rest, shard for shard as one run would make them).
     """
 
     out: Path
@@ -124,6 +127,7 @@ class GenerateRequest:
     first_scene_id: int = 0
     workers: int = 1
     backend: str = "local"
+    split: str | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.num_scenes, int) or self.num_scenes < 1:
@@ -134,10 +138,18 @@ class GenerateRequest:
             raise MomaError(f"workers must be in [1, 1024], got {self.workers!r}")
         if self.backend not in BACKENDS:
             raise MomaError(f"backend must be one of {BACKENDS}, got {self.backend!r}")
+        if self.split is not None and self.split not in mf.SPLITS:
+            raise MomaError(f"split must be one of {mf.SPLITS}, got {self.split!r}")
+        if not self.scene_ids:
+            last = self.first_scene_id + self.num_scenes - 1
+            raise MomaError(
+                f"no {self.split} scene among ids {self.first_scene_id}..{last} "
+                f"(one id in {mf.SPLIT_BLOCK} is a test scene); ask for more scenes"
+            )
 
     @property
     def scene_ids(self) -> list[int]:
-        return list(range(self.first_scene_id, self.first_scene_id + self.num_scenes))
+        return mf.requested_scene_ids(self.first_scene_id, self.num_scenes, self.split)
 
 
 def prepare_root(root: Path, producer: str, config: dict[str, Any], cls: str) -> dict[str, Any]:
@@ -342,7 +354,7 @@ def generate_dataset(
             except MomaError as exc:
                 raise MomaError(f"{exc}; delete that file to regenerate the scene") from None
         todo = [s for s in request.scene_ids if s not in existing]
-        mf.record_request(manifest, request.first_scene_id, request.num_scenes)
+        mf.record_request(manifest, request.first_scene_id, request.num_scenes, request.split)
         mf.save_manifest(root, mf.finalize(manifest, complete=False))
 
         # A scene is the unit of work: never more workers than scenes left to make.

@@ -248,7 +248,7 @@ def incomplete_note(manifest: dict[str, Any]) -> str:
     if missing is None:
         return "generation incomplete (the manifest does not record how many scenes are missing)"
     return (
-        f"generation incomplete: {len(missing)} of {manifest['requested']['num_scenes']} "
+        f"generation incomplete: {len(missing)} of {mf.requested_count(manifest)} "
         "requested scenes missing"
     )
 

@@ -180,9 +180,24 @@ def _zero() -> dict[str, int]:
     }
 
 
-def record_request(manifest: dict[str, Any], first_scene_id: int, num_scenes: int) -> None:
-    """Record the scenes a ``generate`` run was asked for (``check`` counts the missing)."""
+def requested_scene_ids(
+    first_scene_id: int, num_scenes: int, split: str | None = None
+) -> list[int]:
+    """The ids ``first_scene_id .. first_scene_id + num_scenes - 1``, or only those of
+    ``split`` (``"train"`` / ``"test"``, :func:`scene_split`)."""
+    ids = range(first_scene_id, first_scene_id + num_scenes)
+    return [s for s in ids if split is None or scene_split(s) == split]
+
+
+def record_request(
+    manifest: dict[str, Any], first_scene_id: int, num_scenes: int, split: str | None = None
+) -> None:
+    """Record the scenes a ``generate`` run was asked for (``check`` counts the missing).
+    The split is recorded only when one was asked for, so a dataset made whole reads as
+    if it had been made in one run."""
     manifest["requested"] = {"first_scene_id": int(first_scene_id), "num_scenes": int(num_scenes)}
+    if split is not None:
+        manifest["requested"]["split"] = split
 
 
 def missing_scenes(manifest: dict[str, Any]) -> list[int] | None:
@@ -191,8 +206,18 @@ def missing_scenes(manifest: dict[str, Any]) -> list[int] | None:
     req = manifest.get("requested")
     if not isinstance(req, dict):
         return None
-    first, count = int(req["first_scene_id"]), int(req["num_scenes"])
-    return [s for s in range(first, first + count) if str(s) not in manifest["shards"]]
+    wanted = requested_scene_ids(
+        int(req["first_scene_id"]), int(req["num_scenes"]), req.get("split")
+    )
+    return [s for s in wanted if str(s) not in manifest["shards"]]
+
+
+def requested_count(manifest: dict[str, Any]) -> int:
+    """How many scenes the last ``generate`` run asked for (those of its split, if any)."""
+    req = manifest["requested"]
+    return len(
+        requested_scene_ids(int(req["first_scene_id"]), int(req["num_scenes"]), req.get("split"))
+    )
 
 
 def manifest_path(root: str | os.PathLike) -> Path:
