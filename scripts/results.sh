@@ -14,6 +14,15 @@
 # after an interruption (e.g. under nohup, one session after another). MSR is kept per
 # compared model (RUN/msr.json, as soon as the model is trained) and for the baselines
 # ($RUNS/msr-baselines.json); benchmark merges them (same seed: the same views).
+#
+# Trained models outlive the machine: each run that finishes its schedule has its weights
+# and config (2-3 MB) copied to $ARCHIVE (default results/runs/ in this repository, to be
+# committed), and a run found there is restored instead of trained again, so a bare machine
+# needs only the dataset remade (deterministic: the same bytes). Its test.json and msr.json
+# are archived too, with the dataset's manifest checksum, and restored only onto a dataset
+# with that checksum. NavAff's model is the bundled one until a new run is archived; to
+# train a run again, delete its archive. Smoke runs (TRAIN_OPTS set) archive nothing unless
+# ARCHIVE is given.
 set -euo pipefail
 
 DATA=${DATA:-$HOME/mk-data/gt2-300}
@@ -22,6 +31,8 @@ OUT=${OUT:-$RUNS/benchmark}
 SCENES=${SCENES:-300}
 FIRST=${FIRST:-20000}
 TRAIN_OPTS=${TRAIN_OPTS:-}
+REPO=$(cd "$(dirname "$0")/.." && pwd)
+if [[ -z "$TRAIN_OPTS" ]]; then ARCHIVE=${ARCHIVE:-$REPO/results/runs}; else ARCHIVE=${ARCHIVE:-}; fi
 mkdir -p "$RUNS"
 
 stamp() { echo "[$(date -u +%FT%TZ)] $*"; }
@@ -59,12 +70,45 @@ PARALLEL=${PARALLEL:-2}
 # floor density (no "floor_context" in it).
 stale() { [[ ! -f "$1" || "$2" -nt "$1" ]] || ! grep -q '"floor_context"' "$1"; }
 
-run_one() {  # name, then train options: train, evaluate, MSR (MAIN only); each resumes
-  local name=$1
+archived() {  # name: the directory of the run's archived model, if there is one
+  [[ -n "$ARCHIVE" ]] || return 1
+  local dir="$ARCHIVE/$1"
+  if [[ $1 == navaff && ! -f "$dir/model.safetensors" ]]; then
+    dir="$REPO/src/momakitchen/checkpoints/navaff"
+  fi
+  [[ -f "$dir/model.safetensors" ]] && echo "$dir"
+}
+
+keep() {  # file, directory: copy the file there if it exists (results are kept per dataset)
+  if [[ -f "$1" ]]; then cp "$1" "$2/"; fi
+}
+
+same_data() {  # archive directory: were its results made on this dataset?
+  [[ "$(cat "$1/dataset.sha256" 2>/dev/null)" == "$manifest_sum" ]]
+}
+
+run_one() {  # name, then train options: train (or restore), evaluate, MSR (MAIN only)
+  local name=$1 saved
   shift
-  stamp "train $name"
-  # shellcheck disable=SC2086  # the options are words
-  momakitchen train --data "$DATA" --out "$RUNS/$name" --resume --quiet "$@" $TRAIN_OPTS
+  if saved=$(archived "$name"); then
+    if ! cmp -s "$saved/model.safetensors" "$RUNS/$name/model.safetensors"; then
+      stamp "restore $name from $saved"
+      rm -rf "$RUNS/$name" && mkdir -p "$RUNS/$name"
+      cp "$saved/config.json" "$saved/model.safetensors" "$RUNS/$name/"
+      if same_data "$ARCHIVE/$name"; then  # copied after the model: not stale
+        keep "$ARCHIVE/$name/test.json" "$RUNS/$name"
+        keep "$ARCHIVE/$name/msr.json" "$RUNS/$name"
+      fi
+    fi
+  else
+    stamp "train $name"
+    # shellcheck disable=SC2086  # the options are words
+    momakitchen train --data "$DATA" --out "$RUNS/$name" --resume --quiet "$@" $TRAIN_OPTS
+    if [[ -n "$ARCHIVE" ]]; then
+      mkdir -p "$ARCHIVE/$name"
+      cp "$RUNS/$name/config.json" "$RUNS/$name/model.safetensors" "$ARCHIVE/$name/"
+    fi
+  fi
   if stale "$RUNS/$name/test.json" "$RUNS/$name/model.safetensors"; then
     stamp "evaluate $name"
     momakitchen evaluate --data "$DATA" --checkpoint "$RUNS/$name" --json "$RUNS/$name/test.json" --quiet
@@ -72,6 +116,12 @@ run_one() {  # name, then train options: train, evaluate, MSR (MAIN only); each 
   if [[ " ${MAIN[*]} " == *" $name "* ]] && stale "$RUNS/$name/msr.json" "$RUNS/$name/model.safetensors"; then
     stamp "msr $name"
     momakitchen msr --data "$DATA" --checkpoint "$RUNS/$name" --json "$RUNS/$name/msr.json" --quiet
+  fi
+  if [[ -n "$ARCHIVE" ]]; then
+    mkdir -p "$ARCHIVE/$name"
+    keep "$RUNS/$name/test.json" "$ARCHIVE/$name"
+    keep "$RUNS/$name/msr.json" "$ARCHIVE/$name"
+    echo "$manifest_sum" >"$ARCHIVE/$name/dataset.sha256"
   fi
 }
 
@@ -93,10 +143,17 @@ while ((running > 0)); do
   running=$((running - 1))
 done
 
+if [[ ! -f "$RUNS/msr-baselines.json" && -n "$ARCHIVE" ]] && same_data "$ARCHIVE"; then
+  keep "$ARCHIVE/msr-baselines.json" "$RUNS"
+fi
 if [[ ! -f "$RUNS/msr-baselines.json" ]]; then
   stamp "msr baselines"
   momakitchen msr --data "$DATA" --method random --method nearest --method oracle \
     --json "$RUNS/msr-baselines.json" --quiet
+fi
+if [[ -n "$ARCHIVE" ]]; then
+  keep "$RUNS/msr-baselines.json" "$ARCHIVE"
+  echo "$manifest_sum" >"$ARCHIVE/dataset.sha256"
 fi
 
 stamp "benchmark -> $OUT"
