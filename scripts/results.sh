@@ -8,6 +8,8 @@
 #                                      # a smoke run of the whole pipeline in minutes
 #   PARALLEL=1 bash scripts/results.sh # one run at a time with every core (default: two
 #                                      # runs side by side, one thread each)
+#   ONLY="navaff h3dnet" bash scripts/results.sh
+#                                      # only these runs and the baselines' MSR; no report
 #
 # Every step resumes where it stopped: generation skips finished scenes, training continues
 # after its last finished epoch, and finished evaluations and MSR are kept. Run it again
@@ -37,16 +39,6 @@ mkdir -p "$RUNS"
 
 stamp() { echo "[$(date -u +%FT%TZ)] $*"; }
 
-stamp "dataset: $DATA"
-momakitchen generate --out "$DATA" --scenes "$SCENES" --first-scene-id "$FIRST" --workers 2 --quiet
-# A full check hashes every shard (minutes); once it passed for this manifest, skip it.
-# (generate rewrites an unchanged manifest on resume, so compare contents, not times.)
-manifest_sum=$(sha256sum "$DATA/manifest.json" | cut -d' ' -f1)
-if [[ "$(cat "$RUNS/check.ok" 2>/dev/null)" != "$manifest_sum" ]]; then
-  momakitchen check "$DATA" --quiet
-  echo "$manifest_sum" >"$RUNS/check.ok"
-fi
-
 # name, then train options
 RUN_LIST=(
   "navaff --model navaff"
@@ -65,6 +57,14 @@ MAIN=(navaff pointnet2 votenet h3dnet)  # compared in closed loop
 # Runs at a time. On a 2-core machine, three one-thread NavAff trainings side by side
 # trained 28 samples/s in total, one two-thread training 23.
 PARALLEL=${PARALLEL:-2}
+ONLY=${ONLY:-}
+known=" $(printf '%s\n' "${RUN_LIST[@]}" | cut -d' ' -f1 | tr '\n' ' ')"
+for name in $ONLY; do
+  if [[ "$known" != *" $name "* ]]; then
+    echo "results.sh: ONLY names an unknown run: $name (runs:$known)" >&2
+    exit 2
+  fi
+done
 
 # A result is stale when its model is newer or it predates inference at the training
 # floor density (no "floor_context" in it).
@@ -125,11 +125,22 @@ run_one() {  # name, then train options: train (or restore), evaluate, MSR (MAIN
   fi
 }
 
+stamp "dataset: $DATA"
+momakitchen generate --out "$DATA" --scenes "$SCENES" --first-scene-id "$FIRST" --workers 2 --quiet
+# A full check hashes every shard (minutes); once it passed for this manifest, skip it.
+# (generate rewrites an unchanged manifest on resume, so compare contents, not times.)
+manifest_sum=$(sha256sum "$DATA/manifest.json" | cut -d' ' -f1)
+if [[ "$(cat "$RUNS/check.ok" 2>/dev/null)" != "$manifest_sum" ]]; then
+  momakitchen check "$DATA" --quiet
+  echo "$manifest_sum" >"$RUNS/check.ok"
+fi
+
 threads=()
 if ((PARALLEL > 1)); then threads=(--threads 1); fi
 running=0
 for spec in "${RUN_LIST[@]}"; do
   read -r name opts <<<"$spec"
+  if [[ -n "$ONLY" && " $ONLY " != *" $name "* ]]; then continue; fi
   # shellcheck disable=SC2086
   run_one "$name" $opts "${threads[@]}" &
   running=$((running + 1))
@@ -156,6 +167,10 @@ if [[ -n "$ARCHIVE" ]]; then
   echo "$manifest_sum" >"$ARCHIVE/dataset.sha256"
 fi
 
+if [[ -n "$ONLY" ]]; then
+  stamp "done (ONLY=$ONLY: no report)"
+  exit 0
+fi
 stamp "benchmark -> $OUT"
 msr_files=("$RUNS/msr-baselines.json")
 for name in "${MAIN[@]}"; do msr_files+=("$RUNS/$name/msr.json"); done
