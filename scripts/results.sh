@@ -10,6 +10,8 @@
 #                                      # runs side by side, one thread each)
 #   ONLY="navaff h3dnet" bash scripts/results.sh
 #                                      # only these runs and the baselines' MSR; no report
+#   SPLIT=test bash scripts/results.sh # the test scenes alone (a fifth of the generation):
+#                                      # evaluate and MSR for the archived runs, no training
 #
 # Every step resumes where it stopped: generation skips finished scenes, training continues
 # after its last finished epoch, and finished evaluations and MSR are kept. Run it again
@@ -21,10 +23,10 @@
 # and config (2-3 MB) copied to $ARCHIVE (default results/runs/ in this repository, to be
 # committed), and a run found there is restored instead of trained again, so a bare machine
 # needs only the dataset remade (deterministic: the same bytes). Its test.json and msr.json
-# are archived too, with the dataset's manifest checksum, and restored only onto a dataset
-# with that checksum. NavAff's model is the bundled one until a new run is archived; to
-# train a run again, delete its archive. Smoke runs (TRAIN_OPTS set) archive nothing unless
-# ARCHIVE is given.
+# are archived too, keyed by the checksums of the test shards they were measured on, and
+# restored only onto a dataset whose test shards have those checksums. NavAff's model is
+# the bundled one until a new run is archived; to train a run again, delete its archive.
+# Smoke runs (TRAIN_OPTS set) archive nothing unless ARCHIVE is given.
 set -euo pipefail
 
 DATA=${DATA:-$HOME/mk-data/gt2-300}
@@ -32,6 +34,11 @@ RUNS=${RUNS:-$HOME/mk-runs}
 OUT=${OUT:-$RUNS/benchmark}
 SCENES=${SCENES:-300}
 FIRST=${FIRST:-20000}
+SPLIT=${SPLIT:-}
+if [[ -n "$SPLIT" && "$SPLIT" != test ]]; then
+  echo "results.sh: SPLIT must be test or unset, got $SPLIT" >&2
+  exit 2
+fi
 TRAIN_OPTS=${TRAIN_OPTS:-}
 REPO=$(cd "$(dirname "$0")/.." && pwd)
 if [[ -z "$TRAIN_OPTS" ]]; then ARCHIVE=${ARCHIVE:-$REPO/results/runs}; else ARCHIVE=${ARCHIVE:-}; fi
@@ -83,8 +90,8 @@ keep() {  # file, directory: copy the file there if it exists (results are kept 
   if [[ -f "$1" ]]; then cp "$1" "$2/"; fi
 }
 
-same_data() {  # archive directory: were its results made on this dataset?
-  [[ "$(cat "$1/dataset.sha256" 2>/dev/null)" == "$manifest_sum" ]]
+same_data() {  # archive directory: were its results made on these test shards?
+  [[ "$(cat "$1/test-shards.sha256" 2>/dev/null)" == "$test_sum" ]]
 }
 
 run_one() {  # name, then train options: train (or restore), evaluate, MSR (MAIN only)
@@ -95,11 +102,15 @@ run_one() {  # name, then train options: train (or restore), evaluate, MSR (MAIN
       stamp "restore $name from $saved"
       rm -rf "$RUNS/$name" && mkdir -p "$RUNS/$name"
       cp "$saved/config.json" "$saved/model.safetensors" "$RUNS/$name/"
-      if same_data "$ARCHIVE/$name"; then  # copied after the model: not stale
-        keep "$ARCHIVE/$name/test.json" "$RUNS/$name"
-        keep "$ARCHIVE/$name/msr.json" "$RUNS/$name"
-      fi
     fi
+    if same_data "$ARCHIVE/$name"; then  # results copied after the model are not stale
+      for f in test.json msr.json; do
+        if [[ ! -f "$RUNS/$name/$f" ]]; then keep "$ARCHIVE/$name/$f" "$RUNS/$name"; fi
+      done
+    fi
+  elif [[ -n "$SPLIT" ]]; then
+    stamp "skip $name: not archived, and a test-only dataset cannot train it"
+    return 0
   else
     stamp "train $name"
     # shellcheck disable=SC2086  # the options are words
@@ -121,12 +132,13 @@ run_one() {  # name, then train options: train (or restore), evaluate, MSR (MAIN
     mkdir -p "$ARCHIVE/$name"
     keep "$RUNS/$name/test.json" "$ARCHIVE/$name"
     keep "$RUNS/$name/msr.json" "$ARCHIVE/$name"
-    echo "$manifest_sum" >"$ARCHIVE/$name/dataset.sha256"
+    echo "$test_sum" >"$ARCHIVE/$name/test-shards.sha256"
   fi
 }
 
 stamp "dataset: $DATA"
-momakitchen generate --out "$DATA" --scenes "$SCENES" --first-scene-id "$FIRST" --workers 2 --quiet
+momakitchen generate --out "$DATA" --scenes "$SCENES" --first-scene-id "$FIRST" --workers 2 \
+  --quiet ${SPLIT:+--split "$SPLIT"}
 # A full check hashes every shard (minutes); once it passed for this manifest, skip it.
 # (generate rewrites an unchanged manifest on resume, so compare contents, not times.)
 manifest_sum=$(sha256sum "$DATA/manifest.json" | cut -d' ' -f1)
@@ -134,6 +146,12 @@ if [[ "$(cat "$RUNS/check.ok" 2>/dev/null)" != "$manifest_sum" ]]; then
   momakitchen check "$DATA" --quiet
   echo "$manifest_sum" >"$RUNS/check.ok"
 fi
+# Evaluations and MSR read the test shards alone: their checksums (from the manifest) key
+# the archived results.
+test_sum=$(python3 -c 'import hashlib, json, sys
+shards = json.load(open(sys.argv[1]))["shards"]
+tests = [shards[k]["sha256"] for k in sorted(shards, key=int) if shards[k]["split"] == "test"]
+print(hashlib.sha256(" ".join(tests).encode()).hexdigest())' "$DATA/manifest.json")
 
 threads=()
 if ((PARALLEL > 1)); then threads=(--threads 1); fi
@@ -164,11 +182,11 @@ if [[ ! -f "$RUNS/msr-baselines.json" ]]; then
 fi
 if [[ -n "$ARCHIVE" ]]; then
   keep "$RUNS/msr-baselines.json" "$ARCHIVE"
-  echo "$manifest_sum" >"$ARCHIVE/dataset.sha256"
+  echo "$test_sum" >"$ARCHIVE/test-shards.sha256"
 fi
 
-if [[ -n "$ONLY" ]]; then
-  stamp "done (ONLY=$ONLY: no report)"
+if [[ -n "$ONLY$SPLIT" ]]; then
+  stamp "done (${ONLY:+ONLY=$ONLY }${SPLIT:+SPLIT=$SPLIT}: no report)"
   exit 0
 fi
 stamp "benchmark -> $OUT"
