@@ -16,9 +16,10 @@ def make_dataset(
     config: SyntheticSceneConfig = SMALL,
     workers: int = 1,
     card: bool = False,
+    split: str | None = None,
 ) -> dict:
     return generate_dataset(
-        GenerateRequest(out=root, num_scenes=scenes, workers=workers),
+        GenerateRequest(out=root, num_scenes=scenes, workers=workers, split=split),
         synthetic_scene_records,
         config,
         progress=False,

@@ -241,21 +241,11 @@ def test_a_dataset_of_an_older_schema_is_recognised_as_old(tmp_path):
         load_manifest(root)
 
 
-def _split_request(root: Path, scenes: int, split: str | None) -> dict:
-    return generate_dataset(
-        GenerateRequest(out=root, num_scenes=scenes, split=split),
-        synthetic_scene_records,
-        SMALL,
-        progress=False,
-        write_card=False,
-    )
-
-
 def test_a_split_run_makes_that_split_and_a_full_run_adds_the_rest(tmp_path):
     from momakitchen.data.manifest import scene_split
 
     staged, whole = tmp_path / "staged", tmp_path / "whole"
-    m = _split_request(staged, 10, "test")
+    m = make_dataset(staged, scenes=10, split="test")
     test_ids = [s for s in range(10) if scene_split(s) == "test"]
     assert len(test_ids) == 2 and m["splits"] == {"train": [], "test": test_ids}
     assert sorted(p.name for p in (staged / "scenes").iterdir()) == [
@@ -264,7 +254,7 @@ def test_a_split_run_makes_that_split_and_a_full_run_adds_the_rest(tmp_path):
     assert m["complete"] and m["requested"]["split"] == "test"
     assert check_dataset(staged)["episodes"] == 2 * 6  # a complete test-only dataset
     # Made whole, it is the dataset one run makes, manifest included, byte for byte.
-    _split_request(staged, 10, None)
+    make_dataset(staged, scenes=10)
     make_dataset(whole, scenes=10)
     assert _digests(staged) == _digests(whole)
 
