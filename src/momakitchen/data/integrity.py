@@ -248,7 +248,7 @@ def incomplete_note(manifest: dict[str, Any]) -> str:
     if missing is None:
         return "generation incomplete (the manifest does not record how many scenes are missing)"
     return (
-        f"generation incomplete: {len(missing)} of {mf.requested_count(manifest)} "
+        f"generation incomplete: {len(missing)} of {len(mf.requested_ids(manifest) or ())} "
         "requested scenes missing"
     )
 

@@ -200,24 +200,20 @@ def record_request(
         manifest["requested"]["split"] = split
 
 
-def missing_scenes(manifest: dict[str, Any]) -> list[int] | None:
-    """Scene ids the last ``generate`` run asked for that have no shard yet; None if the
-    manifest does not record the request (written by an earlier version)."""
+def requested_ids(manifest: dict[str, Any]) -> list[int] | None:
+    """Scene ids the last ``generate`` run asked for (those of its split, if it named one);
+    None if the manifest does not record the request (written by an earlier version)."""
     req = manifest.get("requested")
     if not isinstance(req, dict):
         return None
-    wanted = requested_scene_ids(
-        int(req["first_scene_id"]), int(req["num_scenes"]), req.get("split")
-    )
-    return [s for s in wanted if str(s) not in manifest["shards"]]
+    return requested_scene_ids(int(req["first_scene_id"]), int(req["num_scenes"]), req.get("split"))
 
 
-def requested_count(manifest: dict[str, Any]) -> int:
-    """How many scenes the last ``generate`` run asked for (those of its split, if any)."""
-    req = manifest["requested"]
-    return len(
-        requested_scene_ids(int(req["first_scene_id"]), int(req["num_scenes"]), req.get("split"))
-    )
+def missing_scenes(manifest: dict[str, Any]) -> list[int] | None:
+    """Requested scene ids (:func:`requested_ids`) that have no shard yet; None if the
+    manifest does not record the request."""
+    wanted = requested_ids(manifest)
+    return None if wanted is None else [s for s in wanted if str(s) not in manifest["shards"]]
 
 
 def manifest_path(root: str | os.PathLike) -> Path:
