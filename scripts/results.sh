@@ -86,12 +86,28 @@ archived() {  # name: the directory of the run's archived model, if there is one
   [[ -f "$dir/model.safetensors" ]] && echo "$dir"
 }
 
-keep() {  # file, directory: copy the file there if it exists (results are kept per dataset)
-  if [[ -f "$1" ]]; then cp "$1" "$2/"; fi
-}
-
 same_data() {  # archive directory: were its results made on these test shards?
   [[ "$(cat "$1/test-shards.sha256" 2>/dev/null)" == "$test_sum" ]]
+}
+
+restore_results() {  # archive dir, run dir, files: those the run lacks, if made on these shards
+  local from=$1 to=$2 f
+  shift 2
+  if [[ -z "$ARCHIVE" ]] || ! same_data "$from"; then return 0; fi
+  for f in "$@"; do
+    if [[ -f "$from/$f" && ! -f "$to/$f" ]]; then cp "$from/$f" "$to/"; fi
+  done
+}
+
+archive_results() {  # run dir, archive dir, files: keep them, keyed by these test shards
+  local from=$1 to=$2 f
+  shift 2
+  if [[ -z "$ARCHIVE" ]]; then return 0; fi
+  mkdir -p "$to"
+  for f in "$@"; do
+    if [[ -f "$from/$f" ]]; then cp "$from/$f" "$to/"; fi
+  done
+  echo "$test_sum" >"$to/test-shards.sha256"
 }
 
 run_one() {  # name, then train options: train (or restore), evaluate, MSR (MAIN only)
@@ -103,11 +119,8 @@ run_one() {  # name, then train options: train (or restore), evaluate, MSR (MAIN
       rm -rf "$RUNS/$name" && mkdir -p "$RUNS/$name"
       cp "$saved/config.json" "$saved/model.safetensors" "$RUNS/$name/"
     fi
-    if same_data "$ARCHIVE/$name"; then  # results copied after the model are not stale
-      for f in test.json msr.json; do
-        if [[ ! -f "$RUNS/$name/$f" ]]; then keep "$ARCHIVE/$name/$f" "$RUNS/$name"; fi
-      done
-    fi
+    # Results copied after the model are not stale.
+    restore_results "$ARCHIVE/$name" "$RUNS/$name" test.json msr.json
   elif [[ -n "$SPLIT" ]]; then
     stamp "skip $name: not archived, and a test-only dataset cannot train it"
     return 0
@@ -115,10 +128,7 @@ run_one() {  # name, then train options: train (or restore), evaluate, MSR (MAIN
     stamp "train $name"
     # shellcheck disable=SC2086  # the options are words
     momakitchen train --data "$DATA" --out "$RUNS/$name" --resume --quiet "$@" $TRAIN_OPTS
-    if [[ -n "$ARCHIVE" ]]; then
-      mkdir -p "$ARCHIVE/$name"
-      cp "$RUNS/$name/config.json" "$RUNS/$name/model.safetensors" "$ARCHIVE/$name/"
-    fi
+    archive_results "$RUNS/$name" "$ARCHIVE/$name" config.json model.safetensors
   fi
   if stale "$RUNS/$name/test.json" "$RUNS/$name/model.safetensors"; then
     stamp "evaluate $name"
@@ -128,12 +138,7 @@ run_one() {  # name, then train options: train (or restore), evaluate, MSR (MAIN
     stamp "msr $name"
     momakitchen msr --data "$DATA" --checkpoint "$RUNS/$name" --json "$RUNS/$name/msr.json" --quiet
   fi
-  if [[ -n "$ARCHIVE" ]]; then
-    mkdir -p "$ARCHIVE/$name"
-    keep "$RUNS/$name/test.json" "$ARCHIVE/$name"
-    keep "$RUNS/$name/msr.json" "$ARCHIVE/$name"
-    echo "$test_sum" >"$ARCHIVE/$name/test-shards.sha256"
-  fi
+  archive_results "$RUNS/$name" "$ARCHIVE/$name" test.json msr.json
 }
 
 stamp "dataset: $DATA"
@@ -172,18 +177,13 @@ while ((running > 0)); do
   running=$((running - 1))
 done
 
-if [[ ! -f "$RUNS/msr-baselines.json" && -n "$ARCHIVE" ]] && same_data "$ARCHIVE"; then
-  keep "$ARCHIVE/msr-baselines.json" "$RUNS"
-fi
+restore_results "$ARCHIVE" "$RUNS" msr-baselines.json
 if [[ ! -f "$RUNS/msr-baselines.json" ]]; then
   stamp "msr baselines"
   momakitchen msr --data "$DATA" --method random --method nearest --method oracle \
     --json "$RUNS/msr-baselines.json" --quiet
 fi
-if [[ -n "$ARCHIVE" ]]; then
-  keep "$RUNS/msr-baselines.json" "$ARCHIVE"
-  echo "$test_sum" >"$ARCHIVE/test-shards.sha256"
-fi
+archive_results "$RUNS" "$ARCHIVE" msr-baselines.json
 
 if [[ -n "$ONLY$SPLIT" ]]; then
   stamp "done (${ONLY:+ONLY=$ONLY }${SPLIT:+SPLIT=$SPLIT}: no report)"
