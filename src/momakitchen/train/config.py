@@ -154,7 +154,7 @@ def preset_config(preset: str, model: str = "navaff", **overrides: Any) -> Train
                 global_npoints=(512, 128),
                 # Floor features are interpolated from these centroids: 256 rather than
                 # 128 gave PCC +0.017, SIM +0.015 in equal pilots at no measurable cost
-                # in speed (docs/RESULTS.md).
+                # in speed; 512 was worse at full length (docs/RESULTS.md).
                 floor_npoints=256,
                 nsample_scale=0.5,
                 # Wavelengths down to 12.5 cm, the labelling grid's spacing: PCC 0.46 ->
