@@ -17,6 +17,14 @@ EXPECTED = {
     "navaff-no-vam",
     "navaff-no-global",
 }
+# The registered models, plus NavAff with the target set (ModelConfig.target_points).
+VARIANTS = [*sorted(EXPECTED), "navaff+target"]
+
+
+def _build(name, cfg):
+    if name.endswith("+target"):
+        name, cfg = name.removesuffix("+target"), dataclasses.replace(cfg, target_points=6)
+    return build_model(name, cfg)
 
 
 @pytest.fixture(scope="module")
@@ -65,11 +73,11 @@ def test_model_config_validation_names_the_bad_value():
     assert ModelConfig.from_dict(cfg.to_dict()) == cfg
 
 
-@pytest.mark.parametrize("name", sorted(EXPECTED))
+@pytest.mark.parametrize("name", VARIANTS)
 def test_padding_changes_neither_outputs_nor_loss(name, tiny_config, samples):
     torch.manual_seed(0)
     cfg = dataclasses.replace(tiny_config, dropout=0.0)
-    model = build_model(name, cfg)
+    model = _build(name, cfg)
     assert num_parameters(model) > 0
     with torch.no_grad():
         model.head.out.weight.normal_(0.0, 1.0)  # not the flat initial map
@@ -131,23 +139,23 @@ def test_ablations_ignore_what_they_drop(tiny_config, samples):
         assert not torch.allclose(run(name, batch), run(name, other_robot))
 
 
-@pytest.mark.parametrize("name", sorted(EXPECTED))
+@pytest.mark.parametrize("name", VARIANTS)
 def test_every_parameter_gets_a_gradient(name, tiny_config, samples):
     torch.manual_seed(0)
-    model = build_model(name, tiny_config).train()
+    model = _build(name, tiny_config).train()
     out = model(collate_episodes(samples[:2]))
     out["loss"].backward()
     missing = [n for n, p in model.named_parameters() if p.grad is None]
     assert not missing
 
 
-@pytest.mark.parametrize("name", sorted(EXPECTED))
+@pytest.mark.parametrize("name", VARIANTS)
 def test_mc_samples_split_the_backbone_where_the_dropout_starts(name, tiny_config, samples):
     """sample_predictions runs encode once: it must hold no dropout, and with dropout off
     the samples must equal the plain forward pass."""
     from momakitchen.models.base import Backbone
 
-    model = build_model(name, tiny_config)
+    model = _build(name, tiny_config)
     backbone = model.backbone
     if type(backbone).encode is Backbone.encode:  # the whole backbone counts as encode
         assert not any(
@@ -167,18 +175,18 @@ def test_mc_samples_split_the_backbone_where_the_dropout_starts(name, tiny_confi
     torch.testing.assert_close(sampled, plain.expand(3, -1), atol=1e-6, rtol=0)
 
 
-@pytest.mark.parametrize("name", sorted(EXPECTED))
+@pytest.mark.parametrize("name", VARIANTS)
 def test_a_plan_computed_ahead_gives_the_same_outputs_and_gradients(name, tiny_config, samples):
     """The trainer's DataLoader workers attach Backbone.plan to each batch; the forward
     pass must then equal the one that finds the geometry itself, bit for bit."""
     cfg = dataclasses.replace(tiny_config, dropout=0.0)
     torch.manual_seed(0)
-    model = build_model(name, cfg)
+    model = _build(name, cfg)
     with torch.no_grad():
         model.head.out.weight.normal_(0.0, 1.0)
     batch = _pad_with_garbage(collate_episodes(samples), 11, 7)
     torch.manual_seed(1)
-    planner = build_model(name, cfg).backbone  # another instance: plans need no weights
+    planner = _build(name, cfg).backbone  # another instance: plans need no weights
     planned = {**batch, "plan": planner.plan(batch)}
     assert planned["plan"] or name == "navaff-no-global"
     outs, grads = [], []
@@ -193,12 +201,12 @@ def test_a_plan_computed_ahead_gives_the_same_outputs_and_gradients(name, tiny_c
     assert all(torch.equal(a, b) for a, b in zip(*grads, strict=True))
 
 
-@pytest.mark.parametrize("name", sorted(EXPECTED))
+@pytest.mark.parametrize("name", VARIANTS)
 def test_with_a_floor_context_each_point_scores_as_in_the_context_alone(name, tiny_config, samples):
     """Inference encodes the floor at the training density and interpolates to every floor
     point: a point of the context must get the value the context alone gives it."""
     torch.manual_seed(0)
-    model = build_model(name, tiny_config).eval()
+    model = _build(name, tiny_config).eval()
     with torch.no_grad():  # the head starts flat: make the map depend on the features
         model.head.out.weight.normal_(0.0, 1.0)
     trained = collate_episodes(samples, 200, 40, seed=3)
@@ -215,11 +223,11 @@ def test_with_a_floor_context_each_point_scores_as_in_the_context_alone(name, ti
     assert full[infer["floor_mask"]].std() > 1e-3
 
 
-@pytest.mark.parametrize("name", ["navaff", "pointnet2"])
+@pytest.mark.parametrize("name", ["navaff", "navaff+target", "pointnet2"])
 def test_backward_copies_no_slices(name, tiny_config, samples):
     """In-place ops on views (a ReLU after a Linear on a 4-D tensor) make autograd copy
     whole (B, M, K, C) gradients through CopySlices: a third of a training step once."""
-    model = build_model(name, tiny_config)
+    model = _build(name, tiny_config)
     out = model(collate_episodes(samples))
     seen, stack = set(), [out["loss"].grad_fn]
     while stack:
@@ -229,3 +237,43 @@ def test_backward_copies_no_slices(name, tiny_config, samples):
         seen.add(fn)
         assert type(fn).__name__ != "CopySlices"
         stack += [f for f, _ in fn.next_functions]
+
+
+def test_target_set_encoder_is_a_masked_pointnet_over_offsets():
+    from momakitchen.models.navaff import TargetSetEncoder
+
+    torch.manual_seed(0)
+    enc = TargetSetEncoder([8, 16], radius=0.5)
+    target = torch.randn(2, 5, 3)
+    mask = torch.tensor([[True] * 3 + [False] * 2, [False] * 5])
+    query = torch.randn(2, 4, 3)
+    out = enc(target, mask, query)
+    assert out.shape == (2, 4, 16)
+    # brute force: the MLP on every real offset, max over the target, layer norm
+    rel = (target[0, :3][None] - query[0][:, None]) / 0.5  # (4, 3, 3)
+    h = enc.rest(torch.relu(rel @ enc.first.weight.t() + enc.first.bias))
+    torch.testing.assert_close(out[0], enc.norm(h.amax(1)))
+    assert (out[1] == 0).all()  # no target point: nothing seen
+    # a target and its mirror image look different from the same place (e.g. a door
+    # hinged left or right of its handle), unlike their centroids
+    mirrored = target * torch.tensor([1.0, -1.0, 1.0])
+    origin = torch.zeros(2, 1, 3)
+    assert not torch.allclose(enc(mirrored, mask, origin)[0], enc(target, mask, origin)[0])
+
+
+def test_target_set_sees_the_target_points_only(tiny_config, samples):
+    cfg = dataclasses.replace(tiny_config, dropout=0.0, target_points=6)
+    torch.manual_seed(0)
+    model = build_model("navaff", cfg).eval()
+    with torch.no_grad():
+        model.head.out.weight.normal_(0.0, 1.0)
+    batch = collate_episodes(samples[:2])
+    plan = model.backbone.plan(batch)["target"]
+    assert plan["mask"].all()
+    chosen = torch.gather(batch["global_align"], 1, plan["idx"])
+    assert (chosen > 0.5).all()
+    # without target points the cloud still scores (the set is empty, not garbage)
+    none = dict(batch, global_align=torch.zeros_like(batch["global_align"]))
+    assert not model.backbone.plan(none)["target"]["mask"].any()
+    with torch.no_grad():
+        assert torch.isfinite(model(none)["pred"]).all()

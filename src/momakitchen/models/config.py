@@ -36,6 +36,10 @@ class ModelConfig:
             ``peak_temperature``) that rewards ranking the map's best points first
             (0: none).
         peak_temperature: its temperature, in label units (0.1).
+        target_points: NavAff only: target points (farthest-point sampled from the
+            global points flagged as target) that every first-level floor centroid
+            encodes in its own frame, a PointNet over the target's shape as seen from
+            there (e.g. where a door's hinge is relative to its handle); 0: none.
     """
 
     embed_dim: int = 512
@@ -54,6 +58,7 @@ class ModelConfig:
     kl_weight: float = 0.0
     peak_weight: float = 0.0
     peak_temperature: float = 0.1
+    target_points: int = 0
 
     def __post_init__(self) -> None:
         def bad(name: str, rule: str) -> MomaError:
@@ -94,6 +99,8 @@ class ModelConfig:
             raise bad("peak_weight", "must be in [0, 10]")
         if not 0.01 <= self.peak_temperature <= 10.0:
             raise bad("peak_temperature", "must be in [0.01, 10]")
+        if not 0 <= self.target_points <= 1024:
+            raise bad("target_points", "must be in [0, 1024]")
 
     def ch(self, channels: int) -> int:
         """A reference MLP width scaled by ``width`` (at least 8)."""

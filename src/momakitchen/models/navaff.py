@@ -13,6 +13,11 @@ feature, next to its own position. Affordance is mostly a function of that offse
 approach side) and of what stands in between, so the floor branch no longer has to
 discover where the target is through attention alone.
 
+With ``target_points`` > 0, each first-level floor centroid also encodes the target's
+sampled points in its own frame (a PointNet over the offsets, max-pooled): the target's
+shape as seen from there, e.g. on which side of a door its hinge is and how far its
+swing reaches, which the centroid alone does not say.
+
 Ablations switch parts off: ``use_robot`` (robot tokens), ``use_alignment`` (the alignment
 channel and the target-relative floor features), ``use_global`` (the global cloud).
 """
@@ -31,9 +36,12 @@ from momakitchen.models.pointnet2 import (
     Plan,
     PointMLP,
     SetAbstractionMSG,
+    farthest_point_sample,
     fourier_channels,
     fourier_features,
+    gather_points,
     interpolation_geometry,
+    masked_max,
     plan_levels,
 )
 from momakitchen.robots.spec import DESCRIPTOR_DIM
@@ -66,6 +74,57 @@ def floor_features(fxyz: torch.Tensor, target: torch.Tensor | None, pos_freqs: i
 
 def floor_channels(pos_freqs: int, relative: bool) -> int:
     return fourier_channels(pos_freqs) * (2 if relative else 1) + (1 if relative else 0)
+
+
+def sample_target(
+    xyz: torch.Tensor, align: torch.Tensor, mask: torch.Tensor, k: int
+) -> dict[str, torch.Tensor]:
+    """``k`` target points (alignment +1) by farthest point sampling: their indices into
+    the global cloud and which are real (a cloud with fewer than ``k`` target points
+    repeats them; one with none has no real point).
+
+    Shapes:
+        - input: ``xyz`` (B, N, 3), ``align`` (B, N), ``mask`` (B, N) bool
+        - output: ``idx`` (B, k) long, ``mask`` (B, k) bool
+    """
+    target = (align > 0.5) & mask
+    has = target.any(1, keepdim=True)
+    # Without a target point, sample any slot (never used: the mask says none is real).
+    idx, valid = farthest_point_sample(xyz, target | ~has, k)
+    return {"idx": idx, "mask": valid & has}
+
+
+class TargetSetEncoder(nn.Module):
+    """PointNet over the target's points in each query point's frame: an MLP of the offset
+    from the query to every target point (in units of ``radius``), max-pooled over the
+    target, then layer-normalised.
+
+    The first layer is linear in the offset, so it runs once per target point and once per
+    query, and the pairs only add the two (as in :class:`GroupedMLP`).
+
+    Shapes:
+        - input: ``target`` (B, K, 3), ``target_mask`` (B, K) bool, ``query`` (B, M, 3)
+        - output: (B, M, widths[-1]); zeros for a cloud without target points
+    """
+
+    def __init__(self, widths: list[int], radius: float = 1.0) -> None:
+        super().__init__()
+        self.radius = radius
+        self.first = nn.Linear(3, widths[0])
+        self.rest = PointMLP(widths[0], widths[1:], norm=False)
+        self.norm = nn.LayerNorm(widths[-1])
+        self.out_channels = widths[-1]
+
+    def forward(
+        self, target: torch.Tensor, target_mask: torch.Tensor, query: torch.Tensor
+    ) -> torch.Tensor:
+        w = self.first.weight / self.radius
+        per_target = target @ w.t() + self.first.bias  # (B, K, C0)
+        per_query = query @ w.t()  # (B, M, C0)
+        h = self.rest(torch.relu(per_target.unsqueeze(1) - per_query.unsqueeze(2)))
+        b, m, k = h.shape[:3]
+        pooled = masked_max(h, target_mask.unsqueeze(1).expand(b, m, k), dim=2)
+        return self.norm(pooled) * target_mask.any(1).to(h.dtype)[:, None, None]
 
 
 class Tokenizer(nn.Module):
@@ -219,11 +278,17 @@ class NavAffBackbone(Backbone):
             pos_ch,
             [[ch(32), ch(32), ch(64)], [ch(64), ch(64), ch(128)]],
         )
+        # The target set needs the alignment channel to know which points are the target.
+        self.target_points = cfg.target_points if self.relative else 0
+        f1_ch = self.floor_sa1.out_channels
+        if self.target_points:
+            self.target_encoder = TargetSetEncoder([ch(64), ch(128)])
+            f1_ch += self.target_encoder.out_channels
         self.floor_sa2 = SetAbstractionMSG(
             cfg.num_tokens,
             (0.2, 0.4),
             (ns(16), ns(32)),
-            self.floor_sa1.out_channels,
+            f1_ch,
             [[ch(128), ch(128), ch(256)], [ch(128), ch(128), ch(256)]],
         )
         self.floor_tokenizer = Tokenizer(self.floor_sa2.out_channels, dim, cfg.pos_freqs)
@@ -231,17 +296,22 @@ class NavAffBackbone(Backbone):
             CrossAttentionBlock(dim, cfg.num_heads, cfg.dropout)
             for _ in range(cfg.attention_layers)
         )
-        self.fp2 = FeaturePropagation(self.floor_sa1.out_channels + dim, [ch(256), ch(256)])
+        self.fp2 = FeaturePropagation(f1_ch + dim, [ch(256), ch(256)])
         self.fp1 = FeaturePropagation(pos_ch + self.fp2.out_channels, [ch(128), ch(128)])
         self.out_channels = self.fp1.out_channels
 
     def plan(self, batch: dict[str, Any]) -> Plan:
         """Global encoder (``global.sa1``..``global.sa3``), floor set abstractions
-        (``floor.sa1``, ``floor.sa2``) and feature propagation (``fp2``, ``fp1``)."""
+        (``floor.sa1``, ``floor.sa2``), feature propagation (``fp2``, ``fp1``) and, with
+        ``target_points``, the sampled target (``target``)."""
         plan: Plan = {}
         if self.use_global:
             for k, v in self.global_encoder.plan(batch["global_xyz"], batch["global_mask"]).items():
                 plan[f"global.{k}"] = v
+        if self.target_points:
+            plan["target"] = sample_target(
+                batch["global_xyz"], batch["global_align"], batch["global_mask"], self.target_points
+            )
         f1 = plan["floor.sa1"] = self.floor_sa1.sample_and_group(*context_floor(batch))
         f2 = plan["floor.sa2"] = self.floor_sa2.sample_and_group(f1["xyz"], f1["mask"])
         plan["fp2"] = interpolation_geometry(f1["xyz"], f2["xyz"], f2["mask"])
@@ -280,6 +350,11 @@ class NavAffBackbone(Backbone):
         fpos = floor_features(fxyz, target, self.pos_freqs)
         cpos = fpos if cxyz is fxyz else floor_features(cxyz, target, self.pos_freqs)
         x1, f1, m1 = self.floor_sa1(cxyz, cpos, cmask, plan["floor.sa1"])
+        if self.target_points:
+            tgt = plan["target"]
+            txyz = gather_points(batch["global_xyz"], tgt["idx"])
+            seen = self.target_encoder(txyz, tgt["mask"], x1) * m1.unsqueeze(-1).to(f1.dtype)
+            f1 = torch.cat([f1, seen], -1)
         x2, f2, m2 = self.floor_sa2(x1, f1, m1, plan["floor.sa2"])
         nn2, nn1 = plan["fp2"], plan["fp1"]
         return {
