@@ -39,7 +39,8 @@ class ModelConfig:
         target_points: NavAff only: target points (farthest-point sampled from the
             global points flagged as target) that every first-level floor centroid
             encodes in its own frame, a PointNet over the target's shape as seen from
-            there (e.g. where a door's hinge is relative to its handle); 0: none.
+            there (e.g. where a door's hinge is relative to its handle); 0: none (every
+            preset: it did not help in a pilot, docs/RESULTS.md).
     """
 
     embed_dim: int = 512
