@@ -17,14 +17,15 @@ EXPECTED = {
     "navaff-no-vam",
     "navaff-no-global",
 }
-# The registered models, plus NavAff with the target set (ModelConfig.target_points).
-VARIANTS = [*sorted(EXPECTED), "navaff+target"]
+# The registered models, plus NavAff with its options: the target set
+# (ModelConfig.target_points) and the robot-conditioned head (ModelConfig.robot_head).
+OPTIONS = {"target": {"target_points": 6}, "robot_head": {"robot_head": True}}
+VARIANTS = [*sorted(EXPECTED), *(f"navaff+{o}" for o in OPTIONS)]
 
 
 def _build(name, cfg):
-    if name.endswith("+target"):
-        name, cfg = name.removesuffix("+target"), dataclasses.replace(cfg, target_points=6)
-    return build_model(name, cfg)
+    name, _, option = name.partition("+")
+    return build_model(name, dataclasses.replace(cfg, **OPTIONS[option]) if option else cfg)
 
 
 @pytest.fixture(scope="module")
@@ -133,10 +134,30 @@ def test_ablations_ignore_what_they_drop(tiny_config, samples):
     assert not torch.allclose(base, run("navaff", other_robot))
     assert not torch.allclose(base, run("navaff", no_align))
     assert torch.allclose(run("navaff-no-robot", batch), run("navaff-no-robot", other_robot))
+    with_head = dataclasses.replace(tiny_config, robot_head=True)
+    assert not build_model("navaff-no-robot", with_head).head.use_robot  # nothing reads it
     assert torch.allclose(run("navaff-no-vam", batch), run("navaff-no-vam", no_align))
     assert torch.allclose(run("navaff-no-global", batch), run("navaff-no-global", moved))
     for name in ("pointnet2", "votenet", "h3dnet"):
         assert not torch.allclose(run(name, batch), run(name, other_robot))
+
+
+def test_robot_head_conditions_navaffs_head_on_the_robot(tiny_config, samples):
+    assert not build_model("navaff", tiny_config).head.use_robot  # the paper's NavAff
+    cfg = dataclasses.replace(tiny_config, robot_head=True)
+    model = build_model("navaff", cfg).eval()
+    assert model.head.use_robot
+    with torch.no_grad():
+        model.head.out.weight.normal_(0.0, 1.0)
+    batch = collate_episodes(samples[:2])
+    # The robot reaches the head directly: the same backbone features with another
+    # descriptor give another map.
+    feats = model.backbone(batch)
+    robot = batch["robot"]
+    with torch.no_grad():
+        assert not torch.allclose(model.head(feats, robot), model.head(feats, robot.flip(0) + 0.3))
+    with pytest.raises(MomaError, match=r"robot_head.*'yes'"):
+        ModelConfig(robot_head="yes")
 
 
 @pytest.mark.parametrize("name", VARIANTS)

@@ -41,6 +41,10 @@ class ModelConfig:
             encodes in its own frame, a PointNet over the target's shape as seen from
             there (e.g. where a door's hinge is relative to its handle); 0: none (every
             preset: it did not help in a pilot, docs/RESULTS.md).
+        robot_head: NavAff only: also condition the per-point head on the robot
+            descriptor, as the baselines' head is, so that every floor point sees the
+            robot directly and not only through the attended floor tokens (False: the
+            paper's NavAff).
     """
 
     embed_dim: int = 512
@@ -60,6 +64,7 @@ class ModelConfig:
     peak_weight: float = 0.0
     peak_temperature: float = 0.1
     target_points: int = 0
+    robot_head: bool = False
 
     def __post_init__(self) -> None:
         def bad(name: str, rule: str) -> MomaError:
@@ -102,6 +107,8 @@ class ModelConfig:
             raise bad("peak_temperature", "must be in [0.01, 10]")
         if not 0 <= self.target_points <= 1024:
             raise bad("target_points", "must be in [0, 1024]")
+        if not isinstance(self.robot_head, bool):
+            raise bad("robot_head", "must be true or false")
 
     def ch(self, channels: int) -> int:
         """A reference MLP width scaled by ``width`` (at least 8)."""

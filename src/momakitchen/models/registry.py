@@ -19,8 +19,9 @@ class ModelEntry:
     Attributes:
         name: registry key.
         build_backbone: ``ModelConfig -> Backbone``.
-        head_uses_robot: whether the head is conditioned on the robot descriptor (the
-            baselines; NavAff reads the robot through its attention tokens instead).
+        head_uses_robot: whether the head is always conditioned on the robot descriptor
+            (the baselines; NavAff reads the robot through its attention tokens instead,
+            and through its head too with ``ModelConfig.robot_head``).
         description: one line for listings and docs.
         unused_config: ``ModelConfig`` fields the architecture never reads, so a run may
             resume under a preset that has changed them since.
@@ -55,12 +56,23 @@ def build_model(name: str, config: ModelConfig | None = None) -> AffordanceModel
     """Build a registered model (backbone + head + weighted-MSE loss)."""
     entry = get_model_entry(name)
     cfg = config if config is not None else ModelConfig()
-    return AffordanceModel(name, cfg, entry.build_backbone(cfg), entry.head_uses_robot)
+    head_robot = entry.head_uses_robot or (
+        cfg.robot_head and "robot_head" not in entry.unused_config
+    )
+    return AffordanceModel(name, cfg, entry.build_backbone(cfg), head_robot)
 
 
-# The baselines have no attention and no separate floor encoder.
+# The baselines have no attention and no separate floor encoder; their head always
+# reads the robot.
 _BASELINE_UNUSED = frozenset(
-    {"embed_dim", "num_heads", "num_robot_tokens", "attention_layers", "floor_npoints"}
+    {
+        "embed_dim",
+        "num_heads",
+        "num_robot_tokens",
+        "attention_layers",
+        "floor_npoints",
+        "robot_head",
+    }
 )
 for _entry in (
     ModelEntry("navaff", NavAffBackbone, False, "NavAff (visual alignment, global + robot keys)"),
@@ -86,6 +98,7 @@ for _entry in (
         lambda c: NavAffBackbone(c, use_robot=False),
         False,
         "NavAff without robot tokens",
+        frozenset({"robot_head"}),
     ),
     ModelEntry(
         "navaff-no-vam",
