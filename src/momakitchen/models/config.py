@@ -44,7 +44,8 @@ class ModelConfig:
         robot_head: NavAff only: also condition the per-point head on the robot
             descriptor, as the baselines' head is, so that every floor point sees the
             robot directly and not only through the attended floor tokens (False: the
-            paper's NavAff).
+            paper's NavAff, and every preset: it did not help in a pilot,
+            docs/RESULTS.md).
     """
 
     embed_dim: int = 512
