@@ -37,22 +37,20 @@ def dev_manifest(manifest: dict, every: int, train_scenes: int = 0) -> dict:
     train = sorted((int(k), v) for k, v in manifest["shards"].items() if v["split"] == "train")
     if len(train) < every:
         raise MomaError(f"{len(train)} train scenes: too few to hold out one in {every}")
+    held = train[::every]
+    rest = [shard for i, shard in enumerate(train) if i % every]
+    if train_scenes > len(rest):
+        raise MomaError(
+            f"--train-scenes {train_scenes}: the view has only {len(rest)} train scenes"
+        )
     out = copy.deepcopy(manifest)
     out["shards"] = {}
     # Not a generation request: `check` would count the source's test scenes as missing.
     out.pop("requested", None)
-    kept = 0
-    for i, (_, entry) in enumerate(train):
-        held = i % every == 0
-        if not held:
-            if train_scenes and kept == train_scenes:
-                continue
-            kept += 1
-        mf.add_shard(
-            out, {k: v for k, v in entry.items() if k != "split"}, "test" if held else "train"
-        )
-    if train_scenes > kept:
-        raise MomaError(f"--train-scenes {train_scenes}: the view has only {kept} train scenes")
+    # finalize() sorts the shards by scene id.
+    for split, shards in (("test", held), ("train", rest[: train_scenes or None])):
+        for _, entry in shards:
+            mf.add_shard(out, {k: v for k, v in entry.items() if k != "split"}, split)
     out["split_rule"] = (
         f"tuning view: the train scenes of the source dataset, every {every}th one "
         "(in scene-id order, from the first) held out as test"
