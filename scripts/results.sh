@@ -55,9 +55,12 @@ RUN_LIST=(
   "navaff-no-robot --model navaff-no-robot"
   "navaff-no-vam --model navaff-no-vam"
   "navaff-no-global --model navaff-no-global"
+  # The lambda sweep: runs that differ in lambda alone. lambda-0.7 is the bundled model's
+  # recipe trained again alongside them (the bundled one had two threads and older code).
   "lambda-0.1 --model navaff --lambda-zero 0.1"
   "lambda-0.3 --model navaff --lambda-zero 0.3"
   "lambda-0.5 --model navaff --lambda-zero 0.5"
+  "lambda-0.7 --model navaff --lambda-zero 0.7"
   "lambda-1.0 --model navaff --lambda-zero 1.0"
 )
 MAIN=(navaff pointnet2 votenet h3dnet)  # compared in closed loop
@@ -194,6 +197,6 @@ msr_files=("$RUNS/msr-baselines.json")
 for name in "${MAIN[@]}"; do msr_files+=("$RUNS/$name/msr.json"); done
 momakitchen benchmark --data "$DATA" --runs "${MAIN[@]/#/$RUNS/}" \
   --ablations "$RUNS/navaff-no-robot" "$RUNS/navaff-no-vam" "$RUNS/navaff-no-global" \
-  --sweep "$RUNS/lambda-0.1" "$RUNS/lambda-0.3" "$RUNS/lambda-0.5" "$RUNS/navaff" "$RUNS/lambda-1.0" \
+  --sweep "$RUNS/lambda-0.1" "$RUNS/lambda-0.3" "$RUNS/lambda-0.5" "$RUNS/lambda-0.7" "$RUNS/lambda-1.0" \
   --msr "${msr_files[@]}" --out "$OUT" --quiet
 stamp "done"
