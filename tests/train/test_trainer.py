@@ -51,6 +51,17 @@ def test_cosine_schedule(make_config):
     assert cosine_lr(cfg, 100, 100) == pytest.approx(1e-4)
 
 
+def test_warmup_then_cosine(make_config):
+    cfg = make_config(lr=1e-3, min_lr_ratio=0.1, warmup_steps=10)
+    assert cosine_lr(cfg, 0, 110) == pytest.approx(1e-4)
+    assert cosine_lr(cfg, 4, 110) == pytest.approx(5e-4)
+    assert cosine_lr(cfg, 10, 110) == pytest.approx(1e-3)  # the cosine starts after it
+    assert cosine_lr(cfg, 60, 110) == pytest.approx(1e-4 + 0.9e-3 * 0.5)
+    assert cosine_lr(cfg, 110, 110) == pytest.approx(1e-4)
+    with pytest.raises(MomaError, match=r"warmup_steps .* got -1"):
+        cfg.replace(warmup_steps=-1)
+
+
 def test_training_writes_a_reloadable_checkpoint(tmp_path, tiny_sets, make_config):
     train_set, val_set = tiny_sets
     run = tmp_path / "run"

@@ -24,8 +24,12 @@ class TrainConfig:
         model_config: model sizes and loss weights.
         num_global, num_floor: point counts the collator pads / samples each episode to.
         epochs, batch_size: schedule (batch size per process under DDP).
-        lr, weight_decay, betas: Adam; the learning rate decays to ``lr * min_lr_ratio``
-            with a cosine over all steps.
+        lr, weight_decay, betas: Adam; the learning rate rises linearly from
+            ``lr / warmup_steps`` to ``lr`` over the first ``warmup_steps`` steps, then decays
+            to ``lr * min_lr_ratio`` with a cosine over the remaining steps.
+        warmup_steps: linear warm-up length (0: none). Adam's first steps, taken before its
+            second-moment estimates settle, are large; transformer layers such as NavAff's
+            cross-attention are known to be sensitive to them.
         decoupled_weight_decay: apply the weight decay as AdamW does (shrink the weights by
             ``lr * weight_decay`` per step) instead of adding ``weight_decay * w`` to the
             gradient (``torch.optim.Adam``). With the coupled form, Adam's normalisation
@@ -57,6 +61,7 @@ class TrainConfig:
     decoupled_weight_decay: bool = True
     betas: tuple[float, float] = (0.9, 0.999)
     min_lr_ratio: float = 0.0
+    warmup_steps: int = 0
     grad_clip: float = 0.0
     seed: int = 0
     num_workers: int = 0
@@ -94,6 +99,8 @@ class TrainConfig:
         object.__setattr__(self, "betas", (float(b[0]), float(b[1])))
         if not 0 <= self.min_lr_ratio <= 1:
             raise bad("min_lr_ratio", "must be in [0, 1]")
+        if self.warmup_steps < 0:
+            raise bad("warmup_steps", "must be >= 0")
         if self.grad_clip < 0:
             raise bad("grad_clip", "must be >= 0")
         if self.num_workers < 0:

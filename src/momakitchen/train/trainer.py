@@ -77,8 +77,12 @@ class TrainResult:
 
 
 def cosine_lr(config: TrainConfig, step: int, total_steps: int) -> float:
-    """Learning rate at ``step`` (0-based) of ``total_steps``: cosine from lr to lr*min."""
-    t = min(step, total_steps) / max(total_steps, 1)
+    """Learning rate at ``step`` (0-based) of ``total_steps``: a linear rise over
+    ``config.warmup_steps``, then a cosine from lr to lr * min_lr_ratio."""
+    warm = min(config.warmup_steps, total_steps)
+    if step < warm:
+        return config.lr * (step + 1) / warm
+    t = min(step - warm, total_steps - warm) / max(total_steps - warm, 1)
     floor = config.lr * config.min_lr_ratio
     return floor + (config.lr - floor) * 0.5 * (1.0 + math.cos(math.pi * t))
 
