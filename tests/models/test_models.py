@@ -298,3 +298,31 @@ def test_target_set_sees_the_target_points_only(tiny_config, samples):
     assert not model.backbone.plan(none)["target"]["mask"].any()
     with torch.no_grad():
         assert torch.isfinite(model(none)["pred"]).all()
+
+
+def test_relative_dropout_hides_the_target_offset_of_some_training_episodes(tiny_config, samples):
+    from momakitchen.models.navaff import fourier_channels
+
+    cfg = dataclasses.replace(tiny_config, relative_dropout=0.5)
+    model = build_model("navaff", cfg)
+    seen = []
+    model.backbone.floor_sa1.register_forward_hook(lambda m, args, out: seen.append(args[1]))
+    batch = collate_episodes(samples * 4)  # 12 episodes
+    absolute = fourier_channels(cfg.pos_freqs)
+
+    def hidden(mode):
+        seen.clear()
+        torch.manual_seed(1)
+        with torch.no_grad():
+            model.train(mode)(batch)
+        feats = seen[0]  # (B, Nc, C): absolute encoding, then the target-relative one
+        rel = feats[..., absolute:].abs().amax((1, 2))
+        assert (feats[..., :absolute].abs().amax((1, 2)) > 0).all()
+        return rel == 0
+
+    drawn = hidden(True)
+    assert 0 < int(drawn.sum()) < len(drawn)  # some episodes hidden, not all
+    assert torch.equal(drawn, hidden(True))  # one draw per episode from the seeded RNG
+    assert not hidden(False).any()  # never at evaluation
+    with pytest.raises(MomaError, match=r"relative_dropout.*1\.0"):
+        ModelConfig(relative_dropout=1.0)

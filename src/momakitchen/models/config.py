@@ -46,6 +46,11 @@ class ModelConfig:
             robot directly and not only through the attended floor tokens (False: the
             paper's NavAff, and every preset: it did not help in a pilot,
             docs/RESULTS.md).
+        relative_dropout: NavAff only: probability, per training episode, that the
+            floor's target-relative encoding (offset and distance to the target) is
+            zeroed, so that the model must find the target in the global cloud. Without
+            it, full-length runs can settle on a shortcut (floor position, target offset
+            and robot alone) and leave the global cloud unused (docs/RESULTS.md); 0: none.
     """
 
     embed_dim: int = 512
@@ -66,6 +71,7 @@ class ModelConfig:
     peak_temperature: float = 0.1
     target_points: int = 0
     robot_head: bool = False
+    relative_dropout: float = 0.0
 
     def __post_init__(self) -> None:
         def bad(name: str, rule: str) -> MomaError:
@@ -110,6 +116,8 @@ class ModelConfig:
             raise bad("target_points", "must be in [0, 1024]")
         if not isinstance(self.robot_head, bool):
             raise bad("robot_head", "must be true or false")
+        if not 0.0 <= self.relative_dropout < 1.0:
+            raise bad("relative_dropout", "must be in [0, 1)")
 
     def ch(self, channels: int) -> int:
         """A reference MLP width scaled by ``width`` (at least 8)."""

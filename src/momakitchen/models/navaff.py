@@ -270,6 +270,7 @@ class NavAffBackbone(Backbone):
             self.robot_tokenizer = RobotTokenizer(dim, cfg.num_robot_tokens)
         self.pos_freqs = cfg.pos_freqs
         self.relative = use_global and use_alignment
+        self.relative_dropout = cfg.relative_dropout
         pos_ch = floor_channels(cfg.pos_freqs, self.relative)
         self.floor_sa1 = SetAbstractionMSG(
             cfg.floor_npoints,
@@ -349,6 +350,14 @@ class NavAffBackbone(Backbone):
             )
         fpos = floor_features(fxyz, target, self.pos_freqs)
         cpos = fpos if cxyz is fxyz else floor_features(cxyz, target, self.pos_freqs)
+        if self.relative and self.training and self.relative_dropout > 0:
+            # Hide the target offset from some episodes (one draw each, global RNG).
+            keep = torch.rand(b, 1, 1, device=fxyz.device) >= self.relative_dropout
+            absolute = fourier_channels(self.pos_freqs)
+            fpos, cpos = (
+                torch.cat([p[..., :absolute], p[..., absolute:] * keep.to(p.dtype)], -1)
+                for p in (fpos, cpos)
+            )
         x1, f1, m1 = self.floor_sa1(cxyz, cpos, cmask, plan["floor.sa1"])
         if self.target_points:
             tgt = plan["target"]
