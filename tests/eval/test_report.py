@@ -76,6 +76,7 @@ def test_report_tables_and_figures(report):
     ):
         assert (req.out / name).stat().st_size > 0
     assert [s["lambda_zero"] for s in result["sweep"]] == [0.1, 0.7, 1.0]  # sorted by lambda
+    assert "trained for 1 epoch(s)." in text  # the sweep's schedule
     assert set(result["msr"]) == {"navaff", "random", "nearest", "oracle"}
     msr = json.loads((req.out / "msr.json").read_text())
     assert msr["configurations"] == 1

@@ -464,11 +464,13 @@ def per_scene_table(reports: Sequence[dict], msr: dict) -> list[str]:
 def sweep_table(
     sweep: Sequence[tuple[float, dict]], configs: dict, runs: Sequence[Path]
 ) -> list[str]:
-    steps = {configs[r].max_steps for r in runs}
+    cfgs = [configs[r] for r in runs]
+    schedules = sorted(
+        {f"{c.max_steps} steps" if c.max_steps else f"{c.epochs} epoch(s)" for c in cfgs}
+    )
     lines = [
         f"Runs that differ only in λ, the loss weight on zero-valued labels (applied on a "
-        f"random half of the steps); optimiser steps: {', '.join(map(str, sorted(steps)))}"
-        " (0: the preset's epochs).",
+        f"random half of the steps); trained for {', '.join(schedules)}.",
         "",
         _row(["λ", *(c for _, c in MAP_COLUMNS)]),
         "|---" * (len(MAP_COLUMNS) + 1) + "|",
