@@ -29,7 +29,8 @@ class TrainConfig:
             to ``lr * min_lr_ratio`` with a cosine over the remaining steps.
         warmup_steps: linear warm-up length (0: none). Adam's first steps, taken before its
             second-moment estimates settle, are large; transformer layers such as NavAff's
-            cross-attention are known to be sensitive to them.
+            cross-attention are known to be sensitive to them. (500 steps did not keep
+            NavAff off the shortcut of ``ModelConfig.relative_dropout``.)
         decoupled_weight_decay: apply the weight decay as AdamW does (shrink the weights by
             ``lr * weight_decay`` per step) instead of adding ``weight_decay * w`` to the
             gradient (``torch.optim.Adam``). With the coupled form, Adam's normalisation
