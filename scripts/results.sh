@@ -62,6 +62,9 @@ RUN_LIST=(
   "lambda-0.5 --model navaff --lambda-zero 0.5"
   "lambda-0.7 --model navaff --lambda-zero 0.7"
   "lambda-1.0 --model navaff --lambda-zero 1.0"
+  # NavAff with the target offset hidden from half the training episodes, two seeds.
+  "navaff-reldrop --model navaff --config $REPO/scripts/recipes/relative_dropout.yaml"
+  "navaff-reldrop-seed1 --model navaff --config $REPO/scripts/recipes/relative_dropout.yaml --seed 1"
 )
 MAIN=(navaff pointnet2 votenet h3dnet)  # compared in closed loop
 # Runs at a time. On a 2-core machine, three one-thread NavAff trainings side by side
