@@ -16,15 +16,14 @@ metres (MSR's and predict's ``--pick-radius R``).
 from __future__ import annotations
 
 import argparse
-import sys
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 from scipy.stats import wilcoxon
+from script_cli import run_main
 
 from momakitchen.data import EpisodeDataset
-from momakitchen.errors import MomaError
 from momakitchen.eval.evaluate import predicted_maps
 from momakitchen.models.inference import local_mean
 from momakitchen.train.checkpoint import load_checkpoint
@@ -88,8 +87,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    try:
-        main()
-    except MomaError as exc:  # bad input: one line, exit status 2, as the CLI does
-        print(f"argmax_labels.py: error: {exc}", file=sys.stderr)
-        sys.exit(2)
+    run_main(main, "argmax_labels.py")

@@ -20,8 +20,9 @@ from __future__ import annotations
 
 import argparse
 import copy
-import sys
 from pathlib import Path
+
+from script_cli import run_main
 
 from momakitchen.data import manifest as mf
 from momakitchen.errors import MomaError
@@ -85,8 +86,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    try:
-        main()
-    except MomaError as exc:  # bad input: one line, exit status 2, as the CLI does
-        print(f"dev_split.py: error: {exc}", file=sys.stderr)
-        sys.exit(2)
+    run_main(main, "dev_split.py")

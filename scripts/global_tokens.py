@@ -14,15 +14,14 @@ alone scores the same either way.
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import torch
+from script_cli import add_view_args, run_main, test_views
 from torch.utils.data import Subset
 
-from momakitchen.data import EpisodeDataset
 from momakitchen.data.batch import episode_maps
 from momakitchen.errors import MomaError
 from momakitchen.eval.evaluate import predicted_maps
@@ -85,15 +84,9 @@ def global_token_use(run_dir: Path, data: Subset) -> dict[str, float]:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--data", type=Path, required=True)
-    ap.add_argument("--checkpoint", type=Path, nargs="+", required=True)
-    ap.add_argument("--every", type=int, default=60, help="score every N-th test view")
+    add_view_args(ap, every=60)
     args = ap.parse_args()
-    if args.every < 1:
-        raise MomaError(f"--every must be >= 1, got {args.every}")
-    torch.set_num_threads(1)
-    data = EpisodeDataset(args.data, "test")
-    subset = Subset(data, range(0, len(data), args.every))
+    subset = test_views(args)
     print(
         "| run | views | attention on the robot tokens | PCC | PCC, global tokens hidden | "
         "label at the best point | the same, hidden |"
@@ -108,8 +101,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    try:
-        main()
-    except MomaError as exc:  # bad input: one line, exit status 2, as the CLI does
-        print(f"global_tokens.py: error: {exc}", file=sys.stderr)
-        sys.exit(2)
+    run_main(main, "global_tokens.py")

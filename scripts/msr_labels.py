@@ -17,15 +17,14 @@ from __future__ import annotations
 
 import argparse
 import itertools
-import sys
 from pathlib import Path
 
 import numpy as np
+from script_cli import run_main
 
 from momakitchen.data.config import GenerationConfig
 from momakitchen.data.manifest import load_manifest
 from momakitchen.data.shard import SceneShard
-from momakitchen.errors import MomaError
 from momakitchen.eval.msr import merge_msr
 from momakitchen.fileio import read_json_object
 from momakitchen.frames import base_to_world_xy
@@ -104,8 +103,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    try:
-        main()
-    except MomaError as exc:  # bad input: one line, exit status 2, as the CLI does
-        print(f"msr_labels.py: error: {exc}", file=sys.stderr)
-        sys.exit(2)
+    run_main(main, "msr_labels.py")

@@ -13,16 +13,14 @@ A model that ignored the robot would score the same either way.
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 import numpy as np
 import torch
+from script_cli import add_view_args, run_main, test_views
 from torch.utils.data import Subset
 
-from momakitchen.data import EpisodeDataset
 from momakitchen.data.batch import episode_maps
-from momakitchen.errors import MomaError
 from momakitchen.eval.evaluate import predicted_maps
 from momakitchen.metrics import episode_metrics
 from momakitchen.models.inference import predict_batch
@@ -65,15 +63,9 @@ def swap_rows(run_dir: Path, data: Subset) -> list[tuple[str, float, float, floa
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--data", type=Path, required=True)
-    ap.add_argument("--checkpoint", type=Path, nargs="+", required=True)
-    ap.add_argument("--every", type=int, default=20, help="score every N-th test view")
+    add_view_args(ap, every=20)
     args = ap.parse_args()
-    if args.every < 1:
-        raise MomaError(f"--every must be >= 1, got {args.every}")
-    torch.set_num_threads(1)
-    data = EpisodeDataset(args.data, "test")
-    subset = Subset(data, range(0, len(data), args.every))
+    subset = test_views(args)
     print(
         "| run | robot | views | PCC, own robot | PCC, other robots | map change | "
         "label at best point, own | other |"
@@ -92,8 +84,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    try:
-        main()
-    except MomaError as exc:  # bad input: one line, exit status 2, as the CLI does
-        print(f"robot_swap.py: error: {exc}", file=sys.stderr)
-        sys.exit(2)
+    run_main(main, "robot_swap.py")
