@@ -50,7 +50,8 @@ class ModelConfig:
             floor's target-relative encoding (offset and distance to the target) is
             zeroed, so that the model must find the target in the global cloud. Without
             it, full-length runs can settle on a shortcut (floor position, target offset
-            and robot alone) and leave the global cloud unused (docs/RESULTS.md); 0: none.
+            and robot alone) and leave the global cloud unused (docs/RESULTS.md); 0: none
+            (the ``cpu`` preset: 0.5).
     """
 
     embed_dim: int = 512
