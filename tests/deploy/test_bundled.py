@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 
-from momakitchen.train import load_checkpoint
+from momakitchen.train import load_checkpoint, preset_config
 from momakitchen.train.checkpoint import DEFAULT_CHECKPOINT, default_checkpoint
 
 
@@ -16,6 +16,13 @@ def test_bundled_checkpoint_loads_and_is_small():
     assert sum(files.values()) < 5_000_000
     card = (DEFAULT_CHECKPOINT / "CARD.md").read_text()
     assert "momakitchen train" in card and "MSR" in card
+
+
+def test_bundled_checkpoint_is_the_cpu_preset():
+    """The shipped model is what `momakitchen train --model navaff` trains: a change to the
+    preset's model or loss needs a new bundled model (or a preset change made on purpose)."""
+    run = load_checkpoint(default_checkpoint(), model="navaff")
+    assert run.config.model_config == preset_config("cpu", "navaff").model_config
 
 
 def test_demo_runs_on_defaults(tmp_path, capsys):
