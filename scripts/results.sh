@@ -51,6 +51,8 @@ NODROP="--config $REPO/scripts/recipes/no_relative_dropout.yaml"
 RUN_LIST=(
   "navaff --model navaff"
   "navaff-seed1 --model navaff --seed 1"
+  # Twice the schedule (18,000 steps): does longer training close the gap to the oracle?
+  "navaff-12ep --model navaff --epochs 12"
   "pointnet2 --model pointnet2"
   "votenet --model votenet"
   "h3dnet --model h3dnet"
