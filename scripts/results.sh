@@ -55,6 +55,7 @@ RUN_LIST=(
   "navaff-12ep --model navaff --epochs 12"
   "pointnet2 --model pointnet2"
   "pointnet2-seed1 --model pointnet2 --seed 1"   # how far the seed moves the baseline
+  "pointnet2-12ep --model pointnet2 --epochs 12"  # the baseline at navaff-12ep's length
   "votenet --model votenet"
   "h3dnet --model h3dnet"
   # The ablation without robot tokens and the lambda sweep were trained before the cpu
@@ -73,7 +74,7 @@ RUN_LIST=(
   "lambda-1.0 --model navaff --lambda-zero 1.0 $NODROP"
 )
 MAIN=(navaff pointnet2 votenet h3dnet)  # compared in closed loop
-MSR_RUNS=("${MAIN[@]}" navaff-seed1 navaff-12ep pointnet2-seed1)   # MSR is measured for these
+MSR_RUNS=("${MAIN[@]}" navaff-seed1 navaff-12ep pointnet2-seed1 pointnet2-12ep)   # MSR is measured for these
 # Runs at a time. On a 2-core machine, three one-thread NavAff trainings side by side
 # trained 28 samples/s in total, one two-thread training 23.
 PARALLEL=${PARALLEL:-2}
