@@ -12,10 +12,17 @@ import pytest
 
 from momakitchen.cli.main import main
 from momakitchen.errors import MomaError
-from momakitchen.eval.report import BenchmarkRequest, mcnemar, paired_map_table, run_benchmark
+from momakitchen.eval.report import (
+    BenchmarkRequest,
+    mcnemar,
+    paired_map_table,
+    pooled_paired_table,
+    run_benchmark,
+    seed_table,
+)
 
 
-def _tiny(out: Path, model: str, lambda_zero: float = 0.7) -> Path:
+def _tiny(out: Path, model: str, lambda_zero: float = 0.7, seed: int = 0) -> Path:
     from momakitchen.data.synthetic import SyntheticConfig, SyntheticEpisodes
     from momakitchen.models.config import TINY_MODEL
     from momakitchen.train import train
@@ -30,6 +37,7 @@ def _tiny(out: Path, model: str, lambda_zero: float = 0.7) -> Path:
         epochs=1,
         batch_size=2,
         progress=False,
+        seed=seed,
         model_config=dataclasses.replace(TINY_MODEL, lambda_zero=lambda_zero),
     )
     train(cfg, data, None, out)
@@ -181,6 +189,60 @@ def test_report_bad_input(report, tmp_path, capsys):
                 msr=(req.out / "msr.json",),
             )
         )
+
+
+def test_report_seeds(report, tmp_path):
+    """Runs of other seeds: each model's mean and spread over its runs, read from each
+    seed run's msr.json."""
+    req, _ = report
+    whole = json.loads((req.out / "msr.json").read_text())
+    seed1 = _tiny(tmp_path / "navaff-seed1", "navaff", seed=1)
+    first = whole["records"][0]["methods"]["navaff"]["outcomes"][0]
+    flipped = json.loads(json.dumps(whole))  # the same configuration, the other outcome
+    flipped["records"][0]["methods"]["navaff"]["outcomes"][0] = 1 - first
+    (seed1 / "msr.json").write_text(json.dumps(flipped))
+    base = dict(data=req.data, runs=req.runs, msr=(req.out / "msr.json",), examples=1)
+    base["progress"] = False
+    again = run_benchmark(
+        BenchmarkRequest(**base, seeds=(seed1,), out=tmp_path / "out"), log=lambda _: None
+    )
+    text = (tmp_path / "out" / "RESULTS.md").read_text()
+    row = next(line for line in text.splitlines() if line.startswith("| navaff | 2 |"))
+    assert row.endswith("| 50.0 ± 70.7 % |")  # Top-1 of 100 % and 0 %
+    pcc = [again["runs"][str(r)]["metrics"]["pcc"] for r in (req.runs[0], seed1)]
+    assert pcc[0] != pcc[1]  # another seed, another model
+    assert f"{sum(pcc) / 2:.4f} ± " in row
+    # A seed run whose MSR covers other configurations, or of a model not compared.
+    other = json.loads(json.dumps(whole))
+    other["records"][0]["scene_id"] += 1
+    (seed1 / "msr.json").write_text(json.dumps(other))
+    with pytest.raises(MomaError, match="other configurations"):
+        run_benchmark(BenchmarkRequest(**base, seeds=(seed1,), out=tmp_path / "o2"))
+    ablation = req.ablations[0]
+    (ablation / "msr.json").write_text(json.dumps(whole))
+    with pytest.raises(MomaError, match="navaff-no-vam run, not among"):
+        run_benchmark(BenchmarkRequest(**base, seeds=(ablation,), out=tmp_path / "o3"))
+    with pytest.raises(MomaError, match="MSR file"):
+        BenchmarkRequest(**base, seeds=(req.sweep[0],), out=tmp_path / "o4")  # no msr.json
+
+
+def test_seed_tables_pool_each_models_runs():
+    def rep(pcc):
+        return {"metrics": {"pcc": pcc, "sim": pcc / 2, "rmse": 0.1, "ciou": 0.4}}
+
+    lines = seed_table(
+        {"a": [(rep(0.7), [1, 1, 0, 0]), (rep(0.8), [1, 0, 0, 0])], "b": [(rep(0.6), [0, 0, 0, 1])]}
+    )
+    assert "| a | 2 | 0.7500 ± 0.0707 | 0.3750 ± 0.0354 | 0.1000 ± 0.0000 |" in lines[2]
+    assert lines[2].endswith("| 37.5 ± 17.7 % |")
+    assert lines[3] == "| b | 1 | 0.6000 | 0.3000 | 0.1000 | 0.4000 | 25.0 % |"
+    # Successes per configuration out of two runs: a 2, 1, 0, 0; b 0, 1, 0, 1; c 0, 0, 0, 0.
+    outcomes = {"a": [[1, 1, 0, 0], [1, 0, 0, 0]], "b": [[0, 0, 0, 1], [0, 1, 0, 0]]}
+    outcomes |= {"c": [[0] * 4] * 2, "d": [[0] * 4]}
+    rows = pooled_paired_table(outcomes)
+    assert rows[2:4] == ["| b | 1 | 1 | 1 |", "| c | 2 | 0 | 0.5 |"]  # exact p: 1, 1/2
+    assert not any(r.startswith("| d") for r in rows)  # one run against two: not tested
+    assert pooled_paired_table({"a": [[1]], "b": [[0], [1]]}) == []
 
 
 def test_mcnemar_counts_discordant_pairs_and_tests_them_exactly():

@@ -2,8 +2,9 @@
 
 Map metrics of every run on the test split (reusing ``RUN/test.json`` from ``evaluate``
 when present), closed-loop MSR of the main runs and the random / nearest / oracle
-baselines, the ablation table, the per-scene table, the loss-weight (lambda) sweep and a
-qualitative figure, written as ``RESULTS.md`` with its PNGs and ``benchmark.json``.
+baselines, the ablation table, the per-scene table, the loss-weight (lambda) sweep, a
+qualitative figure and, with ``--seeds``, each model's spread over its seeds, written as
+``RESULTS.md`` with its PNGs and ``benchmark.json``.
 """
 
 from __future__ import annotations
@@ -49,6 +50,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "baselines (e.g. one per run and one for the baselines)",
     )
     p.add_argument(
+        "--seeds",
+        nargs="+",
+        default=[],
+        metavar="RUN",
+        help="more runs of models in --runs, trained with other seeds, each with its "
+        "msr.json: each model's mean and spread over its runs, and a test pooled over them",
+    )
+    p.add_argument(
         "--max-configs",
         type=non_negative_int,
         default=0,
@@ -73,6 +82,7 @@ def run(args: argparse.Namespace) -> int:
         ablations=tuple(map(Path, args.ablations)),
         sweep=tuple(map(Path, args.sweep)),
         msr=tuple(map(Path, args.msr)),
+        seeds=tuple(map(Path, args.seeds)),
         max_configs=args.max_configs,
         examples=args.examples,
         progress=not args.quiet,

@@ -5,7 +5,8 @@ From trained runs and the dataset it writes, into one directory:
 
 - ``RESULTS.md``: methods x (RMSE, logMSE, PCC, SIM, cIoU, Top-1 / Top-k MSR), MSR per
   robot and per target category, the ablation table, the per-scene table, the loss-weight
-  sweep and the confidence analysis;
+  sweep, the confidence analysis and, with runs of other seeds, each model's mean and
+  spread over its seeds and a comparison pooled over them;
 - ``qualitative.png`` (ground truth next to every run's map on the same test episodes) and
   ``lambda_sweep.png`` (PCC and RMSE against the loss weight on zero labels);
 - ``benchmark.json`` (every number above), ``metrics/`` (one ``evaluate`` report per run)
@@ -60,6 +61,8 @@ class BenchmarkRequest:
         sweep: runs that differ only in the loss weight on zero labels (lambda).
         msr: ``momakitchen msr`` JSONs that together cover ``runs`` and the baselines
             (merged with :func:`momakitchen.eval.msr.merge_msr`); empty: run MSR.
+        seeds: more runs of models in ``runs``, trained with other seeds, each with its
+            ``msr.json`` (``momakitchen msr`` on the same configurations).
         max_configs: MSR on only the first N test configurations (0: all).
         examples: rows of the qualitative figure.
         progress: progress bars.
@@ -71,12 +74,13 @@ class BenchmarkRequest:
     ablations: tuple[Path, ...] = ()
     sweep: tuple[Path, ...] = ()
     msr: tuple[Path, ...] = ()
+    seeds: tuple[Path, ...] = ()
     max_configs: int = 0
     examples: int = 4
     progress: bool = True
 
     def __post_init__(self) -> None:
-        for name in ("runs", "ablations", "sweep", "msr"):
+        for name in ("runs", "ablations", "sweep", "msr", "seeds"):
             object.__setattr__(self, name, tuple(Path(r) for r in getattr(self, name)))
         object.__setattr__(self, "data", Path(self.data))
         object.__setattr__(self, "out", Path(self.out))
@@ -84,10 +88,10 @@ class BenchmarkRequest:
             raise MomaError("benchmark needs at least one run (--runs)")
         if not (Path(self.data) / "manifest.json").is_file():
             raise MomaError(f"{str(self.data)!r} is not a dataset directory (no manifest.json)")
-        for run in (*self.runs, *self.ablations, *self.sweep):
+        for run in (*self.runs, *self.ablations, *self.sweep, *self.seeds):
             if not (Path(run) / "config.json").is_file():
                 raise MomaError(f"{str(run)!r} is not a run directory (no config.json)")
-        for path in self.msr:
+        for path in (*self.msr, *(Path(r) / "msr.json" for r in self.seeds)):
             existing_file(path, "MSR file")
         if self.max_configs < 0:
             raise MomaError(f"max_configs must be >= 0, got {self.max_configs}")
@@ -134,7 +138,7 @@ def run_benchmark(req: BenchmarkRequest, log: Callable[[str], None] = print) -> 
 
     data, out = req.data, req.out
     # A run may serve twice (the navaff run is also the sweep's lambda = 0.7 point).
-    every = tuple(dict.fromkeys((*req.runs, *req.ablations, *req.sweep)))
+    every = tuple(dict.fromkeys((*req.runs, *req.ablations, *req.sweep, *req.seeds)))
     names = [r.name for r in every]
     if len(set(names)) != len(names):
         raise MomaError(f"run directories need distinct names, got {names}")
@@ -144,6 +148,13 @@ def run_benchmark(req: BenchmarkRequest, log: Callable[[str], None] = print) -> 
         raise MomaError(f"--runs need one run per model, got models {models}")
     if req.ablations and "navaff" not in models:
         raise MomaError("the ablation table needs a navaff run among --runs")
+    for r in req.seeds:
+        if configs[r].model not in models:
+            raise MomaError(f"seed run {str(r)!r} is a {configs[r].model} run, not among {models}")
+    seed_msr = {r: read_json_object(r / "msr.json") for r in req.seeds}
+    for r, m in seed_msr.items():
+        if configs[r].model not in m.get("methods", {}):
+            raise MomaError(f"{str(r / 'msr.json')!r} has no {configs[r].model} results")
     msr = None
     if req.msr:  # checked before any map metric is computed: bad files fail at once
         msr = merge_msr([(str(p), read_json_object(p)) for p in req.msr])
@@ -168,6 +179,9 @@ def run_benchmark(req: BenchmarkRequest, log: Callable[[str], None] = print) -> 
             progress=req.progress,
         )
         atomic_write_text(out / "msr.json", json.dumps(msr, indent=1) + "\n")
+    for r, m in seed_msr.items():
+        if _config_keys(m) != _config_keys(msr):
+            raise MomaError(f"{str(r / 'msr.json')!r} covers other configurations than the MSR")
 
     main_reports = [metrics[r] for r in req.runs]
     lines = ["## Methods", "", *main_table(main_reports, msr), "", *msr_breakdown(msr)]
@@ -175,6 +189,16 @@ def run_benchmark(req: BenchmarkRequest, log: Callable[[str], None] = print) -> 
     lines += ["", f"### {models[0]} against each method", "", *paired_table(msr, models[0])]
     if len(main_reports) > 1:
         lines += ["", *paired_map_table(main_reports)]
+    if req.seeds:
+        groups = {
+            m: [(metrics[r], top1_outcomes(msr, m))] for r, m in zip(req.runs, models, strict=True)
+        }
+        for r in req.seeds:
+            model = configs[r].model
+            groups[model].append((metrics[r], top1_outcomes(seed_msr[r], model)))
+        lines += ["", "## Seeds", "", *seed_table(groups)]
+        pooled = pooled_paired_table({m: [o for _, o in g] for m, g in groups.items()})
+        lines += ["", *pooled] if pooled else []
     if req.ablations:
         full = metrics[req.runs[models.index("navaff")]]
         lines += [
@@ -221,7 +245,7 @@ def run_benchmark(req: BenchmarkRequest, log: Callable[[str], None] = print) -> 
         "data": str(data),
         "runs": {
             str(r): {k: metrics[r][k] for k in ("model", "metrics")}
-            for r in (*req.runs, *req.ablations)
+            for r in (*req.runs, *req.ablations, *req.seeds)
         },
         "sweep": [{"lambda_zero": lam, "metrics": rep["metrics"]} for lam, rep in sweep],
         "msr": {name: {k: s[k] for k in RATE_KEYS} for name, s in msr["methods"].items()},
@@ -294,6 +318,60 @@ def top1_outcomes(msr: dict, name: str) -> list[int]:
     """Top-1 outcome (1/0) of a method on every MSR configuration, in record order (a
     configuration where it chose nothing counts as a failure)."""
     return [int(bool(o[0])) if (o := r["methods"][name]["outcomes"]) else 0 for r in msr["records"]]
+
+
+def _config_keys(msr: dict) -> list[tuple[int, int, int]]:
+    return [(r["scene_id"], r["config_index"], r["episode_index"]) for r in msr["records"]]
+
+
+def _mean_sd(values: Sequence[float], digits: int) -> str:
+    if len(values) < 2:
+        return f"{values[0]:.{digits}f}"
+    return f"{np.mean(values):.{digits}f} ± {np.std(values, ddof=1):.{digits}f}"
+
+
+def seed_table(groups: dict[str, list[tuple[dict, list[int]]]]) -> list[str]:
+    """Each model's mean ± sample standard deviation over its runs (one per seed) of the
+    map metrics of :data:`PAIRED_MAP_METRICS` and Top-1 MSR; ``groups``: model -> (its
+    ``evaluate`` report, its Top-1 outcomes) per run."""
+    columns = dict(MAP_COLUMNS)
+    head = ["method", "runs", *(columns[k] for k in PAIRED_MAP_METRICS), "Top-1 MSR ↑"]
+    lines = [_row(head), "|---" * len(head) + "|"]
+    for model, runs in groups.items():
+        top1 = [100 * float(np.mean(o)) for _, o in runs]
+        cells = [_mean_sd([rep["metrics"][k] for rep, _ in runs], 4) for k in PAIRED_MAP_METRICS]
+        lines.append(_row([model, str(len(runs)), *cells, _mean_sd(top1, 1) + " %"]))
+    return [*lines, "", "Mean ± sample standard deviation over each model's runs."]
+
+
+def pooled_paired_table(outcomes: dict[str, list[list[int]]]) -> list[str]:
+    """The first model against every other with as many runs, Top-1, pooled over each
+    model's runs: per configuration the number of its runs that succeeded; the
+    configurations where each is ahead, and the two-sided sign test of those counts.
+    (With unequal numbers of runs the difference is not symmetric under the null.)"""
+    from scipy.stats import binomtest
+
+    wins = {m: np.sum(np.asarray(o, int), axis=0) for m, o in outcomes.items()}
+    reference, *others = wins
+    runs = len(outcomes[reference])
+    others = [m for m in others if len(outcomes[m]) == runs]
+    if not others:
+        return []
+    lines = [
+        _row(["against", f"{reference} ahead", "the other ahead", "p (sign test)"]),
+        "|---|---|---|---|",
+    ]
+    for name in others:
+        d = wins[reference] - wins[name]
+        ahead, behind = int((d > 0).sum()), int((d < 0).sum())
+        p = binomtest(ahead, ahead + behind).pvalue if ahead + behind else 1.0
+        lines.append(_row([name, str(ahead), str(behind), f"{p:.2g}"]))
+    return [
+        *lines,
+        "",
+        f"Configurations where more of {reference}'s {runs} runs succeed at Top-1 than of "
+        "the other's, and fewer; models with as many runs only.",
+    ]
 
 
 def paired_table(msr: dict, reference: str) -> list[str]:
