@@ -1,0 +1,45 @@
+#!/usr/bin/env bash
+# Keep unfinished runs of scripts/results.sh in the repository, so that a new machine
+# resumes them instead of training again:
+#
+#   bash scripts/partial.sh navaff-12ep pointnet2-12ep     # RUNS/<name> -> results/partial/<name>
+#   mkdir -p ~/mk-runs && cp -rn results/partial/* ~/mk-runs/   # on the new machine, then
+#   ONLY="navaff-12ep pointnet2-12ep" bash scripts/results.sh
+#
+# Each run is kept as it stood after its last finished epoch: weights, optimiser state and
+# the log up to that step (a resume trims the log the same way). A training may go on
+# beside it: if an epoch ends while the files are copied, they are copied again.
+set -euo pipefail
+RUNS=${RUNS:-$HOME/mk-runs}
+REPO=$(cd "$(dirname "$0")/.." && pwd)
+if (($# == 0)); then
+  echo "usage: bash scripts/partial.sh NAME [NAME ...] (runs in $RUNS)" >&2
+  exit 2
+fi
+for name in "$@"; do
+  src=$RUNS/$name
+  if [[ ! -f $src/trainer_state.json ]]; then
+    echo "partial.sh: $src has no saved epoch (no trainer_state.json)" >&2
+    exit 2
+  fi
+done
+for name in "$@"; do
+  src=$RUNS/$name
+  tmp=$(mktemp -d "$REPO/results/.partial-XXXXXX")
+  # The files of one epoch: the trainer writes the weights, then trainer_state.safetensors,
+  # then trainer_state.json, so neither may be newer than it, and it must not change.
+  until
+    before=$(cksum <"$src/trainer_state.json")
+    cp "$src"/{config.json,model.safetensors,trainer_state.json,trainer_state.safetensors} "$tmp/"
+    [[ "$(cksum <"$src/trainer_state.json")" == "$before" &&
+      ! "$src/model.safetensors" -nt "$src/trainer_state.json" &&
+      ! "$src/trainer_state.safetensors" -nt "$src/trainer_state.json" ]]
+  do sleep 5; done
+  step=$(python3 -c 'import json, sys; print(json.load(open(sys.argv[1]))["progress"]["global_step"])' \
+    "$tmp/trainer_state.json")
+  awk -F, -v s="$step" 'NR == 1 || $3 <= s' "$src/log.csv" >"$tmp/log.csv"
+  mkdir -p "$REPO/results/partial"
+  rm -rf "$REPO/results/partial/$name"
+  mv "$tmp" "$REPO/results/partial/$name"
+  echo "$name: step $step -> results/partial/$name"
+done
