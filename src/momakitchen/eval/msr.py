@@ -368,6 +368,26 @@ def _settings(result: dict[str, Any]) -> dict[str, Any]:
     return {"pick_radius": 0.0, **result["config"]}
 
 
+def check_same_views(a: tuple[str, dict[str, Any]], b: tuple[str, dict[str, Any]]) -> None:
+    """MomaError unless two ``(label, MSR result)`` pairs share dataset, settings and the
+    configurations and views they tried, so that their outcomes pair up record by record."""
+    (label0, first), (label, part) = a, b
+    if (settings := _settings(part)) != (settings0 := _settings(first)):
+        raise MomaError(
+            f"MSR settings of {label!r} ({settings}) differ from {label0!r} ({settings0})"
+        )
+    if Path(str(part.get("dataset"))).resolve() != Path(str(first.get("dataset"))).resolve():
+        raise MomaError(
+            f"{label!r} is on dataset {part.get('dataset')!r}, {label0!r} on "
+            f"{first.get('dataset')!r}"
+        )
+    if _record_keys(label, part) != _record_keys(label0, first):
+        raise MomaError(
+            f"{label!r} and {label0!r} cover different configurations or views "
+            "(other configurations, or the same in another order)"
+        )
+
+
 def merge_msr(parts: Sequence[tuple[str, dict[str, Any]]]) -> dict[str, Any]:
     """One MSR result from several runs over the same configurations, each with its own
     methods (e.g. one ``momakitchen msr`` per trained model, kept beside its run, and one
@@ -395,22 +415,11 @@ def merge_msr(parts: Sequence[tuple[str, dict[str, Any]]]) -> dict[str, Any]:
         ):
             raise MomaError(f"{label!r} is not a `momakitchen msr` result")
     merged = {k: v for k, v in first.items() if k != "seconds"}
-    merged["config"] = settings0 = _settings(first)
+    merged["config"] = _settings(first)
     merged["methods"] = dict(first["methods"])
     merged["records"] = [{**r, "methods": dict(r["methods"])} for r in first["records"]]
-    keys = _record_keys(label0, first)
     for label, part in rest:
-        if (settings := _settings(part)) != settings0:
-            raise MomaError(
-                f"MSR settings of {label!r} ({settings}) differ from {label0!r} ({settings0})"
-            )
-        if Path(str(part.get("dataset"))).resolve() != Path(str(first.get("dataset"))).resolve():
-            raise MomaError(
-                f"{label!r} is on dataset {part.get('dataset')!r}, {label0!r} on "
-                f"{first.get('dataset')!r}"
-            )
-        if _record_keys(label, part) != keys:
-            raise MomaError(f"{label!r} and {label0!r} cover different configurations or views")
+        check_same_views((label0, first), (label, part))
         shared = sorted(set(part["methods"]) & set(merged["methods"]))
         if shared:
             raise MomaError(f"{label!r} repeats methods {shared} of an earlier MSR result")

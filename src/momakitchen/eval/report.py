@@ -133,7 +133,7 @@ def run_metrics(run: Path, data: Path, out_dir: Path, progress: bool) -> dict[st
 def run_benchmark(req: BenchmarkRequest, log: Callable[[str], None] = print) -> dict[str, Any]:
     """Compute and write the report (see the module docstring). Returns ``benchmark.json``'s
     content."""
-    from momakitchen.eval.msr import BASELINES, MsrConfig, merge_msr, run_msr
+    from momakitchen.eval.msr import BASELINES, MsrConfig, check_same_views, merge_msr, run_msr
     from momakitchen.train.checkpoint import load_checkpoint
 
     data, out = req.data, req.out
@@ -180,8 +180,7 @@ def run_benchmark(req: BenchmarkRequest, log: Callable[[str], None] = print) -> 
         )
         atomic_write_text(out / "msr.json", json.dumps(msr, indent=1) + "\n")
     for r, m in seed_msr.items():
-        if _config_keys(m) != _config_keys(msr):
-            raise MomaError(f"{str(r / 'msr.json')!r} covers other configurations than the MSR")
+        check_same_views(("MSR", msr), (str(r / "msr.json"), m))
 
     main_reports = [metrics[r] for r in req.runs]
     lines = ["## Methods", "", *main_table(main_reports, msr), "", *msr_breakdown(msr)]
@@ -318,10 +317,6 @@ def top1_outcomes(msr: dict, name: str) -> list[int]:
     """Top-1 outcome (1/0) of a method on every MSR configuration, in record order (a
     configuration where it chose nothing counts as a failure)."""
     return [int(bool(o[0])) if (o := r["methods"][name]["outcomes"]) else 0 for r in msr["records"]]
-
-
-def _config_keys(msr: dict) -> list[tuple[int, int, int]]:
-    return [(r["scene_id"], r["config_index"], r["episode_index"]) for r in msr["records"]]
 
 
 def _mean_sd(values: Sequence[float], digits: int) -> str:
