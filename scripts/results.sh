@@ -53,9 +53,11 @@ RUN_LIST=(
   "navaff-seed1 --model navaff --seed 1"
   # Twice the schedule (18,000 steps): does longer training close the gap to the oracle?
   "navaff-12ep --model navaff --epochs 12"
+  "navaff-12ep-seed1 --model navaff --epochs 12 --seed 1"
   "pointnet2 --model pointnet2"
   "pointnet2-seed1 --model pointnet2 --seed 1"   # how far the seed moves the baseline
   "pointnet2-12ep --model pointnet2 --epochs 12"  # the baseline at navaff-12ep's length
+  "pointnet2-12ep-seed1 --model pointnet2 --epochs 12 --seed 1"
   "votenet --model votenet"
   "h3dnet --model h3dnet"
   # The ablation without robot tokens and the lambda sweep were trained before the cpu
@@ -74,7 +76,8 @@ RUN_LIST=(
   "lambda-1.0 --model navaff --lambda-zero 1.0 $NODROP"
 )
 MAIN=(navaff pointnet2 votenet h3dnet)  # compared in closed loop
-MSR_RUNS=("${MAIN[@]}" navaff-seed1 navaff-12ep pointnet2-seed1 pointnet2-12ep)   # MSR is measured for these
+MSR_RUNS=("${MAIN[@]}" navaff-seed1 navaff-12ep navaff-12ep-seed1
+  pointnet2-seed1 pointnet2-12ep pointnet2-12ep-seed1)   # MSR is measured for these
 # Runs at a time. On a 2-core machine, three one-thread NavAff trainings side by side
 # trained 28 samples/s in total, one two-thread training 23.
 PARALLEL=${PARALLEL:-2}
