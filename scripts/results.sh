@@ -24,8 +24,8 @@
 # committed), and a run found there is restored instead of trained again, so a bare machine
 # needs only the dataset remade (deterministic: the same bytes). Its test.json and msr.json
 # are archived too, keyed by the checksums of the test shards they were measured on, and
-# restored only onto a dataset whose test shards have those checksums. NavAff's model is
-# the bundled one until a new run is archived; to train a run again, delete its archive.
+# restored only onto a dataset whose test shards have those checksums. The bundled model
+# is navaff-12ep's. To train a run again, delete its archive.
 # Smoke runs (TRAIN_OPTS set) archive nothing unless ARCHIVE is given.
 set -euo pipefail
 
@@ -97,9 +97,6 @@ stale() { [[ ! -f "$1" || "$2" -nt "$1" ]] || ! grep -q '"floor_context"' "$1"; 
 archived() {  # name: the directory of the run's archived model, if there is one
   [[ -n "$ARCHIVE" ]] || return 1
   local dir="$ARCHIVE/$1"
-  if [[ $1 == navaff && ! -f "$dir/model.safetensors" ]]; then
-    dir="$REPO/src/momakitchen/checkpoints/navaff"
-  fi
   [[ -f "$dir/model.safetensors" ]] && echo "$dir"
 }
 

@@ -163,3 +163,19 @@ def test_predict_cli(episode, tiny_run, tmp_path, capsys):
     assert main([*args[: i + 1], str(bad), *args[i + 2 :], "--robot", "panda"]) == 2
     err = capsys.readouterr().err
     assert "unknown robot" in err and "rigid" in err
+
+
+def test_write_outputs_takes_the_inputs_predict_takes(episode, tiny_run, tmp_path):
+    """The Python API: intrinsics as (fx, fy, cx, cy) and the transform as an array, as
+    `predict` takes them; wrong ones fail with a MomaError, not deep in plotting."""
+    from momakitchen.deploy.predict import write_outputs
+
+    ep = episode
+    pred = momakitchen.predict(**_inputs(ep), rgb=ep.rgb, checkpoint=tiny_run, mc_samples=0)
+    paths = write_outputs(
+        pred, tmp_path / "out", ep.rgb, ep.depth, tuple(ep.intrinsics), ep.camera_to_base
+    )
+    assert paths["png"].stat().st_size > 10_000
+    assert json.loads(paths["json"].read_text())["poses"]
+    with pytest.raises(MomaError, match="intrinsics must be fx, fy, cx, cy"):
+        write_outputs(pred, tmp_path / "bad", ep.rgb, ep.depth, (1.0, 2.0), ep.camera_to_base)

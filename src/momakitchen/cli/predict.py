@@ -81,7 +81,6 @@ def run(args: argparse.Namespace) -> int:
     )
     from momakitchen.errors import MomaError
     from momakitchen.fileio import existing_dir
-    from momakitchen.perception.camera import Intrinsics
 
     if args.robot is None and (args.reach is None or args.mount_height is None):
         raise MomaError("give --robot NAME, or both --reach and --mount-height")
@@ -109,10 +108,8 @@ def run(args: argparse.Namespace) -> int:
         **({} if args.pick_radius is None else {"pick_radius": args.pick_radius}),
     )
     seconds = time.perf_counter() - t0
-    fx, fy, cx, cy = args.intrinsics  # argparse nargs=4
-    intr = Intrinsics(fx, fy, cx, cy, depth.shape[1], depth.shape[0])
     output_dir(out)  # created only now: a failed prediction leaves no empty directory
-    paths = write_outputs(pred, out, rgb, depth, intr, extrinsics)
+    paths = write_outputs(pred, out, rgb, depth, args.intrinsics, extrinsics)
     best = pred.to_dict(floor_points=False)["poses"]
     print(
         json.dumps(

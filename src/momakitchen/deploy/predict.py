@@ -26,6 +26,7 @@ import numpy as np
 from momakitchen.errors import MomaError
 from momakitchen.fileio import existing_file
 from momakitchen.models.inference import MC_SAMPLES, PICK_RADIUS, Prediction
+from momakitchen.perception.camera import Intrinsics
 
 
 # ------------------------------------------------------------------------------ inputs
@@ -92,6 +93,24 @@ def _load_png(path: Path, name: str) -> np.ndarray:
             return np.array(img)
     except (UnidentifiedImageError, OSError) as exc:
         raise MomaError(f"{name} file {str(path)!r} is not a readable image ({exc})") from exc
+
+
+def load_intrinsics(intrinsics: Sequence[float] | Intrinsics, shape: tuple[int, int]) -> Intrinsics:
+    """Pinhole intrinsics ``(fx, fy, cx, cy)`` in pixels (or an ``Intrinsics``) for an image
+    of ``shape`` (H, W)."""
+    h, w = shape
+    if isinstance(intrinsics, Intrinsics):
+        intr = intrinsics
+    else:
+        k = np.asarray(intrinsics, np.float64).reshape(-1)
+        if k.shape != (4,):
+            raise MomaError(f"intrinsics must be fx, fy, cx, cy; got {k.size} numbers")
+        intr = Intrinsics(float(k[0]), float(k[1]), float(k[2]), float(k[3]), w, h)
+    if (intr.height, intr.width) != (h, w):
+        raise MomaError(
+            f"intrinsics are for {intr.width}x{intr.height} images but the depth image is {w}x{h}"
+        )
+    return intr
 
 
 def load_extrinsics(tf: np.ndarray | str | os.PathLike) -> np.ndarray:
@@ -211,7 +230,6 @@ def predict(
             torch's setting.
     """
     from momakitchen.models.inference import frame_inputs, predict_map
-    from momakitchen.perception.camera import Intrinsics
     from momakitchen.train.checkpoint import LoadedRun, default_checkpoint, load_checkpoint
 
     if not 1 <= top_k <= 50:
@@ -224,17 +242,7 @@ def predict(
         raise MomaError(f"threads must be >= 1 or None, got {threads}")
     d = load_depth(depth)
     h, w = d.shape
-    if isinstance(intrinsics, Intrinsics):
-        intr = intrinsics
-    else:
-        k = np.asarray(intrinsics, np.float64).reshape(-1)
-        if k.shape != (4,):
-            raise MomaError(f"intrinsics must be fx, fy, cx, cy; got {k.size} numbers")
-        intr = Intrinsics(float(k[0]), float(k[1]), float(k[2]), float(k[3]), w, h)
-    if (intr.height, intr.width) != (h, w):
-        raise MomaError(
-            f"intrinsics are for {intr.width}x{intr.height} images but the depth image is {w}x{h}"
-        )
+    intr = load_intrinsics(intrinsics, (h, w))
     tf = load_extrinsics(camera_to_base)
     masks = {"target mask": load_mask(target_mask, "target mask")}
     for i, m in enumerate(obstacle_masks):
@@ -286,13 +294,19 @@ def write_outputs(
     out_dir: str | os.PathLike,
     rgb: np.ndarray | None = None,
     depth: np.ndarray | None = None,
-    intrinsics: Any = None,
+    intrinsics: Sequence[float] | Intrinsics | None = None,
     camera_to_base: np.ndarray | None = None,
 ) -> dict[str, Path]:
-    """``prediction.json`` (poses and floor points) and ``prediction.png`` (overlay)."""
+    """``prediction.json`` (poses and floor points) and ``prediction.png`` (the map over
+    ``rgb`` (H, W, 3) when it, ``intrinsics`` and ``camera_to_base`` are given, as
+    :func:`predict` takes them; top-down map; uncertainty)."""
     from momakitchen.fileio import atomic_write_bytes, atomic_write_text
     from momakitchen.perception.figures import prediction_figure
 
+    if rgb is not None and intrinsics is not None:
+        intrinsics = load_intrinsics(intrinsics, (rgb if depth is None else depth).shape[:2])
+    if camera_to_base is not None:
+        camera_to_base = load_extrinsics(camera_to_base)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     paths = {"json": out / "prediction.json", "png": out / "prediction.png"}
