@@ -179,3 +179,4 @@ def test_write_outputs_takes_the_inputs_predict_takes(episode, tiny_run, tmp_pat
     assert json.loads(paths["json"].read_text())["poses"]
     with pytest.raises(MomaError, match="intrinsics must be fx, fy, cx, cy"):
         write_outputs(pred, tmp_path / "bad", ep.rgb, ep.depth, (1.0, 2.0), ep.camera_to_base)
+    assert not (tmp_path / "bad").exists()

@@ -297,9 +297,10 @@ def write_outputs(
     intrinsics: Sequence[float] | Intrinsics | None = None,
     camera_to_base: np.ndarray | None = None,
 ) -> dict[str, Path]:
-    """``prediction.json`` (poses and floor points) and ``prediction.png`` (the map over
-    ``rgb`` (H, W, 3) when it, ``intrinsics`` and ``camera_to_base`` are given, as
-    :func:`predict` takes them; top-down map; uncertainty)."""
+    """``prediction.json`` (poses and floor points) and ``prediction.png`` (top-down map and
+    uncertainty, and the map over ``rgb`` (H, W, 3) when ``intrinsics`` and
+    ``camera_to_base`` are given too, in the forms :func:`predict` takes). Inputs are
+    checked before anything is written."""
     from momakitchen.fileio import atomic_write_bytes, atomic_write_text
     from momakitchen.perception.figures import prediction_figure
 
