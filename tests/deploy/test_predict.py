@@ -180,3 +180,20 @@ def test_write_outputs_takes_the_inputs_predict_takes(episode, tiny_run, tmp_pat
     with pytest.raises(MomaError, match="intrinsics must be fx, fy, cx, cy"):
         write_outputs(pred, tmp_path / "bad", ep.rgb, ep.depth, (1.0, 2.0), ep.camera_to_base)
     assert not (tmp_path / "bad").exists()
+
+
+def test_write_outputs_names_the_image_the_intrinsics_do_not_fit(episode, tiny_run, tmp_path):
+    """Intrinsics for another image size are checked against the depth image, or without
+    one against the RGB image, and the error names which."""
+    from momakitchen.deploy.predict import write_outputs
+    from momakitchen.perception.camera import Intrinsics
+
+    ep = episode
+    pred = momakitchen.predict(**_inputs(ep), rgb=ep.rgb, checkpoint=tiny_run, mc_samples=0)
+    h, w = ep.depth.shape
+    full = Intrinsics(*map(float, ep.intrinsics), w, h)
+    with pytest.raises(MomaError, match=f"but the RGB image is {w // 2}x{h // 2}"):
+        write_outputs(pred, tmp_path / "bad", ep.rgb[::2, ::2], None, full, ep.camera_to_base)
+    with pytest.raises(MomaError, match=f"but the depth image is {w // 2}x{h // 2}"):
+        write_outputs(pred, tmp_path / "bad", ep.rgb, ep.depth[::2, ::2], full, None)
+    assert not (tmp_path / "bad").exists()

@@ -95,9 +95,11 @@ def _load_png(path: Path, name: str) -> np.ndarray:
         raise MomaError(f"{name} file {str(path)!r} is not a readable image ({exc})") from exc
 
 
-def load_intrinsics(intrinsics: Sequence[float] | Intrinsics, shape: tuple[int, int]) -> Intrinsics:
+def load_intrinsics(
+    intrinsics: Sequence[float] | Intrinsics, shape: tuple[int, int], image: str = "depth image"
+) -> Intrinsics:
     """Pinhole intrinsics ``(fx, fy, cx, cy)`` in pixels (or an ``Intrinsics``) for an image
-    of ``shape`` (H, W)."""
+    of ``shape`` (H, W); ``image`` names that image in errors."""
     h, w = shape
     if isinstance(intrinsics, Intrinsics):
         intr = intrinsics
@@ -108,7 +110,7 @@ def load_intrinsics(intrinsics: Sequence[float] | Intrinsics, shape: tuple[int, 
         intr = Intrinsics(float(k[0]), float(k[1]), float(k[2]), float(k[3]), w, h)
     if (intr.height, intr.width) != (h, w):
         raise MomaError(
-            f"intrinsics are for {intr.width}x{intr.height} images but the depth image is {w}x{h}"
+            f"intrinsics are for {intr.width}x{intr.height} images but the {image} is {w}x{h}"
         )
     return intr
 
@@ -305,7 +307,8 @@ def write_outputs(
     from momakitchen.perception.figures import prediction_figure
 
     if rgb is not None and intrinsics is not None:
-        intrinsics = load_intrinsics(intrinsics, (rgb if depth is None else depth).shape[:2])
+        image, name = (rgb, "RGB image") if depth is None else (depth, "depth image")
+        intrinsics = load_intrinsics(intrinsics, image.shape[:2], name)
     if camera_to_base is not None:
         camera_to_base = load_extrinsics(camera_to_base)
     out = Path(out_dir)
