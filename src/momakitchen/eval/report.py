@@ -339,11 +339,12 @@ def seed_table(groups: dict[str, list[tuple[dict, list[int]]]]) -> list[str]:
     return [*lines, "", "Mean ± sample standard deviation over each model's runs."]
 
 
-def pooled_paired_table(outcomes: dict[str, list[list[int]]]) -> list[str]:
+def pooled_paired_table(outcomes: dict[str, list[list[int]]], unit: str = "runs") -> list[str]:
     """The first model against every other with as many runs, Top-1, pooled over each
     model's runs: per configuration the number of its runs that succeeded; the
     configurations where each is ahead, and the two-sided sign test of those counts.
-    (With unequal numbers of runs the difference is not symmetric under the null.)"""
+    (With unequal numbers of runs the difference is not symmetric under the null.)
+    ``unit`` names what the outcome lists are in the caption (runs, or views)."""
     from scipy.stats import binomtest
 
     wins = {m: np.sum(np.asarray(o, int), axis=0) for m, o in outcomes.items()}
@@ -364,8 +365,8 @@ def pooled_paired_table(outcomes: dict[str, list[list[int]]]) -> list[str]:
     return [
         *lines,
         "",
-        f"Configurations where more of {reference}'s {runs} runs succeed at Top-1 than of "
-        "the other's, and fewer; models with as many runs only.",
+        f"Configurations where more of {reference}'s {runs} {unit} succeed at Top-1 than of "
+        f"the other's, and fewer; models with as many {unit} only.",
     ]
 
 

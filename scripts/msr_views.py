@@ -1,0 +1,111 @@
+"""Closed-loop success judged on several views per configuration: `momakitchen msr` results
+of other seeds (each seed judges every configuration on another of its first-person views)
+pooled per configuration.
+
+    python scripts/msr_views.py --reference navaff --msr \
+        results/runs/navaff-12ep/msr.json results/runs/pointnet2-12ep/msr.json \
+        results/runs/msr-baselines.json ~/mk-runs/views/msr-seed*.json
+
+Files of the same seed are merged (``merge_msr``: same configurations and views); every
+seed must cover the same configurations. Prints each method's Top-1 MSR per seed and over
+all views; per seed the reference's McNemar test against each method (as ``benchmark``);
+pooled over the seeds the configurations where the reference succeeds on more of the views
+than the other and on fewer, with their two-sided sign test (one test per configuration, so
+the views of a configuration, which share its kitchen, robot and target, are not counted
+as independent); and the difference of the mean Top-1 rates with a 95 % bootstrap interval
+over configurations. Methods missing from a seed are left out of the pooled figures.
+"""
+
+from __future__ import annotations
+
+import argparse
+from collections import defaultdict
+from pathlib import Path
+
+import numpy as np
+from script_cli import run_main
+
+from momakitchen.errors import MomaError
+from momakitchen.eval.msr import merge_msr
+from momakitchen.eval.report import mcnemar, pooled_paired_table, top1_outcomes
+from momakitchen.fileio import read_json_object
+
+BOOTSTRAP = 10_000
+
+
+def by_seed(paths: list[Path]) -> dict[int, dict]:
+    """The MSR results merged per seed: {seed: result}, seeds in increasing order."""
+    groups: dict[int, list[tuple[str, dict]]] = defaultdict(list)
+    for path in paths:
+        result = read_json_object(path)
+        seed = result.get("config", {}).get("seed") if isinstance(result, dict) else None
+        if not isinstance(seed, int):
+            raise MomaError(f"{str(path)!r} is not a `momakitchen msr` result (no config seed)")
+        groups[seed].append((str(path), result))
+    merged = {s: merge_msr(groups[s]) for s in sorted(groups)}
+    keys = None
+    for seed, result in merged.items():
+        these = [(r["scene_id"], r["config_index"]) for r in result["records"]]
+        if keys is not None and these != keys:
+            raise MomaError(f"MSR seed {seed} covers other configurations than seed {min(merged)}")
+        keys = these
+    return merged
+
+
+def bootstrap_interval(diff: np.ndarray, seed: int = 0) -> tuple[float, float]:
+    """95 % percentile interval of the mean of per-configuration differences ``diff`` (C,),
+    resampling configurations."""
+    rng = np.random.default_rng(seed)
+    idx = rng.integers(len(diff), size=(BOOTSTRAP, len(diff)))
+    means = diff[idx].mean(axis=1)
+    return float(np.percentile(means, 2.5)), float(np.percentile(means, 97.5))
+
+
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--msr", type=Path, nargs="+", required=True)
+    ap.add_argument("--reference", required=True, help="method compared with every other")
+    args = ap.parse_args(argv)
+    results = by_seed(args.msr)
+    seeds = list(results)
+    methods = [
+        m for m in results[seeds[0]]["methods"] if all(m in r["methods"] for r in results.values())
+    ]
+    if args.reference not in methods:
+        raise MomaError(f"--reference {args.reference!r} is not in every seed; methods: {methods}")
+    outcomes = {m: [top1_outcomes(results[s], m) for s in seeds] for m in methods}
+    configs = len(outcomes[args.reference][0])
+
+    print(f"{configs} configurations, {len(seeds)} views each (MSR seeds {seeds})\n")
+    print("| method | " + " | ".join(f"seed {s}" for s in seeds) + " | all views |")
+    print("| --- |" + " ---: |" * (len(seeds) + 1))
+    for m, runs in outcomes.items():
+        cells = [f"{100 * np.mean(o):.1f} %" for o in runs]
+        print(f"| {m} | " + " | ".join(cells) + f" | {100 * np.mean(runs):.1f} % |")
+
+    others = [m for m in methods if m != args.reference]
+    print(f"\nMcNemar per seed, only {args.reference} / only the other succeeded, p:\n")
+    print("| against | " + " | ".join(f"seed {s}" for s in seeds) + " |")
+    print("| --- |" + " ---: |" * len(seeds))
+    for m in others:
+        cells = []
+        for a, b in zip(outcomes[args.reference], outcomes[m], strict=True):
+            only_a, only_b, p = mcnemar(a, b)
+            cells.append(f"{only_a} / {only_b}, {p:.2g}")
+        print(f"| {m} | " + " | ".join(cells) + " |")
+
+    print()
+    pooled = {args.reference: outcomes[args.reference], **{m: outcomes[m] for m in others}}
+    print("\n".join(pooled_paired_table(pooled, unit="views")))
+    print(f"\nDifference of Top-1 MSR over all views, {args.reference} minus the other:\n")
+    print("| against | difference | 95 % interval (bootstrap over configurations) |")
+    print("| --- | ---: | ---: |")
+    ref = np.mean(outcomes[args.reference], axis=0)
+    for m in others:
+        diff = ref - np.mean(outcomes[m], axis=0)
+        lo, hi = bootstrap_interval(diff)
+        print(f"| {m} | {100 * diff.mean():+.1f} points | {100 * lo:+.1f} to {100 * hi:+.1f} |")
+
+
+if __name__ == "__main__":
+    run_main(main, "msr_views.py")

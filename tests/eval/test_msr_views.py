@@ -1,0 +1,78 @@
+"""scripts/msr_views.py: closed-loop success pooled over several views per configuration."""
+
+from __future__ import annotations
+
+import json
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+SCRIPT = Path(__file__).resolve().parents[2] / "scripts" / "msr_views.py"
+
+
+def _result(seed: int, outcomes: dict[str, list[int]], top_k: int = 1) -> dict:
+    """A `momakitchen msr` result of len(outcomes[m]) configurations (views chosen by
+    ``seed``)."""
+    n = len(next(iter(outcomes.values())))
+    return {
+        "dataset": "/data",
+        "config": {"top_k": top_k, "min_spread": 0.2, "pick_radius": 0.0, "seed": seed},
+        "methods": {m: {} for m in outcomes},
+        "records": [
+            {
+                "scene_id": 7,
+                "config_index": c,
+                "episode_index": (seed + c) % 3,
+                "robot": "ur5e",
+                "target": "cabinet/door",
+                "feasible": True,
+                "methods": {m: {"outcomes": [o[c]]} for m, o in outcomes.items()},
+            }
+            for c in range(n)
+        ],
+    }
+
+
+def _write(tmp_path: Path, name: str, result: dict) -> Path:
+    path = tmp_path / name
+    path.write_text(json.dumps(result))
+    return path
+
+
+def _run(*args) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, SCRIPT, *map(str, args)], capture_output=True, text=True)
+
+
+def test_pools_views_per_configuration(tmp_path):
+    # 10 configurations; 'a' succeeds on both views of configurations 0-7, 'b' on one view
+    # of 0-3 and both of 4-7: 'a' is ahead in 4 configurations, never behind.
+    a = [1] * 8 + [0, 0]
+    b0, b1 = [1] * 8 + [0, 0], [0] * 4 + [1] * 4 + [0, 0]
+    files = [
+        # seed 0 in two files (one per method), merged as `benchmark` does
+        _write(tmp_path, "a0.json", _result(0, {"a": a}, top_k=5)),
+        _write(tmp_path, "b0.json", _result(0, {"b": b0}, top_k=5)),
+        _write(tmp_path, "s1.json", _result(1, {"a": a, "b": b1})),
+    ]
+    run = _run("--reference", "a", "--msr", *files)
+    assert run.returncode == 0, run.stderr
+    out = run.stdout
+    assert "10 configurations, 2 views each (MSR seeds [0, 1])" in out
+    assert re.search(r"\| a \| 80\.0 % \| 80\.0 % \| 80\.0 % \|", out), out
+    assert re.search(r"\| b \| 80\.0 % \| 40\.0 % \| 60\.0 % \|", out), out
+    assert "| b | 0 / 0, 1 | 4 / 0, 0.12 |" in out  # McNemar per seed
+    assert "| b | 4 | 0 | 0.12 |" in out  # pooled sign test: 2 * 0.5**4
+    assert "| b | +20.0 points |" in out
+
+
+def test_bad_input_is_one_line_and_exit_2(tmp_path):
+    a = _write(tmp_path, "a.json", _result(0, {"a": [1, 0]}))
+    other = _write(tmp_path, "o.json", _result(1, {"a": [1, 0, 1]}))
+    run = _run("--reference", "a", "--msr", a, other)
+    assert run.returncode == 2 and run.stderr.count("\n") == 1
+    assert "MSR seed 1 covers other configurations than seed 0" in run.stderr
+    run = _run("--reference", "zz", "--msr", a)
+    assert run.returncode == 2 and "--reference 'zz'" in run.stderr
+    run = _run("--reference", "a", "--msr", tmp_path / "missing.json")
+    assert run.returncode == 2 and "missing.json" in run.stderr
