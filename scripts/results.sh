@@ -199,6 +199,23 @@ if [[ ! -f "$RUNS/msr-baselines.json" ]]; then
 fi
 archive_results "$RUNS" "$ARCHIVE" msr-baselines.json
 
+# The 12-epoch pair and the oracle judged on four more views per configuration (MSR seeds
+# 1-4, Top-1 only): scripts/msr_views.py pools them with seed 0's (docs/RESULTS.md).
+if [[ -z "$ONLY" ]]; then
+  mkdir -p "$RUNS/views"
+  for seed in 1 2 3 4; do
+    f=msr-seed$seed.json
+    restore_results "$ARCHIVE/views" "$RUNS/views" "$f"
+    if [[ ! -f "$RUNS/views/$f" ]]; then
+      stamp "msr views, seed $seed"
+      momakitchen msr --data "$DATA" --checkpoint "$RUNS/navaff-12ep" \
+        --checkpoint "$RUNS/pointnet2-12ep" --method oracle --top-k 1 --seed "$seed" \
+        --json "$RUNS/views/$f" --quiet
+    fi
+    archive_results "$RUNS/views" "$ARCHIVE/views" "$f"
+  done
+fi
+
 if [[ -n "$ONLY$SPLIT" ]]; then
   stamp "done (${ONLY:+ONLY=$ONLY }${SPLIT:+SPLIT=$SPLIT}: no report)"
   exit 0
