@@ -95,8 +95,8 @@ def main(argv: list[str] | None = None) -> None:
         print(f"| {m} | " + " | ".join(cells) + " |")
 
     print()
-    pooled = {args.reference: outcomes[args.reference], **{m: outcomes[m] for m in others}}
-    print("\n".join(pooled_paired_table(pooled, unit="views")))
+    reference_first = {args.reference: outcomes[args.reference], **outcomes}
+    print("\n".join(pooled_paired_table(reference_first, unit="views")))
     print(f"\nDifference of Top-1 MSR over all views, {args.reference} minus the other:\n")
     print("| against | difference | 95 % interval (bootstrap over configurations) |")
     print("| --- | ---: | ---: |")
