@@ -7,7 +7,8 @@ pooled per configuration.
         results/runs/msr-baselines.json ~/mk-runs/views/msr-seed*.json
 
 Files of the same seed are merged (``merge_msr``: same configurations and views); every
-seed must cover the same configurations. Prints each method's Top-1 MSR per seed and over
+seed must cover the same configurations. ``NAME=FILE`` renames the one method of FILE to
+NAME, so that two trainings of one model (both called e.g. ``navaff``) can be compared. Prints each method's Top-1 MSR per seed and over
 all views; per seed the reference's McNemar test against each method (as ``benchmark``);
 pooled over the seeds the configurations where the reference succeeds on more of the views
 than the other and on fewer, with their two-sided sign test (one test per configuration, so
@@ -33,11 +34,32 @@ from momakitchen.fileio import read_json_object
 BOOTSTRAP = 10_000
 
 
-def by_seed(paths: list[Path]) -> dict[int, dict]:
+def read_labelled(arg: str) -> tuple[Path, dict]:
+    """The MSR result named by ``FILE`` or ``NAME=FILE`` (its one method renamed NAME)."""
+    name, sep, file = arg.partition("=")
+    if not sep or Path(arg).exists():
+        return Path(arg), read_json_object(Path(arg))
+    path = Path(file)
+    result = read_json_object(path)
+    methods = result.get("methods")
+    if not isinstance(methods, dict) or len(methods) != 1:
+        found = sorted(methods) if isinstance(methods, dict) else None
+        raise MomaError(f"{arg!r}: NAME=FILE needs a result of one method, found {found}")
+    (old,) = methods
+    try:
+        for record in result["records"]:
+            record["methods"] = {name: record["methods"][old]}
+    except (KeyError, TypeError) as e:
+        raise MomaError(f"{str(path)!r} is not a `momakitchen msr` result ({e})") from None
+    result["methods"] = {name: methods[old]}
+    return path, result
+
+
+def by_seed(args: list[str]) -> dict[int, dict]:
     """The MSR results merged per seed: {seed: result}, seeds in increasing order."""
     groups: dict[int, list[tuple[str, dict]]] = defaultdict(list)
-    for path in paths:
-        result = read_json_object(path)
+    for arg in args:
+        path, result = read_labelled(arg)
         seed = result.get("config", {}).get("seed") if isinstance(result, dict) else None
         if not isinstance(seed, int):
             raise MomaError(f"{str(path)!r} is not a `momakitchen msr` result (no config seed)")
@@ -63,7 +85,7 @@ def bootstrap_interval(diff: np.ndarray, seed: int = 0) -> tuple[float, float]:
 
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--msr", type=Path, nargs="+", required=True)
+    ap.add_argument("--msr", nargs="+", required=True, metavar="[NAME=]FILE")
     ap.add_argument("--reference", required=True, help="method compared with every other")
     args = ap.parse_args(argv)
     results = by_seed(args.msr)

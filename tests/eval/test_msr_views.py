@@ -76,3 +76,17 @@ def test_bad_input_is_one_line_and_exit_2(tmp_path):
     assert run.returncode == 2 and "--reference 'zz'" in run.stderr
     run = _run("--reference", "a", "--msr", tmp_path / "missing.json")
     assert run.returncode == 2 and "missing.json" in run.stderr
+
+
+def test_name_equals_file_renames_its_one_method(tmp_path):
+    # two trainings of one model, both called 'a' in their files: compared as 'a' and 'a2'
+    first = _write(tmp_path, "a.json", _result(0, {"a": [1, 1, 0]}))
+    second = _write(tmp_path, "a2.json", _result(0, {"a": [0, 1, 0]}))
+    run = _run("--reference", "a", "--msr", first, second)
+    assert run.returncode == 2 and "repeats methods ['a']" in run.stderr
+    run = _run("--reference", "a", "--msr", first, f"a2={second}")
+    assert run.returncode == 0, run.stderr
+    assert re.search(r"\| a2 \| 33\.3 % \| 33\.3 % \|", run.stdout), run.stdout
+    both = _write(tmp_path, "ab.json", _result(1, {"a": [1, 0, 0], "b": [0, 0, 1]}))
+    run = _run("--reference", "a", "--msr", f"c={both}")
+    assert run.returncode == 2 and "needs a result of one method, found ['a', 'b']" in run.stderr
