@@ -78,6 +78,9 @@ RUN_LIST=(
 MAIN=(navaff pointnet2 votenet h3dnet)  # compared in closed loop
 MSR_RUNS=("${MAIN[@]}" navaff-seed1 navaff-12ep navaff-12ep-seed1
   pointnet2-seed1 pointnet2-12ep pointnet2-12ep-seed1)   # MSR is measured for these
+# Second seeds of the 12-epoch pair, also judged on four more views per configuration
+# (RUN/views/msr-seed1..4.json, Top-1), as the pair is below ($RUNS/views).
+VIEW_RUNS=(navaff-12ep-seed1 pointnet2-12ep-seed1)
 # Runs at a time. On a 2-core machine, three one-thread NavAff trainings side by side
 # trained 28 samples/s in total, one two-thread training 23.
 PARALLEL=${PARALLEL:-2}
@@ -153,6 +156,20 @@ run_one() {  # name, then train options: train (or restore), evaluate, MSR (MSR_
     momakitchen msr --data "$DATA" --checkpoint "$RUNS/$name" --json "$RUNS/$name/msr.json" --quiet
   fi
   archive_results "$RUNS/$name" "$ARCHIVE/$name" test.json msr.json
+  if [[ " ${VIEW_RUNS[*]} " == *" $name "* ]]; then
+    local seed f
+    mkdir -p "$RUNS/$name/views"
+    for seed in 1 2 3 4; do
+      f=msr-seed$seed.json
+      restore_results "$ARCHIVE/$name/views" "$RUNS/$name/views" "$f"
+      if stale "$RUNS/$name/views/$f" "$RUNS/$name/model.safetensors"; then
+        stamp "msr $name, views seed $seed"
+        momakitchen msr --data "$DATA" --checkpoint "$RUNS/$name" --top-k 1 --seed "$seed" \
+          --json "$RUNS/$name/views/$f" --quiet
+      fi
+      archive_results "$RUNS/$name/views" "$ARCHIVE/$name/views" "$f"
+    done
+  fi
 }
 
 stamp "dataset: $DATA"
