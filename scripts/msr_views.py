@@ -4,17 +4,21 @@ pooled per configuration.
 
     python scripts/msr_views.py --reference navaff --msr \
         results/runs/navaff-12ep/msr.json results/runs/pointnet2-12ep/msr.json \
-        results/runs/msr-baselines.json ~/mk-runs/views/msr-seed*.json
+        results/runs/msr-baselines.json results/runs/views/msr-seed*.json \
+        navaff-seed1=results/runs/navaff-12ep-seed1/msr.json \
+        navaff-seed1=results/runs/navaff-12ep-seed1/views/msr-seed*.json
 
 Files of the same seed are merged (``merge_msr``: same configurations and views); every
 seed must cover the same configurations. ``NAME=FILE`` renames the one method of FILE to
-NAME, so that two trainings of one model (both called e.g. ``navaff``) can be compared. Prints each method's Top-1 MSR per seed and over
-all views; per seed the reference's McNemar test against each method (as ``benchmark``);
-pooled over the seeds the configurations where the reference succeeds on more of the views
-than the other and on fewer, with their two-sided sign test (one test per configuration, so
-the views of a configuration, which share its kitchen, robot and target, are not counted
-as independent); and the difference of the mean Top-1 rates with a 95 % bootstrap interval
-over configurations. Methods missing from a seed are left out of the pooled figures.
+NAME, so that two trainings of one model (both called e.g. ``navaff``) can be compared.
+
+Prints each method's Top-1 MSR per seed and over all views; per seed the reference's
+McNemar test against each method (as ``benchmark``); pooled over the seeds the
+configurations where the reference succeeds on more of the views than the other and on
+fewer, with their two-sided sign test (one test per configuration, so the views of a
+configuration, which share its kitchen, robot and target, are not counted as independent);
+and the difference of the mean Top-1 rates with a 95 % bootstrap interval over
+configurations. Methods missing from a seed are left out of the pooled figures.
 """
 
 from __future__ import annotations
