@@ -6,7 +6,7 @@ pooled per configuration.
         results/runs/navaff-12ep/msr.json results/runs/pointnet2-12ep/msr.json \
         results/runs/msr-baselines.json results/runs/views/msr-seed*.json \
         navaff-seed1=results/runs/navaff-12ep-seed1/msr.json \
-        navaff-seed1=results/runs/navaff-12ep-seed1/views/msr-seed*.json
+        navaff-seed1=results/runs/navaff-12ep-seed1/views/msr-seed{1,2,3,4}.json
 
 Files of the same seed are merged (``merge_msr``: same configurations and views); every
 seed must cover the same configurations. ``NAME=FILE`` renames the one method of FILE to
