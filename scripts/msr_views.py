@@ -18,13 +18,14 @@ configurations where the reference succeeds on more of the views than the other 
 fewer, with their two-sided sign test (one test per configuration, so the views of a
 configuration, which share its kitchen, robot and target, are not counted as independent);
 and the difference of the mean Top-1 rates with a 95 % bootstrap interval over
-configurations. Methods missing from a seed are left out of the pooled figures.
+configurations; and each method's rate over all views per target category. Methods missing
+from a seed are left out of the pooled figures.
 """
 
 from __future__ import annotations
 
 import argparse
-from collections import defaultdict
+from collections import Counter, defaultdict
 from pathlib import Path
 
 import numpy as np
@@ -131,6 +132,15 @@ def main(argv: list[str] | None = None) -> None:
         diff = ref - np.mean(outcomes[m], axis=0)
         lo, hi = bootstrap_interval(diff)
         print(f"| {m} | {100 * diff.mean():+.1f} points | {100 * lo:+.1f} to {100 * hi:+.1f} |")
+
+    targets = [r["target"] for r in results[seeds[0]]["records"]]
+    print("\nTop-1 MSR over all views per target (largest groups first):\n")
+    print("| target | configurations | " + " | ".join(methods) + " |")
+    print("| --- | ---: |" + " ---: |" * len(methods))
+    for target, count in Counter(targets).most_common():
+        rows = [i for i, t in enumerate(targets) if t == target]
+        cells = [f"{100 * np.mean(np.asarray(outcomes[m])[:, rows]):.1f} %" for m in methods]
+        print(f"| {target} | {count} | " + " | ".join(cells) + " |")
 
 
 if __name__ == "__main__":

@@ -64,6 +64,7 @@ def test_pools_views_per_configuration(tmp_path):
     assert "| b | 0 / 0, 1 | 4 / 0, 0.12 |" in out  # McNemar per seed
     assert "| b | 4 | 0 | 0.12 |" in out  # pooled sign test: 2 * 0.5**4
     assert "| b | +20.0 points |" in out
+    assert "| cabinet/door | 10 | 80.0 % | 60.0 % |" in out  # per target, over all views
 
 
 def test_bad_input_is_one_line_and_exit_2(tmp_path):
