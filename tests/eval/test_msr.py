@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from momakitchen.errors import MomaError
-from momakitchen.eval.msr import MsrConfig, merge_msr, run_msr
+from momakitchen.eval.msr import MsrConfig, format_msr_table, merge_msr, run_msr
 from momakitchen.frames import base_to_world_xy, world_to_base
 from momakitchen.models.inference import local_mean, select_points
 from momakitchen.sim.trials import TrialRunner
@@ -253,3 +253,21 @@ def test_merge_msr_refuses_parts_that_do_not_fit():
     ):
         with pytest.raises(MomaError, match=message):
             merge_msr(parts)
+
+
+def test_msr_table_shows_top_k_columns_only_when_k_exceeds_one():
+    rates = {"top1": 0.5, "topk": 0.25, "top1_feasible": 0.75, "topk_feasible": 0.125}
+    result = {
+        "config": {"top_k": 5, "split": "test"},
+        "configurations": 4,
+        "feasible_configurations": 3,
+        "methods": {"navaff": {**rates, "trials": 20}},
+    }
+    head, _, row, _ = format_msr_table(result).splitlines()
+    columns = "method Top-1 MSR Top-5 MSR Top-1 (feasible) Top-5 (feasible) trials"
+    assert head.split() == columns.split()
+    assert row.split() == ["navaff", "50.0", "%", "25.0", "%", "75.0", "%", "12.5", "%", "20"]
+    result["config"]["top_k"] = 1
+    head, _, row, _ = format_msr_table(result).splitlines()
+    assert head.split() == "method Top-1 MSR Top-1 (feasible) trials".split()
+    assert row.split() == ["navaff", "50.0", "%", "75.0", "%", "20"]

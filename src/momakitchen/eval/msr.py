@@ -430,14 +430,19 @@ def merge_msr(parts: Sequence[tuple[str, dict[str, Any]]]) -> dict[str, Any]:
 
 
 def format_msr_table(result: dict[str, Any]) -> str:
-    """A plain-text table: method, Top-1 and Top-k MSR (all and feasible configurations),
-    trials run."""
+    """A plain-text table: method, Top-1 and Top-k MSR (all and feasible configurations;
+    the Top-k columns only when k > 1), trials run."""
     k = result["config"]["top_k"]
-    rows = [
-        ("method", "Top-1 MSR", f"Top-{k} MSR", "Top-1 (feasible)", f"Top-{k} (feasible)", "trials")
-    ]
+    keys = RATE_KEYS if k > 1 else ("top1", "top1_feasible")
+    heads = {
+        "top1": "Top-1 MSR",
+        "topk": f"Top-{k} MSR",
+        "top1_feasible": "Top-1 (feasible)",
+        "topk_feasible": f"Top-{k} (feasible)",
+    }
+    rows = [("method", *(heads[key] for key in keys), "trials")]
     for name, m in result["methods"].items():
-        rows.append((name, *(f"{100 * m[key]:.1f} %" for key in RATE_KEYS), str(m["trials"])))
+        rows.append((name, *(f"{100 * m[key]:.1f} %" for key in keys), str(m["trials"])))
     widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
     lines = [
         "  ".join(
