@@ -19,7 +19,9 @@ fewer, with their two-sided sign test (one test per configuration, so the views 
 configuration, which share its kitchen, robot and target, are not counted as independent);
 and the difference of the mean Top-1 rates with a 95 % bootstrap interval over
 configurations; and each method's rate over all views per target category. Methods missing
-from a seed are left out of the pooled figures.
+from a seed are left out of the pooled figures. ``--pool NAME=M1,M2`` pools methods over
+all their views (e.g. two trainings of each model, five views each: ten per configuration)
+and compares the first pool with the others the same way.
 """
 
 from __future__ import annotations
@@ -88,10 +90,64 @@ def bootstrap_interval(diff: np.ndarray, seed: int = 0) -> tuple[float, float]:
     return float(np.percentile(means, 2.5)), float(np.percentile(means, 97.5))
 
 
+def print_differences(outcomes: dict[str, list[list[int]]], reference: str) -> None:
+    """Difference of Top-1 MSR over all views, ``reference`` minus each other method, with
+    its 95 % bootstrap interval over configurations."""
+    print(f"\nDifference of Top-1 MSR over all views, {reference} minus the other:\n")
+    print("| against | difference | 95 % interval (bootstrap over configurations) |")
+    print("| --- | ---: | ---: |")
+    ref = np.mean(outcomes[reference], axis=0)
+    for m in outcomes:
+        if m != reference:
+            diff = ref - np.mean(outcomes[m], axis=0)
+            lo, hi = bootstrap_interval(diff)
+            lo_hi = f"{100 * lo:+.1f} to {100 * hi:+.1f}"
+            print(f"| {m} | {100 * diff.mean():+.1f} points | {lo_hi} |")
+
+
+def make_pools(
+    outcomes: dict[str, list[list[int]]], specs: list[str]
+) -> dict[str, tuple[list[str], list[list[int]]]]:
+    """Each pool ``NAME=M1,M2,...``: {NAME: (its methods, their views together)}."""
+    pools = {}
+    for spec in specs:
+        name, sep, members = spec.partition("=")
+        names = members.split(",")
+        unknown = [m for m in names if m not in outcomes]
+        if not sep or not name or unknown or name in pools:
+            raise MomaError(f"--pool {spec!r}: want NAME=M1,M2 of methods {list(outcomes)}")
+        pools[name] = (names, [o for m in names for o in outcomes[m]])
+    return pools
+
+
+def print_pools(pools: dict[str, tuple[list[str], list[list[int]]]]) -> None:
+    """Each pool's Top-1 MSR over every view of its members; the first pool against each
+    other pool of as many views."""
+    print("\nPooled, Top-1 MSR over every view of each member:\n")
+    print("| pool | members | views per configuration | Top-1 MSR |")
+    print("| --- | --- | ---: | ---: |")
+    for name, (members, runs) in pools.items():
+        print(f"| {name} | {', '.join(members)} | {len(runs)} | {100 * np.mean(runs):.1f} % |")
+    views = {name: runs for name, (_, runs) in pools.items()}
+    reference, *others = views
+    if others:
+        print()
+        print("\n".join(pooled_paired_table(views, unit="views")))
+        print_differences(views, reference)
+
+
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--msr", nargs="+", required=True, metavar="[NAME=]FILE")
     ap.add_argument("--reference", required=True, help="method compared with every other")
+    ap.add_argument(
+        "--pool",
+        nargs="+",
+        default=[],
+        metavar="NAME=M1,M2",
+        help="also pool methods (e.g. two trainings of one model) over all their views; "
+        "the first pool is compared with the others",
+    )
     args = ap.parse_args(argv)
     results = by_seed(args.msr)
     seeds = list(results)
@@ -102,6 +158,7 @@ def main(argv: list[str] | None = None) -> None:
         raise MomaError(f"--reference {args.reference!r} is not in every seed; methods: {methods}")
     outcomes = {m: [top1_outcomes(results[s], m) for s in seeds] for m in methods}
     configs = len(outcomes[args.reference][0])
+    pools = make_pools(outcomes, args.pool)
 
     print(f"{configs} configurations, {len(seeds)} views each (MSR seeds {seeds})\n")
     print("| method | " + " | ".join(f"seed {s}" for s in seeds) + " | all views |")
@@ -124,14 +181,10 @@ def main(argv: list[str] | None = None) -> None:
     print()
     reference_first = {args.reference: outcomes[args.reference], **outcomes}
     print("\n".join(pooled_paired_table(reference_first, unit="views")))
-    print(f"\nDifference of Top-1 MSR over all views, {args.reference} minus the other:\n")
-    print("| against | difference | 95 % interval (bootstrap over configurations) |")
-    print("| --- | ---: | ---: |")
-    ref = np.mean(outcomes[args.reference], axis=0)
-    for m in others:
-        diff = ref - np.mean(outcomes[m], axis=0)
-        lo, hi = bootstrap_interval(diff)
-        print(f"| {m} | {100 * diff.mean():+.1f} points | {100 * lo:+.1f} to {100 * hi:+.1f} |")
+    print_differences(outcomes, args.reference)
+
+    if pools:
+        print_pools(pools)
 
     targets = [r["target"] for r in results[seeds[0]]["records"]]
     print("\nTop-1 MSR over all views per target (largest groups first):\n")

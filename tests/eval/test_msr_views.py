@@ -91,3 +91,22 @@ def test_name_equals_file_renames_its_one_method(tmp_path):
     both = _write(tmp_path, "ab.json", _result(1, {"a": [1, 0, 0], "b": [0, 0, 1]}))
     run = _run("--reference", "a", "--msr", f"c={both}")
     assert run.returncode == 2 and "needs a result of one method, found ['a', 'b']" in run.stderr
+
+
+def test_pool_compares_methods_over_all_their_views(tmp_path):
+    # 'a1', 'a2' (two trainings of a) and 'b1', 'b2', two views each: a succeeds on all four
+    # views of configurations 0-2, b on three of them in 0-1 and on all four in 2.
+    four = {"a1": [1, 1, 1, 0], "a2": [1, 1, 1, 0], "b1": [1, 1, 1, 0]}
+    files = [
+        _write(tmp_path, "s0.json", _result(0, {**four, "b2": [0, 0, 1, 0]})),
+        _write(tmp_path, "s1.json", _result(1, {**four, "b2": [1, 1, 1, 0]})),
+    ]
+    run = _run("--reference", "a1", "--msr", *files, "--pool", "a=a1,a2", "b=b1,b2")
+    assert run.returncode == 0, run.stderr
+    assert "| a | a1, a2 | 4 | 75.0 % |" in run.stdout
+    assert "| b | b1, b2 | 4 | 62.5 % |" in run.stdout
+    assert "| b | 2 | 0 | 0.5 |" in run.stdout  # sign test over configurations 0 and 1
+    assert "| b | +12.5 points |" in run.stdout
+    run = _run("--reference", "a1", "--msr", *files, "--pool", "a=a1,zz")
+    assert run.returncode == 2 and run.stderr.count("\n") == 1 and "'a=a1,zz'" in run.stderr
+    assert run.stdout == ""  # refused before anything is printed
