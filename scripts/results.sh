@@ -60,6 +60,9 @@ RUN_LIST=(
   "pointnet2-12ep-seed1 --model pointnet2 --epochs 12 --seed 1"
   "votenet --model votenet"
   "h3dnet --model h3dnet"
+  # The other two baselines at navaff-12ep's length: NavAff's map lead at equal training
+  "votenet-12ep --model votenet --epochs 12"
+  "h3dnet-12ep --model h3dnet --epochs 12"
   # The ablation without robot tokens and the lambda sweep were trained before the cpu
   # preset hid NavAff's target offset from half the training episodes
   # (ModelConfig.relative_dropout); NODROP keeps them that recipe. (The other two ablations
@@ -77,7 +80,7 @@ RUN_LIST=(
 )
 MAIN=(navaff pointnet2 votenet h3dnet)  # compared in closed loop
 MSR_RUNS=("${MAIN[@]}" navaff-seed1 navaff-12ep navaff-12ep-seed1
-  pointnet2-seed1 pointnet2-12ep pointnet2-12ep-seed1)   # MSR is measured for these
+  pointnet2-seed1 pointnet2-12ep pointnet2-12ep-seed1 votenet-12ep h3dnet-12ep)   # MSR for these
 # Second seeds of the 12-epoch pair, also judged on four more views per configuration
 # (RUN/views/msr-seed1..4.json, Top-1), as the pair is below ($RUNS/views).
 VIEW_RUNS=(navaff-12ep-seed1 pointnet2-12ep-seed1)
