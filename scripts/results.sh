@@ -160,19 +160,23 @@ run_one() {  # name, then train options: train (or restore), evaluate, MSR (MSR_
   fi
   archive_results "$RUNS/$name" "$ARCHIVE/$name" test.json msr.json
   if [[ " ${VIEW_RUNS[*]} " == *" $name "* ]]; then
-    local seed f
-    mkdir -p "$RUNS/$name/views"
-    for seed in 1 2 3 4; do
-      f=msr-seed$seed.json
-      restore_results "$ARCHIVE/$name/views" "$RUNS/$name/views" "$f"
-      if stale "$RUNS/$name/views/$f" "$RUNS/$name/model.safetensors"; then
-        stamp "msr $name, views seed $seed"
-        momakitchen msr --data "$DATA" --checkpoint "$RUNS/$name" --top-k 1 --seed "$seed" \
-          --json "$RUNS/$name/views/$f" --quiet
-      fi
-      archive_results "$RUNS/$name/views" "$ARCHIVE/$name/views" "$f"
-    done
+    more_views "$name/views" "$RUNS/$name/model.safetensors" --checkpoint "$RUNS/$name"
   fi
+}
+
+more_views() {  # dir under RUNS, model they go stale with, msr options: MSR seeds 1-4, Top-1
+  local dir=$1 model=$2 seed f
+  shift 2
+  mkdir -p "$RUNS/$dir"
+  for seed in 1 2 3 4; do
+    f=msr-seed$seed.json
+    restore_results "$ARCHIVE/$dir" "$RUNS/$dir" "$f"
+    if stale "$RUNS/$dir/$f" "$model"; then
+      stamp "msr $dir, seed $seed"
+      momakitchen msr --data "$DATA" "$@" --top-k 1 --seed "$seed" --json "$RUNS/$dir/$f" --quiet
+    fi
+    archive_results "$RUNS/$dir" "$ARCHIVE/$dir" "$f"
+  done
 }
 
 stamp "dataset: $DATA"
@@ -222,18 +226,8 @@ archive_results "$RUNS" "$ARCHIVE" msr-baselines.json
 # The 12-epoch pair and the oracle judged on four more views per configuration (MSR seeds
 # 1-4, Top-1 only): scripts/msr_views.py pools them with seed 0's (docs/RESULTS.md).
 if [[ -z "$ONLY" ]]; then
-  mkdir -p "$RUNS/views"
-  for seed in 1 2 3 4; do
-    f=msr-seed$seed.json
-    restore_results "$ARCHIVE/views" "$RUNS/views" "$f"
-    if [[ ! -f "$RUNS/views/$f" ]]; then
-      stamp "msr views, seed $seed"
-      momakitchen msr --data "$DATA" --checkpoint "$RUNS/navaff-12ep" \
-        --checkpoint "$RUNS/pointnet2-12ep" --method oracle --top-k 1 --seed "$seed" \
-        --json "$RUNS/views/$f" --quiet
-    fi
-    archive_results "$RUNS/views" "$ARCHIVE/views" "$f"
-  done
+  more_views views "$RUNS/navaff-12ep/model.safetensors" --checkpoint "$RUNS/navaff-12ep" \
+    --checkpoint "$RUNS/pointnet2-12ep" --method oracle
 fi
 
 if [[ -n "$ONLY$SPLIT" ]]; then
