@@ -67,7 +67,7 @@ def by_seed(args: list[str]) -> dict[int, dict]:
     groups: dict[int, list[tuple[str, dict]]] = defaultdict(list)
     for arg in args:
         path, result = read_labelled(arg)
-        seed = result.get("config", {}).get("seed") if isinstance(result, dict) else None
+        seed = result.get("config", {}).get("seed")
         if not isinstance(seed, int):
             raise MomaError(f"{str(path)!r} is not a `momakitchen msr` result (no config seed)")
         groups[seed].append((str(path), result))
@@ -186,13 +186,13 @@ def main(argv: list[str] | None = None) -> None:
     if pools:
         print_pools(pools)
 
-    targets = [r["target"] for r in results[seeds[0]]["records"]]
+    targets = np.array([r["target"] for r in results[seeds[0]]["records"]])
+    views = {m: np.asarray(o) for m, o in outcomes.items()}  # (seeds, configurations)
     print("\nTop-1 MSR over all views per target (largest groups first):\n")
     print("| target | configurations | " + " | ".join(methods) + " |")
     print("| --- | ---: |" + " ---: |" * len(methods))
-    for target, count in Counter(targets).most_common():
-        rows = [i for i, t in enumerate(targets) if t == target]
-        cells = [f"{100 * np.mean(np.asarray(outcomes[m])[:, rows]):.1f} %" for m in methods]
+    for target, count in Counter(targets.tolist()).most_common():
+        cells = [f"{100 * views[m][:, targets == target].mean():.1f} %" for m in methods]
         print(f"| {target} | {count} | " + " | ".join(cells) + " |")
 
 
