@@ -15,6 +15,7 @@ from momakitchen.errors import MomaError
 from momakitchen.eval.report import (
     BenchmarkRequest,
     mcnemar,
+    mcnemar_power,
     paired_map_table,
     pooled_paired_table,
     run_benchmark,
@@ -256,6 +257,27 @@ def test_mcnemar_counts_discordant_pairs_and_tests_them_exactly():
     assert mcnemar([1] * 3 + [0] * 2, [0] * 3 + [1] * 2)[2] > 0.5
     with pytest.raises(MomaError, match="length"):
         mcnemar([1, 0], [1])
+
+
+def test_mcnemar_power_is_the_chance_that_mcnemar_finds_the_lead():
+    # Brute force on 30 configurations: every way of splitting them into only-a, only-b and
+    # agreeing ones, weighted by its probability, counted where mcnemar says a is ahead.
+    n, discordant, lead = 30, 0.4, 0.2
+    pa, pb = (discordant + lead) / 2, (discordant - lead) / 2
+    expected = 0.0
+    for i in range(n + 1):
+        for j in range(n + 1 - i):
+            a = [1] * i + [0] * j + [1] * (n - i - j)
+            b = [0] * i + [1] * j + [1] * (n - i - j)
+            if i > j and mcnemar(a, b)[2] < 0.05:
+                ways = math.comb(n, i) * math.comb(n - i, j)
+                expected += ways * pa**i * pb**j * (1 - pa - pb) ** (n - i - j)
+    assert mcnemar_power(n, discordant, lead) == pytest.approx(expected, rel=1e-9)
+    assert mcnemar_power(600, 0.08, 0.0) <= 0.025  # no lead: a wins only by chance
+    assert mcnemar_power(600, 0.08, 0.01) < mcnemar_power(600, 0.08, 0.03)
+    assert mcnemar_power(600, 0.08, 0.01) < mcnemar_power(6000, 0.08, 0.01)
+    with pytest.raises(MomaError, match=r"discordant 0\.1, lead 0\.2"):
+        mcnemar_power(600, 0.1, 0.2)
 
 
 def test_paired_map_table_counts_scenes_where_the_first_run_is_better():

@@ -313,6 +313,30 @@ def mcnemar(a: Sequence[int], b: Sequence[int]) -> tuple[int, int, float]:
     return only_a, only_b, float(binomtest(only_a, n, 0.5).pvalue) if n else 1.0
 
 
+def mcnemar_power(
+    configurations: int, discordant: float, lead: float, alpha: float = 0.05
+) -> float:
+    """Probability that :func:`mcnemar` finds method a ahead of method b (p < ``alpha``, more
+    configurations solved only by a) over ``configurations`` independent configurations, where
+    a configuration is solved by exactly one of the two with probability ``discordant``, and
+    a's success rate exceeds b's by ``lead`` (only a: (discordant + lead) / 2, only b:
+    (discordant - lead) / 2). Exact: summed over the number of discordant configurations."""
+    from scipy.stats import binom
+
+    if configurations < 1 or not 0 < discordant <= 1 or not 0 <= lead <= discordant:
+        raise MomaError(
+            f"mcnemar_power: want configurations >= 1 and 0 <= lead <= discordant <= 1, got "
+            f"{configurations}, discordant {discordant}, lead {lead}"
+        )
+    d = np.arange(configurations + 1)
+    # Two-sided exact test at 1/2: p = 2 P(X >= k) for k above d / 2, so a ahead needs
+    # P(X >= k) < alpha / 2, i.e. k > isf(alpha / 2) (isf: the least k with P(X > k) <= q).
+    k_min = binom.isf(alpha / 2, d, 0.5) + 1
+    k_min = np.where(binom.sf(k_min - 2, d, 0.5) < alpha / 2, k_min - 1, k_min)
+    given_d = binom.sf(k_min - 1, d, (discordant + lead) / (2 * discordant))
+    return float(np.sum(binom.pmf(d, configurations, discordant) * given_d))
+
+
 def top1_outcomes(msr: dict, name: str) -> list[int]:
     """Top-1 outcome (1/0) of a method on every MSR configuration, in record order (a
     configuration where it chose nothing counts as a failure)."""

@@ -1,0 +1,108 @@
+"""How large a closed-loop lead can McNemar's test see on these configurations? The power of
+the test `momakitchen msr` and `benchmark` report, from two methods' measured Top-1 outcomes.
+
+    python scripts/msr_power.py --reference navaff --other pointnet2 \
+        --msr results/runs/navaff-12ep/msr.json results/runs/pointnet2-12ep/msr.json
+
+From the configurations solved by only one of the two (their share: the discordant rate)
+and the measured lead (difference of Top-1 rates), it prints McNemar's test as measured,
+the test's power for the measured lead on this many configurations, the lead it detects
+with ``--power`` on them, and how many configurations it would need for the measured lead
+(or ``--lead``). The discordant rate is held at its measured value (at least the lead):
+configurations are taken as independent, each discordant with that probability.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+from script_cli import run_main
+
+from momakitchen.errors import MomaError
+from momakitchen.eval.msr import merge_msr
+from momakitchen.eval.report import mcnemar, mcnemar_power, top1_outcomes
+from momakitchen.fileio import read_json_object
+
+MAX_CONFIGURATIONS = 10_000_000
+
+
+def detectable_lead(configurations: int, discordant: float, power: float) -> float:
+    """The least lead (to 1e-4) that McNemar's test finds with probability ``power`` over
+    ``configurations``, or NaN if even a lead of ``discordant`` is not found that often."""
+    if mcnemar_power(configurations, discordant, discordant) < power:
+        return float("nan")
+    lo, hi = 0.0, discordant
+    while hi - lo > 1e-4:
+        mid = (lo + hi) / 2
+        lo, hi = (lo, mid) if mcnemar_power(configurations, discordant, mid) >= power else (mid, hi)
+    return hi
+
+
+def configurations_needed(discordant: float, lead: float, power: float) -> int:
+    """The least number of configurations (to 1 %) over which McNemar's test finds ``lead``
+    with probability ``power``."""
+    if lead <= 0:
+        raise MomaError(f"a lead of {lead} is never found ahead; want a positive lead")
+    hi = 16
+    while mcnemar_power(hi, discordant, lead) < power:
+        hi *= 2
+        if hi > MAX_CONFIGURATIONS:
+            raise MomaError(f"a lead of {lead} needs over {MAX_CONFIGURATIONS} configurations")
+    lo = hi // 2
+    while hi - lo > max(1, hi // 100):
+        mid = (lo + hi) // 2
+        lo, hi = (lo, mid) if mcnemar_power(mid, discordant, lead) >= power else (mid, hi)
+    return hi
+
+
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--msr", type=Path, nargs="+", required=True, help="`momakitchen msr` JSONs")
+    ap.add_argument("--reference", required=True, help="the method hoped to be ahead")
+    ap.add_argument("--other", required=True, help="the method it is tested against")
+    ap.add_argument("--power", type=float, default=0.8, help="wanted power (default 0.8)")
+    ap.add_argument("--lead", type=float, default=None, help="plan for this lead instead")
+    ap.add_argument("--alpha", type=float, default=0.05, help="significance level (0.05)")
+    args = ap.parse_args(argv)
+    if not 0 < args.power < 1 or not 0 < args.alpha < 1:
+        raise MomaError(f"--power and --alpha must lie in (0, 1), got {args.power}, {args.alpha}")
+    msr = merge_msr([(str(p), read_json_object(p)) for p in args.msr])
+    for name in (args.reference, args.other):
+        if name not in msr["methods"]:
+            raise MomaError(f"method {name!r} is not in the MSR results: {list(msr['methods'])}")
+    a, b = top1_outcomes(msr, args.reference), top1_outcomes(msr, args.other)
+    n = len(a)
+    only_a, only_b, p = mcnemar(a, b)
+    lead = (only_a - only_b) / n if args.lead is None else args.lead
+    discordant = max((only_a + only_b) / n, abs(lead))
+    if discordant == 0:
+        raise MomaError("the two methods agree on every configuration: nothing to test")
+
+    pct = f"{100 * args.power:.0f} %"
+    print(
+        f"{n} configurations: {args.reference} {100 * np.mean(a):.1f} %, {args.other} "
+        f"{100 * np.mean(b):.1f} % Top-1; only {args.reference} {only_a}, only {args.other} "
+        f"{only_b} (discordant {100 * discordant:.1f} %), McNemar p = {p:.2g}"
+    )
+    source = "measured" if args.lead is None else "planned"
+    print(f"{source} lead {100 * lead:+.1f} points", end="")
+    if lead > 0:
+        power = mcnemar_power(n, discordant, lead, args.alpha)
+        need = configurations_needed(discordant, lead, args.power)
+        print(
+            f": power {100 * power:.0f} % on {n} configurations; {pct} power needs "
+            f"{need} configurations ({need / n:.1f}x)"
+        )
+    else:
+        print(": not ahead, so no number of configurations shows it ahead")
+    found = detectable_lead(n, discordant, args.power)
+    print(
+        f"lead found with {pct} power on {n} configurations: "
+        + ("none up to the discordant rate" if np.isnan(found) else f"{100 * found:.1f} points")
+    )
+
+
+if __name__ == "__main__":
+    run_main(main, "msr_power.py")
