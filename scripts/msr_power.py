@@ -22,39 +22,14 @@ from script_cli import run_main
 
 from momakitchen.errors import MomaError
 from momakitchen.eval.msr import merge_msr
-from momakitchen.eval.report import mcnemar, mcnemar_power, top1_outcomes
+from momakitchen.eval.report import (
+    configurations_needed,
+    detectable_lead,
+    mcnemar,
+    mcnemar_power,
+    top1_outcomes,
+)
 from momakitchen.fileio import read_json_object
-
-MAX_CONFIGURATIONS = 10_000_000
-
-
-def detectable_lead(configurations: int, discordant: float, power: float) -> float:
-    """The least lead (to 1e-4) that McNemar's test finds with probability ``power`` over
-    ``configurations``, or NaN if even a lead of ``discordant`` is not found that often."""
-    if mcnemar_power(configurations, discordant, discordant) < power:
-        return float("nan")
-    lo, hi = 0.0, discordant
-    while hi - lo > 1e-4:
-        mid = (lo + hi) / 2
-        lo, hi = (lo, mid) if mcnemar_power(configurations, discordant, mid) >= power else (mid, hi)
-    return hi
-
-
-def configurations_needed(discordant: float, lead: float, power: float) -> int:
-    """The least number of configurations (to 1 %) over which McNemar's test finds ``lead``
-    with probability ``power``."""
-    if lead <= 0:
-        raise MomaError(f"a lead of {lead} is never found ahead; want a positive lead")
-    hi = 16
-    while mcnemar_power(hi, discordant, lead) < power:
-        hi *= 2
-        if hi > MAX_CONFIGURATIONS:
-            raise MomaError(f"a lead of {lead} needs over {MAX_CONFIGURATIONS} configurations")
-    lo = hi // 2
-    while hi - lo > max(1, hi // 100):
-        mid = (lo + hi) // 2
-        lo, hi = (lo, mid) if mcnemar_power(mid, discordant, lead) >= power else (mid, hi)
-    return hi
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -8,8 +8,6 @@ import subprocess
 import sys
 from pathlib import Path
 
-import pytest
-
 SCRIPTS = Path(__file__).resolve().parents[2] / "scripts"
 
 
@@ -43,14 +41,6 @@ def _run(*args: str) -> subprocess.CompletedProcess:
     )
 
 
-@pytest.fixture()
-def power_module(monkeypatch):
-    monkeypatch.syspath_prepend(str(SCRIPTS))
-    import msr_power
-
-    return msr_power
-
-
 def test_reports_power_and_configurations_needed(tmp_path):
     # 200 configurations: 12 only a, 4 only b (discordant 8 %, lead 4 points), 184 agree.
     a = [1] * 12 + [0] * 4 + [1] * 150 + [0] * 34
@@ -67,16 +57,6 @@ def test_reports_power_and_configurations_needed(tmp_path):
 
     res = _run("--msr", str(path), "--reference", "b", "--other", "a")
     assert "not ahead" in res.stdout
-
-
-def test_configurations_needed_reaches_the_power_just_there(power_module):
-    from momakitchen.eval.report import mcnemar_power
-
-    need = power_module.configurations_needed(0.08, 0.02, 0.8)
-    assert mcnemar_power(need, 0.08, 0.02) >= 0.8
-    assert mcnemar_power(int(need * 0.97), 0.08, 0.02) < 0.8
-    lead = power_module.detectable_lead(need, 0.08, 0.8)
-    assert 0.018 < lead <= 0.0201
 
 
 def test_bad_input_is_one_line_and_exit_2(tmp_path):

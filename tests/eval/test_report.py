@@ -14,9 +14,12 @@ from momakitchen.cli.main import main
 from momakitchen.errors import MomaError
 from momakitchen.eval.report import (
     BenchmarkRequest,
+    configurations_needed,
+    detectable_lead,
     mcnemar,
     mcnemar_power,
     paired_map_table,
+    paired_table,
     pooled_paired_table,
     run_benchmark,
     seed_table,
@@ -278,6 +281,32 @@ def test_mcnemar_power_is_the_chance_that_mcnemar_finds_the_lead():
     assert mcnemar_power(600, 0.08, 0.01) < mcnemar_power(6000, 0.08, 0.01)
     with pytest.raises(MomaError, match=r"discordant 0\.1, lead 0\.2"):
         mcnemar_power(600, 0.1, 0.2)
+
+
+def test_configurations_needed_and_detectable_lead_invert_mcnemar_power():
+    need = configurations_needed(0.08, 0.02, 0.8)
+    assert mcnemar_power(need, 0.08, 0.02) >= 0.8
+    assert mcnemar_power(int(need * 0.97), 0.08, 0.02) < 0.8
+    assert 0.018 < detectable_lead(need, 0.08, 0.8) <= 0.0201
+    assert math.isnan(detectable_lead(10, 0.1, 0.8))  # 1 discordant configuration: never
+    with pytest.raises(MomaError, match="positive lead"):
+        configurations_needed(0.08, 0.0, 0.8)
+
+
+def test_paired_table_gives_mcnemar_and_the_lead_it_would_find():
+    def msr(outcomes):
+        records = [
+            {"methods": {m: {"outcomes": [o[c]]} for m, o in outcomes.items()}}
+            for c in range(len(outcomes["a"]))
+        ]
+        return {"methods": {m: {} for m in outcomes}, "records": records}
+
+    a = [1] * 12 + [0] * 4 + [1] * 184
+    b = [0] * 12 + [1] * 4 + [1] * 184
+    rows = paired_table(msr({"a": a, "b": b, "c": a}), "a")
+    lead = 100 * detectable_lead(200, 16 / 200, 0.8)
+    assert rows[2] == f"| b | 12 | 4 | {mcnemar(a, b)[2]:.2g} | {lead:.1f} points |"
+    assert rows[3] == "| c | 0 | 0 | 1 | none |"
 
 
 def test_paired_map_table_counts_scenes_where_the_first_run_is_better():
