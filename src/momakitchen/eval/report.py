@@ -453,8 +453,8 @@ def paired_table(msr: dict, reference: str) -> list[str]:
         *lines,
         "",
         f"Top-1 outcomes on the same {n} configurations; the exact two-sided test of the "
-        "discordant pairs. The last column: the least lead of one method that the test finds "
-        "with 80 % power, with as many configurations solved by only one of the two.",
+        "discordant pairs. The last column: the least lead, of either method, that the test "
+        "finds with 80 % power when as many configurations are solved by only one of the two.",
     ]
 
 
