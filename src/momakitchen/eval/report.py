@@ -329,10 +329,11 @@ def mcnemar_power(
             f"{configurations}, discordant {discordant}, lead {lead}"
         )
     d = np.arange(configurations + 1)
-    # Two-sided exact test at 1/2: p = 2 P(X >= k) for k above d / 2, so a ahead needs
-    # P(X >= k) < alpha / 2, i.e. k > isf(alpha / 2) (isf: the least k with P(X > k) <= q).
+    # Two-sided exact test at 1/2: p = 2 P(X >= k) for k above d / 2, so a is ahead from the
+    # least k with P(X >= k) < alpha / 2: isf(q) + 1 (the least k with P(X >= k) <= q), one
+    # more where that is equality.
     k_min = binom.isf(alpha / 2, d, 0.5) + 1
-    k_min = np.where(binom.sf(k_min - 2, d, 0.5) < alpha / 2, k_min - 1, k_min)
+    k_min = np.where(binom.sf(k_min - 1, d, 0.5) < alpha / 2, k_min, k_min + 1)
     given_d = binom.sf(k_min - 1, d, (discordant + lead) / (2 * discordant))
     return float(np.sum(binom.pmf(d, configurations, discordant) * given_d))
 
