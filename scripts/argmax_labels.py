@@ -4,11 +4,12 @@ offline view of closed-loop Top-1 with ten times the views `momakitchen msr` tri
     python scripts/argmax_labels.py --data ~/mk-data/gt2-300 \
         --checkpoint ~/mk-runs/navaff ~/mk-runs/pointnet2
 
-For every test episode each run scores the floor points as `evaluate` and `msr` do (the same
-cloud down-sampling); its best point is MSR's Top-1 pick on that view. Prints, per run, the
-mean label there and the share of views where it is >= 0.6 (where 95-100 % of closed-loop
-trials succeed, docs/RESULTS.md), and the first run against each other paired by test scene
-(Wilcoxon signed-rank test of the per-scene means: views of a scene are not independent).
+For every test episode (every N-th with ``--every N``) each run scores the floor points as
+`evaluate` and `msr` do (the same cloud down-sampling); its best point is MSR's Top-1 pick on
+that view. Prints, per run, the mean label there and the share of views where it is >= 0.6
+(where 95-100 % of closed-loop trials succeed, docs/RESULTS.md), and the first run against
+each other paired by test scene (Wilcoxon signed-rank test of the per-scene means: views of
+a scene are not independent).
 ``--smooth R ...`` adds, per run and radius, the best point of the map averaged over R
 metres (MSR's and predict's ``--pick-radius R``).
 """
@@ -21,16 +22,16 @@ from pathlib import Path
 
 import numpy as np
 from scipy.stats import wilcoxon
-from script_cli import run_main
+from script_cli import add_view_args, run_main, test_views
+from torch.utils.data import Dataset
 
-from momakitchen.data import EpisodeDataset
 from momakitchen.eval.evaluate import predicted_maps
 from momakitchen.models.inference import local_mean
 from momakitchen.train.checkpoint import load_checkpoint
 
 
 def argmax_labels(
-    run_dir: Path, data: EpisodeDataset, radii: Sequence[float] = (0.0,)
+    run_dir: Path, data: Dataset, radii: Sequence[float] = (0.0,)
 ) -> dict[float, dict[tuple[int, int, int], float]]:
     """{radius: {(scene, configuration, episode): label at the predicted maximum}} over
     ``data``; for a radius > 0 (m), the maximum of the map averaged over that radius (the
@@ -49,8 +50,7 @@ def argmax_labels(
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--data", type=Path, required=True)
-    ap.add_argument("--checkpoint", type=Path, nargs="+", required=True)
+    add_view_args(ap, every=1)
     ap.add_argument(
         "--smooth",
         type=float,
@@ -59,7 +59,7 @@ def main() -> None:
         help="also pick on the map averaged over each of these radii (m)",
     )
     args = ap.parse_args()
-    data = EpisodeDataset(args.data, "test")
+    data = test_views(args)
     radii = (0.0, *(r for r in args.smooth if r > 0))
     runs = {}
     for run in args.checkpoint:

@@ -11,6 +11,9 @@ standable mask, docs/LABELS.md, set the label to 0: the base's box meets a floor
 footprint) or 0 (no successful trial nearby). With
 ``--versus M``: the same label for the configurations where a method failed and M
 succeeded, i.e. whether the method chose where the labels said no, or the labels were wrong.
+Results of several MSR seeds (each judges every configuration on another of its views) are
+counted together, view by view; ``NAME=FILE`` renames a file's one method, as in
+``msr_views.py``.
 """
 
 from __future__ import annotations
@@ -20,13 +23,13 @@ import itertools
 from pathlib import Path
 
 import numpy as np
+from msr_views import by_seed
 from script_cli import run_main
 
 from momakitchen.data.config import GenerationConfig
 from momakitchen.data.manifest import load_manifest
 from momakitchen.data.shard import SceneShard
-from momakitchen.eval.msr import merge_msr
-from momakitchen.fileio import read_json_object
+from momakitchen.eval.report import top1_outcomes
 from momakitchen.frames import base_to_world_xy
 from momakitchen.sim.labels import dense_map
 
@@ -68,17 +71,17 @@ def labels_at_picks(data: Path, msr: dict) -> tuple[dict[str, np.ndarray], dict[
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--data", type=Path, required=True)
-    ap.add_argument("--msr", type=Path, nargs="+", required=True)
+    ap.add_argument("--msr", nargs="+", required=True, metavar="[NAME=]FILE")
     ap.add_argument("--versus", default=None, help="a method to compare the others with")
     args = ap.parse_args()
-    msr = merge_msr([(str(p), read_json_object(p)) for p in args.msr])
-    if args.versus is not None and args.versus not in msr["methods"]:
-        ap.error(f"--versus {args.versus!r}: the MSR results have {list(msr['methods'])}")
-    labels, raw = labels_at_picks(args.data, msr)
-    ok = {
-        m: np.array([bool(r["methods"][m]["outcomes"][:1] == [1]) for r in msr["records"]])
-        for m in msr["methods"]
-    }
+    results = list(by_seed(args.msr).values())
+    methods = [m for m in results[0]["methods"] if all(m in r["methods"] for r in results)]
+    if args.versus is not None and args.versus not in methods:
+        ap.error(f"--versus {args.versus!r}: the MSR results have {methods}")
+    picked = [labels_at_picks(args.data, msr) for msr in results]
+    labels = {m: np.concatenate([lab[m] for lab, _ in picked]) for m in methods}
+    raw = {m: np.concatenate([r[m] for _, r in picked]) for m in methods}
+    ok = {m: np.concatenate([top1_outcomes(r, m) for r in results]) == 1 for m in methods}
     print("| Top-1 success by label | " + " | ".join(COLUMNS) + " |")
     print("| --- |" + " ---: |" * len(COLUMNS))
     for m, lab in labels.items():
