@@ -93,13 +93,14 @@ def main() -> None:
         cells = [f"{ok[m][g].mean():.0%} of {g.sum()}" if g.any() else "–" for g in groups]
         print(f"| {m} | " + " | ".join(cells) + " |")
     if args.versus:
+        unit = "configurations" if len(results) == 1 else "views of configurations"
         for m, lab in labels.items():
             sel = ~ok[m] & ok[args.versus]
             if m == args.versus or not sel.any():
                 continue
             v = lab[sel]
             print(
-                f"{m} failed where {args.versus} succeeded: {sel.sum()} configurations; label "
+                f"{m} failed where {args.versus} succeeded: {sel.sum()} {unit}; label "
                 f"at {m}'s point: median {np.nanmedian(v):.2f}, 0 in {np.mean(v == 0):.0%}, "
                 f"below 0.3 in {np.mean(v < 0.3):.0%}"
             )
