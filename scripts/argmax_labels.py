@@ -4,12 +4,12 @@ offline view of closed-loop Top-1 with ten times the views `momakitchen msr` tri
     python scripts/argmax_labels.py --data ~/mk-data/gt2-300 \
         --checkpoint ~/mk-runs/navaff ~/mk-runs/pointnet2
 
-For every test episode (every N-th with ``--every N``) each run scores the floor points as
-`evaluate` and `msr` do (the same cloud down-sampling); its best point is MSR's Top-1 pick on
-that view. Prints, per run, the mean label there and the share of views where it is >= 0.6
-(where 95-100 % of closed-loop trials succeed, docs/RESULTS.md), and the first run against
-each other paired by test scene (Wilcoxon signed-rank test of the per-scene means: views of
-a scene are not independent).
+For every test episode (every N-th with ``--every N``; one thread) each run scores the floor
+points as `evaluate` and `msr` do (the same cloud down-sampling); its best point is MSR's
+Top-1 pick on that view. Prints, per run, the mean label there and the share of views where
+it is >= 0.6 (where 95-100 % of closed-loop trials succeed, docs/RESULTS.md), and the first
+run against each other paired by test scene (Wilcoxon signed-rank test of the per-scene
+means: views of a scene are not independent).
 ``--smooth R ...`` adds, per run and radius, the best point of the map averaged over R
 metres (MSR's and predict's ``--pick-radius R``).
 """

@@ -12,8 +12,8 @@ footprint) or 0 (no successful trial nearby). With
 ``--versus M``: the same label for the configurations where a method failed and M
 succeeded, i.e. whether the method chose where the labels said no, or the labels were wrong.
 Results of several MSR seeds (each judges every configuration on another of its views) are
-counted together, view by view; ``NAME=FILE`` renames a file's one method, as in
-``msr_views.py``.
+counted together, view by view (methods missing from a seed are left out); ``NAME=FILE``
+renames a file's one method, as in ``msr_views.py``.
 """
 
 from __future__ import annotations
@@ -29,6 +29,7 @@ from script_cli import run_main
 from momakitchen.data.config import GenerationConfig
 from momakitchen.data.manifest import load_manifest
 from momakitchen.data.shard import SceneShard
+from momakitchen.errors import MomaError
 from momakitchen.eval.report import top1_outcomes
 from momakitchen.frames import base_to_world_xy
 from momakitchen.sim.labels import dense_map
@@ -77,7 +78,7 @@ def main() -> None:
     results = list(by_seed(args.msr).values())
     methods = [m for m in results[0]["methods"] if all(m in r["methods"] for r in results)]
     if args.versus is not None and args.versus not in methods:
-        ap.error(f"--versus {args.versus!r}: the MSR results have {methods}")
+        raise MomaError(f"--versus {args.versus!r}: the MSR results have {methods}")
     picked = [labels_at_picks(args.data, msr) for msr in results]
     labels = {m: np.concatenate([lab[m] for lab, _ in picked]) for m in methods}
     raw = {m: np.concatenate([r[m] for _, r in picked]) for m in methods}

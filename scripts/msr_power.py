@@ -38,11 +38,22 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--reference", required=True, help="the method hoped to be ahead")
     ap.add_argument("--other", required=True, help="the method it is tested against")
     ap.add_argument("--power", type=float, default=0.8, help="wanted power (default 0.8)")
-    ap.add_argument("--lead", type=float, default=None, help="plan for this lead instead")
+    ap.add_argument(
+        "--lead", type=float, default=None, help="plan for this lead (e.g. 0.01) instead"
+    )
     ap.add_argument("--alpha", type=float, default=0.05, help="significance level (0.05)")
     args = ap.parse_args(argv)
-    if not 0 < args.power < 1 or not 0 < args.alpha < 1:
-        raise MomaError(f"--power and --alpha must lie in (0, 1), got {args.power}, {args.alpha}")
+    if not args.alpha / 2 < args.power < 1 or not 0 < args.alpha < 1:
+        raise MomaError(
+            f"want 0 < --alpha < 1 and --alpha / 2 < --power < 1 (below that a test finds "
+            f"anything by chance), got --alpha {args.alpha}, --power {args.power}"
+        )
+    if args.lead is not None and not 0 < args.lead <= 1:  # also rejects NaN
+        raise MomaError(
+            f"--lead must lie in (0, 1] (a difference of success rates), got {args.lead}"
+        )
+    if args.reference == args.other:
+        raise MomaError(f"--reference and --other are both {args.reference!r}")
     msr = merge_msr([(str(p), read_json_object(p)) for p in args.msr])
     for name in (args.reference, args.other):
         if name not in msr["methods"]:
@@ -50,31 +61,33 @@ def main(argv: list[str] | None = None) -> None:
     a, b = top1_outcomes(msr, args.reference), top1_outcomes(msr, args.other)
     n = len(a)
     only_a, only_b, p = mcnemar(a, b)
+    measured = (only_a + only_b) / n
     lead = (only_a - only_b) / n if args.lead is None else args.lead
-    discordant = max((only_a + only_b) / n, abs(lead))
+    discordant = max(measured, lead)  # only-a configurations alone make the lead
     if discordant == 0:
         raise MomaError("the two methods agree on every configuration: nothing to test")
-
     pct = f"{100 * args.power:.0f} %"
+    found = detectable_lead(n, discordant, args.power)
+    if lead > 0:  # everything computed before anything is printed
+        power = mcnemar_power(n, discordant, lead, args.alpha)
+        need = configurations_needed(discordant, lead, args.power)
+
     print(
         f"{n} configurations: {args.reference} {100 * np.mean(a):.1f} %, {args.other} "
         f"{100 * np.mean(b):.1f} % Top-1; only {args.reference} {only_a}, only {args.other} "
-        f"{only_b} (discordant {100 * discordant:.1f} %), McNemar p = {p:.2g}"
+        f"{only_b} (discordant {100 * measured:.1f} %), McNemar p = {p:.2g}"
     )
+    held = "" if discordant == measured else f", discordant rate held at {100 * discordant:.1f} %"
     source = "measured" if args.lead is None else "planned"
-    print(f"{source} lead {100 * lead:+.1f} points", end="")
     if lead > 0:
-        power = mcnemar_power(n, discordant, lead, args.alpha)
-        need = configurations_needed(discordant, lead, args.power)
         print(
-            f": power {100 * power:.0f} % on {n} configurations; {pct} power needs "
-            f"{need} configurations ({need / n:.1f}x)"
+            f"{source} lead {100 * lead:+.1f} points{held}: power {100 * power:.0f} % on {n} "
+            f"configurations; {pct} power needs {need} configurations ({need / n:.1f}x)"
         )
     else:
-        print(": not ahead, so no number of configurations shows it ahead")
-    found = detectable_lead(n, discordant, args.power)
+        print(f"{source} lead {100 * lead:+.1f} points: not ahead, so no number of configurations")
     print(
-        f"lead found with {pct} power on {n} configurations: "
+        f"least lead found with {pct} power on {n} configurations: "
         + ("none up to the discordant rate" if np.isnan(found) else f"{100 * found:.1f} points")
     )
 

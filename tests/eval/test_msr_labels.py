@@ -18,18 +18,19 @@ SCRIPT = Path(__file__).resolve().parents[2] / "scripts" / "msr_labels.py"
 BINS = (0.0, 0.3, 0.6, 0.9, 1.0 + 1e-9)  # the script's columns after its two label-0 ones
 
 
-def _msr(data: Path, seed: int) -> tuple[dict, list[float]]:
-    """An MSR result of method "m" over the dataset's configurations on view ``seed`` % 2,
-    choosing each view's floor point of the highest label; and those labels."""
+def _msr(data: Path, seed: int, pick: str, outcomes: list[int]) -> tuple[dict, list[float]]:
+    """An MSR result of method "m" over the dataset's two configurations on view ``seed`` % 2,
+    choosing each view's floor point of the highest label (``pick="best"``) or the lowest,
+    with the given trial outcomes; and the labels at those points."""
     (sid, entry), *_ = load_manifest(data)["shards"].items()
     records, labels = [], []
     with SceneShard(data / entry["file"]) as shard:
-        for ci in range(2):
+        for ci, outcome in enumerate(outcomes):
             ep = shard.episode(ci, seed % 2)
             xy = base_to_world_xy(ep.floor_xyz[:, :2].astype(np.float64), ep.base_pose)
-            j = int(np.argmax(ep.floor_label))
+            j = int(np.argmax(ep.floor_label) if pick == "best" else np.argmin(ep.floor_label))
             labels.append(float(ep.floor_label[j]))
-            chosen = {"points": [xy[j].round(4).tolist()], "outcomes": [1], "stages": [0]}
+            chosen = {"points": [xy[j].round(4).tolist()], "outcomes": [outcome], "stages": [0]}
             records.append(
                 {
                     "scene_id": int(sid),
@@ -47,22 +48,26 @@ def _msr(data: Path, seed: int) -> tuple[dict, list[float]]:
 
 
 def test_counts_every_view_of_every_seed_in_its_label_bin(real_dataset, tmp_path):
+    # Seed 0: each view's best point, both trials succeed; seed 1: its worst point (label 0),
+    # one trial fails. Each trial must land in its own label's bin with its own outcome.
     files, labels = [], []
-    for seed in (0, 1):
-        result, chosen = _msr(real_dataset, seed)
+    for seed, pick, outcomes in [(0, "best", [1, 1]), (1, "worst", [0, 1])]:
+        result, chosen = _msr(real_dataset, seed, pick, outcomes)
         labels += chosen
         path = tmp_path / f"msr-{seed}.json"
         path.write_text(json.dumps(result))
-        files.append(f"best={path}")
+        files.append(f"picked={path}")
+    assert labels[2:] == [0.0, 0.0] and min(labels[:2]) > 0
     res = subprocess.run(
         [sys.executable, str(SCRIPT), "--data", str(real_dataset), "--msr", *files],
         capture_output=True,
         text=True,
     )
     assert res.returncode == 0, res.stderr
-    (row,) = [line for line in res.stdout.splitlines() if line.startswith("| best |")]
-    cells = row.strip("| \n").split(" | ")[1:]
-    counts = [int(m.group(1)) if (m := re.search(r"of (\d+)", c)) else 0 for c in cells]
-    positive = np.histogram([v for v in labels if v > 0], bins=BINS)[0].tolist()
-    assert sum(counts) == 4  # 2 seeds x 2 configurations, each binned once
-    assert counts[2:] == positive  # the ones labelled above 0, by label
+    (row,) = [line for line in res.stdout.splitlines() if line.startswith("| picked |")]
+    cells = [re.fullmatch(r"(\d+)% of (\d+)|–", c) for c in row.strip("| \n").split(" | ")[1:]]
+    counts = [int(m.group(2)) if m.group(2) else 0 for m in cells]
+    wins = [round(int(m.group(1)) * int(m.group(2)) / 100) if m.group(2) else 0 for m in cells]
+    positive = np.histogram(labels[:2], bins=BINS)[0].tolist()
+    assert counts[2:] == positive and wins[2:] == positive  # the best points: all succeeded
+    assert sum(counts[:2]) == 2 and sum(wins[:2]) == 1  # label 0: one of two succeeded

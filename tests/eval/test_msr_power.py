@@ -8,6 +8,10 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
+from momakitchen.errors import MomaError
+
 SCRIPTS = Path(__file__).resolve().parents[2] / "scripts"
 
 
@@ -41,7 +45,18 @@ def _run(*args: str) -> subprocess.CompletedProcess:
     )
 
 
+@pytest.fixture()
+def power_main(monkeypatch):
+    """The script's main(argv), imported (its imports need the scripts folder on the path)."""
+    monkeypatch.syspath_prepend(str(SCRIPTS))
+    from msr_power import main
+
+    return main
+
+
 def test_reports_power_and_configurations_needed(tmp_path):
+    from momakitchen.eval.report import configurations_needed, detectable_lead, mcnemar_power
+
     # 200 configurations: 12 only a, 4 only b (discordant 8 %, lead 4 points), 184 agree.
     a = [1] * 12 + [0] * 4 + [1] * 150 + [0] * 34
     b = [0] * 12 + [1] * 4 + [1] * 150 + [0] * 34
@@ -49,24 +64,42 @@ def test_reports_power_and_configurations_needed(tmp_path):
     path.write_text(json.dumps(_msr({"a": a, "b": b})))
     res = _run("--msr", str(path), "--reference", "a", "--other", "b")
     assert res.returncode == 0, res.stderr
-    assert "only a 12, only b 4 (discordant 8.0 %), McNemar p = 0.077" in res.stdout
-    need = int(re.search(r"needs (\d+) configurations", res.stdout).group(1))
-    assert 200 < need < 2000  # p = 0.077 on 200: somewhat more are needed
-    found = float(re.search(r"power on 200 configurations: ([\d.]+) points", res.stdout).group(1))
-    assert 4.0 < found <= 8.0  # more than the measured lead, at most the discordant rate
+    first, second, third = res.stdout.splitlines()
+    assert "only a 12, only b 4 (discordant 8.0 %), McNemar p = 0.077" in first
+    power, need = mcnemar_power(200, 0.08, 0.04), configurations_needed(0.08, 0.04, 0.8)
+    assert second == (
+        f"measured lead +4.0 points: power {100 * power:.0f} % on 200 configurations; "
+        f"80 % power needs {need} configurations ({need / 200:.1f}x)"
+    )
+    assert 200 < need  # p = 0.077 on 200: more are needed
+    lead = detectable_lead(200, 0.08, 0.8)
+    assert third.endswith(f"on 200 configurations: {100 * lead:.1f} points")
 
     res = _run("--msr", str(path), "--reference", "b", "--other", "a")
-    assert "not ahead" in res.stdout
+    assert res.returncode == 0, res.stderr
+    assert "-4.0 points: not ahead" in res.stdout
+
+    res = _run("--msr", str(path), "--reference", "a", "--other", "b", "--lead", "0.08")
+    assert res.returncode == 0, res.stderr
+    assert "planned lead +8.0 points: power" in res.stdout
 
 
-def test_bad_input_is_one_line_and_exit_2(tmp_path):
+def test_bad_input_is_one_line_and_exit_2(tmp_path, power_main):
     path = tmp_path / "msr.json"
-    path.write_text(json.dumps(_msr({"a": [1, 0], "b": [0, 1]})))
+    path.write_text(json.dumps(_msr({"a": [1, 0], "b": [0, 1], "c": [1, 0]})))
+    res = _run("--msr", str(path), "--reference", "a", "--other", "d")
+    assert res.returncode == 2 and res.stdout == ""
+    assert res.stderr.strip() == (
+        "msr_power.py: error: method 'd' is not in the MSR results: ['a', 'b', 'c']"
+    )
     for args, message in [
-        (["--other", "c"], "method 'c'"),
-        (["--other", "b", "--power", "1"], "--power"),
+        (["--other", "b", "--power", "1"], "--power 1"),
+        (["--other", "b", "--alpha", "0"], "--alpha 0"),
+        (["--other", "b", "--lead", "nan"], "--lead must"),
+        (["--other", "b", "--lead", "2"], "got 2.0"),
+        (["--other", "a"], "both 'a'"),
+        (["--other", "c"], "agree on every configuration"),
         (["--other", "b", "--msr", str(tmp_path / "nope.json")], "nope.json"),
     ]:
-        res = _run("--msr", str(path), "--reference", "a", *args)
-        assert res.returncode == 2, res.stderr
-        assert len(res.stderr.strip().splitlines()) == 1 and message in res.stderr
+        with pytest.raises(MomaError, match=re.escape(message)):
+            power_main(["--msr", str(path), "--reference", "a", *args])

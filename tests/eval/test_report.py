@@ -279,16 +279,27 @@ def test_mcnemar_power_is_the_chance_that_mcnemar_finds_the_lead():
     assert mcnemar_power(600, 0.08, 0.0) <= 0.025  # no lead: a wins only by chance
     assert mcnemar_power(600, 0.08, 0.01) < mcnemar_power(600, 0.08, 0.03)
     assert mcnemar_power(600, 0.08, 0.01) < mcnemar_power(6000, 0.08, 0.01)
+    # All 5 discordant for a: p = 2 / 32 = 0.0625, not below an alpha of 0.0625; 6 are.
+    assert mcnemar_power(5, 1.0, 1.0, alpha=0.0625) == 0.0
+    assert mcnemar_power(6, 1.0, 1.0, alpha=0.0625) == 1.0
     with pytest.raises(MomaError, match=r"discordant 0\.1, lead 0\.2"):
         mcnemar_power(600, 0.1, 0.2)
 
 
 def test_configurations_needed_and_detectable_lead_invert_mcnemar_power():
-    need = configurations_needed(0.08, 0.02, 0.8)
-    assert mcnemar_power(need, 0.08, 0.02) >= 0.8
-    assert mcnemar_power(int(need * 0.97), 0.08, 0.02) < 0.8
-    assert 0.018 < detectable_lead(need, 0.08, 0.8) <= 0.0201
-    assert math.isnan(detectable_lead(10, 0.1, 0.8))  # 1 discordant configuration: never
+    def linear_search(discordant, lead):
+        n = 1
+        while mcnemar_power(n, discordant, lead) < 0.8:
+            n += 1
+        return n
+
+    assert configurations_needed(1.0, 1.0, 0.8) == linear_search(1.0, 1.0) == 6
+    assert configurations_needed(0.4, 0.2, 0.8) == linear_search(0.4, 0.2)
+    need = configurations_needed(0.08, 0.02, 0.8)  # bisected to 1 %
+    assert mcnemar_power(need, 0.08, 0.02) >= 0.8 > mcnemar_power(int(need * 0.99) - 1, 0.08, 0.02)
+    lead = detectable_lead(need, 0.08, 0.8)
+    assert 0.02 - 1e-3 < lead <= 0.02 + 1e-4 and mcnemar_power(need, 0.08, lead) >= 0.8
+    assert math.isnan(detectable_lead(10, 0.1, 0.8))  # at most a few discordant: never found
     with pytest.raises(MomaError, match="positive lead"):
         configurations_needed(0.08, 0.0, 0.8)
 
