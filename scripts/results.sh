@@ -191,10 +191,9 @@ if [[ "$(cat "$RUNS/check.ok" 2>/dev/null)" != "$manifest_sum" ]]; then
 fi
 # Evaluations and MSR read the test shards alone: their checksums (from the manifest) key
 # the archived results.
-test_sum=$(python3 -c 'import hashlib, json, sys
-shards = json.load(open(sys.argv[1]))["shards"]
-tests = [shards[k]["sha256"] for k in sorted(shards, key=int) if shards[k]["split"] == "test"]
-print(hashlib.sha256(" ".join(tests).encode()).hexdigest())' "$DATA/manifest.json")
+test_sum=$(python3 -c 'import json, sys
+from momakitchen.data.manifest import split_checksum
+print(split_checksum(json.load(open(sys.argv[1])), "test"))' "$DATA/manifest.json")
 
 threads=()
 if ((PARALLEL > 1)); then threads=(--threads 1); fi

@@ -2,10 +2,18 @@
 
 from __future__ import annotations
 
+import pytest
 from dataset_helpers import make_dataset
 
-from momakitchen.data.manifest import SPLIT_BLOCK, generation_config, load_manifest, scene_split
+from momakitchen.data.manifest import (
+    SPLIT_BLOCK,
+    generation_config,
+    load_manifest,
+    scene_split,
+    split_checksum,
+)
 from momakitchen.data.synthetic_scene import SyntheticSceneConfig, synthetic_scene_records
+from momakitchen.errors import MomaError
 from momakitchen.robots.spec import ROBOTS
 
 
@@ -45,3 +53,21 @@ def test_generation_config_is_rebuilt_from_the_manifest(small_dataset):
     from dataset_helpers import SMALL
 
     assert generation_config(load_manifest(small_dataset)) == SMALL
+
+
+def test_split_checksum_names_the_splits_shard_bytes(small_dataset):
+    manifest = load_manifest(small_dataset)
+    test = split_checksum(manifest, "test")
+    assert test == split_checksum(load_manifest(small_dataset), "test") and len(test) == 64
+    assert test != split_checksum(manifest, "train")
+
+    def changed(split: str) -> dict:
+        shards = {k: dict(e) for k, e in manifest["shards"].items()}
+        key = next(k for k, e in shards.items() if e["split"] == split)
+        shards[key]["sha256"] = "0" * 64
+        return {**manifest, "shards": shards}
+
+    assert split_checksum(changed("test"), "test") != test  # another test shard's bytes
+    assert split_checksum(changed("train"), "test") == test  # train shards play no part
+    with pytest.raises(MomaError, match="unknown split 'val'"):
+        split_checksum(manifest, "val")

@@ -158,6 +158,28 @@ def test_report_reuses_metrics_and_msr(report, monkeypatch, tmp_path):
     assert again["msr"] == result["msr"]
 
 
+def test_metrics_made_on_other_test_shards_are_recomputed(report, monkeypatch, tmp_path):
+    """A run's test.json is reused only where its recorded test-shard checksum, if any, is
+    that of the dataset's test shards (the same scenes generated on another CPU differ)."""
+    import momakitchen.eval.evaluate as evaluate_module
+    from momakitchen.data.manifest import load_manifest, split_checksum
+    from momakitchen.eval.report import run_metrics
+
+    req, _ = report
+    run = tmp_path / "navaff"
+    shutil.copytree(req.runs[0], run)
+    (run / "test.json").write_text((req.out / "metrics" / "navaff.json").read_text())
+    calls = []
+    monkeypatch.setattr(evaluate_module, "evaluate", lambda *a, **k: calls.append(1) or {"new": 1})
+
+    (run / "test-shards.sha256").write_text(split_checksum(load_manifest(req.data), "test") + "\n")
+    assert "new" not in run_metrics(run, req.data, tmp_path / "m1", progress=False)
+    assert not calls
+    (run / "test-shards.sha256").write_text("0" * 64 + "\n")
+    assert run_metrics(run, req.data, tmp_path / "m2", progress=False)["new"] == 1
+    assert calls == [1]
+
+
 def test_report_bad_input(report, tmp_path, capsys):
     req, _ = report
     msr = json.loads((req.out / "msr.json").read_text())

@@ -101,13 +101,21 @@ class BenchmarkRequest:
 
 def run_metrics(run: Path, data: Path, out_dir: Path, progress: bool) -> dict[str, Any]:
     """The test-split ``evaluate`` report of a run: its ``test.json`` when that was made on
-    this dataset, else computed now. Either way a copy lands in ``out_dir``."""
+    this dataset (and, where the run records the test shards' checksum in
+    ``test-shards.sha256``, on these bytes), else computed now. Either way a copy lands in
+    ``out_dir``."""
     from momakitchen.data import EpisodeDataset
+    from momakitchen.data.manifest import load_manifest, split_checksum
     from momakitchen.eval.evaluate import evaluate
 
     cached = run / "test.json"
+    recorded = run / "test-shards.sha256"
     report = None
-    if cached.is_file():
+    if recorded.is_file():
+        stale = recorded.read_text().strip() != split_checksum(load_manifest(data), "test")
+    else:
+        stale = False
+    if cached.is_file() and not stale:
         try:
             report = json.loads(cached.read_text())
         except json.JSONDecodeError:
