@@ -110,11 +110,10 @@ def run_metrics(run: Path, data: Path, out_dir: Path, progress: bool) -> dict[st
 
     cached = run / "test.json"
     recorded = run / "test-shards.sha256"
+    stale = recorded.is_file() and (
+        recorded.read_text().strip() != split_checksum(load_manifest(data), "test")
+    )
     report = None
-    if recorded.is_file():
-        stale = recorded.read_text().strip() != split_checksum(load_manifest(data), "test")
-    else:
-        stale = False
     if cached.is_file() and not stale:
         try:
             report = json.loads(cached.read_text())
