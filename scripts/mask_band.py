@@ -31,7 +31,7 @@ from momakitchen.errors import MomaError
 from momakitchen.frames import base_to_world_xy
 from momakitchen.robots.spec import get_robot_spec
 from momakitchen.scene.configuration import base_fits, sample_scene
-from momakitchen.sim.labels import dense_map
+from momakitchen.sim.labels import dense_map, in_sampling_area
 from momakitchen.sim.trials import TrialRunner
 from momakitchen.sim.world import World
 
@@ -61,15 +61,17 @@ def count(data: Path, every: int, sample: int, progress: bool = False) -> dict[s
     if not todo:
         raise MomaError(f"dataset {str(data)!r} has no test configurations")
     totals: dict[str, np.ndarray] = defaultdict(lambda: np.zeros(6, np.int64))
-    scene = None
+    scene, shard = None, None
     for sid, ci, file in tqdm(todo, desc="configurations", disable=not progress):
-        if scene is None or scene.layout.scene_id != sid:
+        if scene is None or scene.layout.scene_id != sid:  # todo is grouped by scene
             scene = sample_scene(sid, gen.scene)
+            if shard is not None:
+                shard.close()
+            shard = SceneShard(data / file)
+        assert shard is not None  # opened with the scene above
         cfg = scene.configurations[ci]
-        spec = get_robot_spec(cfg.robot)
-        with SceneShard(data / file) as shard:
-            grid = shard.configuration(ci)
-            views = [shard.episode(ci, e) for e in shard.episode_indices(ci)]
+        grid = shard.configuration(ci)
+        views = [shard.episode(ci, e) for e in shard.episode_indices(ci)]
         with World(scene.layout) as world:
             world.load_configuration(cfg)
             runner = TrialRunner(world, cfg.robot, gen.trial)
@@ -77,11 +79,9 @@ def count(data: Path, every: int, sample: int, progress: bool = False) -> dict[s
                 for ep in views:
                     xy = base_to_world_xy(ep.floor_xyz[:, :2].astype(np.float64), ep.base_pose)
                     interp = dense_map(grid.trial_positions, grid.trial_outcomes, xy, gen.dense)
-                    near = (
-                        np.hypot(*(xy - np.asarray(cfg.target.anchor[:2])).T) <= spec.reach + 1e-9
-                    )
-                    positive = np.flatnonzero((interp > 0) & near)
-                    fits = base_fits(scene.layout, cfg, xy[positive], spec.footprint)
+                    positive = np.flatnonzero((interp > 0) & in_sampling_area(cfg, xy))
+                    footprint = get_robot_spec(cfg.robot).footprint
+                    fits = base_fits(scene.layout, cfg, xy[positive], footprint)
                     rng = np.random.default_rng([sid, ci, ep.episode_index])
                     band = _sample(rng, positive[~fits], sample)
                     kept = _sample(rng, positive[fits], sample)
@@ -92,6 +92,8 @@ def count(data: Path, every: int, sample: int, progress: bool = False) -> dict[s
                         totals[key] += row
             finally:
                 runner.close()
+    if shard is not None:
+        shard.close()
     return dict(totals)
 
 

@@ -172,11 +172,12 @@ def test_metrics_made_on_other_test_shards_are_recomputed(report, monkeypatch, t
     calls = []
     monkeypatch.setattr(evaluate_module, "evaluate", lambda *a, **k: calls.append(1) or {"new": 1})
 
-    (run / "test-shards.sha256").write_text(split_checksum(load_manifest(req.data), "test") + "\n")
-    assert "new" not in run_metrics(run, req.data, tmp_path / "m1", progress=False)
+    test_shards = split_checksum(load_manifest(req.data), "test")
+    (run / "test-shards.sha256").write_text(test_shards + "\n")
+    assert "new" not in run_metrics(run, req.data, test_shards, tmp_path / "m1", progress=False)
     assert not calls
     (run / "test-shards.sha256").write_text("0" * 64 + "\n")
-    assert run_metrics(run, req.data, tmp_path / "m2", progress=False)["new"] == 1
+    assert run_metrics(run, req.data, test_shards, tmp_path / "m2", progress=False)["new"] == 1
     assert calls == [1]
 
 

@@ -99,20 +99,20 @@ class BenchmarkRequest:
             raise MomaError(f"examples must be in [1, 12], got {self.examples}")
 
 
-def run_metrics(run: Path, data: Path, out_dir: Path, progress: bool) -> dict[str, Any]:
+def run_metrics(
+    run: Path, data: Path, test_shards: str, out_dir: Path, progress: bool
+) -> dict[str, Any]:
     """The test-split ``evaluate`` report of a run: its ``test.json`` when that was made on
     this dataset (and, where the run records the test shards' checksum in
-    ``test-shards.sha256``, on these bytes), else computed now. Either way a copy lands in
-    ``out_dir``."""
+    ``test-shards.sha256``, on these bytes: ``test_shards``, the dataset's
+    :func:`~momakitchen.data.manifest.split_checksum`), else computed now. Either way a copy
+    lands in ``out_dir``."""
     from momakitchen.data import EpisodeDataset
-    from momakitchen.data.manifest import load_manifest, split_checksum
     from momakitchen.eval.evaluate import evaluate
 
     cached = run / "test.json"
     recorded = run / "test-shards.sha256"
-    stale = recorded.is_file() and (
-        recorded.read_text().strip() != split_checksum(load_manifest(data), "test")
-    )
+    stale = recorded.is_file() and recorded.read_text().strip() != test_shards
     report = None
     if cached.is_file() and not stale:
         try:
@@ -140,6 +140,7 @@ def run_metrics(run: Path, data: Path, out_dir: Path, progress: bool) -> dict[st
 def run_benchmark(req: BenchmarkRequest, log: Callable[[str], None] = print) -> dict[str, Any]:
     """Compute and write the report (see the module docstring). Returns ``benchmark.json``'s
     content."""
+    from momakitchen.data.manifest import load_manifest, split_checksum
     from momakitchen.eval.msr import BASELINES, MsrConfig, check_same_views, merge_msr, run_msr
     from momakitchen.train.checkpoint import load_checkpoint
 
@@ -169,13 +170,14 @@ def run_benchmark(req: BenchmarkRequest, log: Callable[[str], None] = print) -> 
         if missing:
             files = ", ".join(repr(str(p)) for p in req.msr)
             raise MomaError(f"MSR files {files} lack methods {missing}")
+    test_shards = split_checksum(load_manifest(data), "test")  # keys reusable test.json
     out.mkdir(parents=True, exist_ok=True)
 
     t0 = time.perf_counter()
     metrics = {}
     for r in every:
         log(f"map metrics: {r}")
-        metrics[r] = run_metrics(r, data, out / "metrics", req.progress)
+        metrics[r] = run_metrics(r, data, test_shards, out / "metrics", req.progress)
     if msr is None:
         log("MSR: models and baselines in closed loop")
         msr = run_msr(

@@ -95,13 +95,20 @@ def standable(layout: Layout, cfg: Configuration, points: np.ndarray) -> np.ndar
 
     Shapes: ``points`` (M, 2) world xy; returns (M,) bool.
     """
-    spec = get_robot_spec(cfg.robot)
     pts = np.asarray(points, np.float64).reshape(-1, 2)
-    offset = pts - np.asarray(cfg.target.anchor[:2])
-    inside = np.hypot(offset[:, 0], offset[:, 1]) <= spec.reach + 1e-9
+    inside = in_sampling_area(cfg, pts)
     fits = np.zeros(len(pts), bool)
-    fits[inside] = base_fits(layout, cfg, pts[inside], spec.footprint)
+    fits[inside] = base_fits(layout, cfg, pts[inside], get_robot_spec(cfg.robot).footprint)
     return fits
+
+
+def in_sampling_area(cfg: Configuration, points: np.ndarray) -> np.ndarray:
+    """Where the trials ran: within the robot's reach of the target.
+
+    Shapes: ``points`` (M, 2) world xy; returns (M,) bool.
+    """
+    offset = np.asarray(points, np.float64).reshape(-1, 2) - np.asarray(cfg.target.anchor[:2])
+    return np.hypot(offset[:, 0], offset[:, 1]) <= get_robot_spec(cfg.robot).reach + 1e-9
 
 
 @dataclass(frozen=True)
