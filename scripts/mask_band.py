@@ -26,11 +26,11 @@ from tqdm.auto import tqdm
 
 from momakitchen.data.config import GenerationConfig
 from momakitchen.data.manifest import load_manifest
-from momakitchen.data.shard import SceneShard
 from momakitchen.errors import MomaError
+from momakitchen.eval.msr import rebuilt_configurations, split_configurations
 from momakitchen.frames import base_to_world_xy
 from momakitchen.robots.spec import get_robot_spec
-from momakitchen.scene.configuration import base_fits, sample_scene
+from momakitchen.scene.configuration import base_fits
 from momakitchen.sim.labels import dense_map, in_sampling_area
 from momakitchen.sim.trials import TrialRunner
 from momakitchen.sim.world import World
@@ -52,23 +52,12 @@ def count(data: Path, every: int, sample: int, progress: bool = False) -> dict[s
     band points checked, of them free, unmasked points checked, of them colliding."""
     manifest = load_manifest(data)
     gen = GenerationConfig.from_dict(manifest["config"])
-    todo = [
-        (int(sid), ci, e["file"])
-        for sid, e in sorted(manifest["shards"].items(), key=lambda kv: int(kv[0]))
-        if e["split"] == "test"
-        for ci in range(len(e["episodes_per_config"]))
-    ][::every]
+    todo = split_configurations(manifest, "test")[::every]
     if not todo:
         raise MomaError(f"dataset {str(data)!r} has no test configurations")
     totals: dict[str, np.ndarray] = defaultdict(lambda: np.zeros(6, np.int64))
-    scene, shard = None, None
-    for sid, ci, file in tqdm(todo, desc="configurations", disable=not progress):
-        if scene is None or scene.layout.scene_id != sid:  # todo is grouped by scene
-            scene = sample_scene(sid, gen.scene)
-            if shard is not None:
-                shard.close()
-            shard = SceneShard(data / file)
-        assert shard is not None  # opened with the scene above
+    bar = tqdm(todo, desc="configurations", disable=not progress)
+    for scene, shard, ci in rebuilt_configurations(data, bar, gen.scene):
         cfg = scene.configurations[ci]
         grid = shard.configuration(ci)
         views = [shard.episode(ci, e) for e in shard.episode_indices(ci)]
@@ -82,7 +71,7 @@ def count(data: Path, every: int, sample: int, progress: bool = False) -> dict[s
                     positive = np.flatnonzero((interp > 0) & in_sampling_area(cfg, xy))
                     footprint = get_robot_spec(cfg.robot).footprint
                     fits = base_fits(scene.layout, cfg, xy[positive], footprint)
-                    rng = np.random.default_rng([sid, ci, ep.episode_index])
+                    rng = np.random.default_rng([ep.scene_id, ci, ep.episode_index])
                     band = _sample(rng, positive[~fits], sample)
                     kept = _sample(rng, positive[fits], sample)
                     free = sum(runner.base_free(*xy[i]) for i in band)
@@ -92,8 +81,6 @@ def count(data: Path, every: int, sample: int, progress: bool = False) -> dict[s
                         totals[key] += row
             finally:
                 runner.close()
-    if shard is not None:
-        shard.close()
     return dict(totals)
 
 

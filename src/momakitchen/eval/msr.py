@@ -18,7 +18,7 @@ conventional "go close" navigation).
 from __future__ import annotations
 
 from collections import defaultdict
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -218,6 +218,40 @@ def _load_dataset(root: Path) -> dict[str, Any]:
     return manifest
 
 
+def split_configurations(manifest: dict[str, Any], split: str) -> list[tuple[int, int, str]]:
+    """(scene_id, config_index, shard file) of every configuration of a split (``"all"``:
+    both) of a dataset's manifest, in scene order."""
+    todo = []
+    for key in sorted(manifest["shards"], key=int):
+        entry = manifest["shards"][key]
+        if split == "all" or entry["split"] == split:
+            todo += [(int(key), c, entry["file"]) for c in range(len(entry["episodes_per_config"]))]
+    return todo
+
+
+def rebuilt_configurations(
+    root: Path, todo: Iterable[tuple[int, int, str]], scene_config: Any
+) -> Iterator[tuple[Any, SceneShard, int]]:
+    """(scene, its shard, config_index) for each item of ``todo`` (as
+    :func:`split_configurations` gives, grouped by scene): each scene is rebuilt and its
+    shard under ``root`` opened once, and closed when the next scene starts or at the end."""
+    from momakitchen.scene.configuration import sample_scene
+
+    scene, shard = None, None
+    try:
+        for sid, ci, file in todo:
+            if scene is None or scene.layout.scene_id != sid:
+                scene = sample_scene(sid, scene_config)
+                if shard is not None:
+                    shard.close()
+                shard = SceneShard(root / file)
+            assert shard is not None  # opened with the scene above
+            yield scene, shard, ci
+    finally:
+        if shard is not None:
+            shard.close()
+
+
 def run_msr(
     data: str | Path,
     checkpoints: Sequence[str | Path] = (),
@@ -239,7 +273,6 @@ def run_msr(
 
     from momakitchen.data.config import GenerationConfig, Preprocessing
     from momakitchen.data.integrity import check_shard_files
-    from momakitchen.scene.configuration import sample_scene
     from momakitchen.train.checkpoint import check_preprocessing
 
     config = config or MsrConfig()
@@ -270,12 +303,7 @@ def run_msr(
         models[name] = model
     names = [*models, *methods]
 
-    todo: list[tuple[int, int, str]] = []  # (scene_id, config_index, shard file)
-    for key in sorted(manifest["shards"], key=int):
-        entry = manifest["shards"][key]
-        if config.split != "all" and entry["split"] != config.split:
-            continue
-        todo += [(int(key), c, entry["file"]) for c in range(len(entry["episodes_per_config"]))]
+    todo = split_configurations(manifest, config.split)
     if config.max_configs:
         todo = todo[: config.max_configs]
     if not todo:
@@ -284,21 +312,11 @@ def run_msr(
     check_shard_files(root, manifest, {sid for sid, _, _ in todo})
 
     records = []
-    scene, shard = None, None
-    try:
-        for sid, ci, file in tqdm(todo, desc="msr", unit="config", disable=not progress):
-            if scene is None or scene.layout.scene_id != sid:  # todo is grouped by scene
-                scene = sample_scene(sid, gen.scene)
-                if shard is not None:
-                    shard.close()
-                shard = SceneShard(root / file)
-            assert shard is not None  # opened with the scene above
-            record = run_configuration(shard, scene, ci, gen, models, names, config)
-            if record is not None:
-                records.append(record)
-    finally:
-        if shard is not None:
-            shard.close()
+    bar = tqdm(todo, desc="msr", unit="config", disable=not progress)
+    for scene, shard, ci in rebuilt_configurations(root, bar, gen.scene):
+        record = run_configuration(shard, scene, ci, gen, models, names, config)
+        if record is not None:
+            records.append(record)
 
     summaries = {name: _summary(records, name) for name in names}
     for name, model in models.items():  # the floor points each model encodes per view
