@@ -101,6 +101,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         default=None,
         help="loss weight on zero-valued labels (the paper's lambda; preset 0.7)",
     )
+    tr.add_argument(
+        "--sensor-noise",
+        action="store_true",
+        default=None,
+        help="train on the frames as real depth sensors, segmenters and calibrations would "
+        "give them (random per sample and epoch; the data stay clean)",
+    )
     tr.add_argument("--resume", action="store_true", help="continue the run in --out")
     tr.add_argument("--quiet", action="store_true", help="no progress bars")
     tr.set_defaults(func=run_train)
@@ -183,6 +190,7 @@ def train_config(args: argparse.Namespace) -> TrainConfig:
             ("num_threads", args.threads),
             ("seed", args.seed),
             ("progress", False if args.quiet else None),
+            ("sensor_noise", args.sensor_noise),
         )
         if value is not None
     }

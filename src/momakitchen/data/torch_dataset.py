@@ -29,6 +29,78 @@ CLOUD_FIELDS = (
 )
 
 
+# The stored frame a noisy sample is rebuilt from.
+NOISE_FIELDS = ("depth", "rgb", "semantic", "intrinsics", "camera_to_base")
+# A rebuilt floor point takes the label of the nearest stored floor point within this
+# distance (m); farther ones (floor the clean render did not show) are left out.
+LABEL_RADIUS = 0.08
+
+
+def noisy_sample(
+    arrays: dict[str, np.ndarray], augmentation: Any, rng: np.random.Generator, preprocessing: Any
+) -> dict[str, np.ndarray]:
+    """An episode's cloud arrays as a robot with a random real sensor would give them to
+    the model: the stored frame corrupted (:func:`~momakitchen.perception.sensors.corrupt_frame`
+    with a draw of ``augmentation``) and rebuilt by the real-robot path
+    (:func:`~momakitchen.models.inference.frame_inputs`, floor-plane correction included).
+    The labels of the rebuilt floor points are those of the nearest stored floor points
+    (the true affordance where the robot would drive), which the correction puts back
+    in the true base frame. If the corrupted frame cannot be used (no target pixel left,
+    no floor plane), the clean arrays are returned.
+
+    Shapes: ``arrays`` holds ``CLOUD_FIELDS`` and ``NOISE_FIELDS`` of one episode; returns
+    ``CLOUD_FIELDS`` arrays.
+    """
+    from scipy.spatial import cKDTree
+
+    from momakitchen.data.episode import SEMANTIC_CLASSES
+    from momakitchen.models.inference import frame_inputs
+    from momakitchen.perception.camera import Intrinsics
+    from momakitchen.perception.sensors import Frame, corrupt_frame
+
+    sem = arrays["semantic"]
+    frame = Frame(
+        depth=arrays["depth"].astype(np.float32),
+        rgb=arrays["rgb"],
+        target_mask=sem == SEMANTIC_CLASSES.index("target"),
+        obstacle_masks=(sem == SEMANTIC_CLASSES.index("obstacle"),),
+        intrinsics=Intrinsics(
+            *(float(v) for v in arrays["intrinsics"]), sem.shape[1], sem.shape[0]
+        ),
+        camera_to_base=np.asarray(arrays["camera_to_base"], np.float64),
+    )
+    corruption = augmentation.draw(rng)
+    bad = corrupt_frame(frame, corruption, rng)
+    try:
+        clouds = frame_inputs(
+            bad.depth,
+            bad.depth > 0,
+            bad.rgb,
+            bad.target_mask,
+            list(bad.obstacle_masks),
+            bad.intrinsics,
+            bad.camera_to_base,
+            preprocessing.cloud,
+            preprocessing.max_depth,
+            metric_depth=corruption.preset.depth.metric,
+        )
+    except MomaError:
+        return {k: arrays[k] for k in CLOUD_FIELDS}
+    stored = arrays["floor_xyz"][:, :2].astype(np.float64)
+    dist, near = cKDTree(stored).query(clouds.floor_xyz[:, :2], distance_upper_bound=LABEL_RADIUS)
+    keep = np.isfinite(dist)
+    if not keep.any():
+        return {k: arrays[k] for k in CLOUD_FIELDS}
+    return {
+        "descriptor": arrays["descriptor"],
+        "global_xyz": clouds.global_xyz.astype(np.float32),
+        "global_rgb": clouds.global_rgb,
+        "global_align": clouds.global_align,
+        "floor_xyz": clouds.floor_xyz[keep].astype(np.float32),
+        "floor_label": arrays["floor_label"][near[keep]],
+    }
+
+
 def episode_sample(
     arrays: dict[str, np.ndarray], scene_id: int, config_index: int, episode_index: int, robot: str
 ) -> dict[str, Any]:
@@ -123,6 +195,32 @@ class EpisodeDataset(Dataset):
                     self.index.append((entry["file"], sid, c, e, robot))
         self._open: OrderedDict[str, SceneShard] = OrderedDict()
         self._pid = os.getpid()
+        self.sensor_noise: Any = None
+        self.preprocessing: Any = None
+        self.noise_seed = 0
+        self.epoch = 0
+
+    def use_sensor_noise(self, augmentation: Any) -> None:
+        """Serve every sample rebuilt from its stored RGB-D frame as a random real sensor,
+        segmenter and calibration (``augmentation``, a
+        :class:`~momakitchen.perception.sensors.SensorAugmentation`) would give it
+        (:func:`noisy_sample`), drawn from ``(seed, epoch, scene, configuration,
+        episode)`` (:meth:`set_epoch`). The stored data stay clean."""
+        from momakitchen.data.config import GenerationConfig, Preprocessing
+
+        if "config" not in self.manifest:
+            raise MomaError(
+                f"{self.root}: sensor noise needs the stored RGB-D frames of a dataset made "
+                "by `momakitchen generate`"
+            )
+        gen = GenerationConfig.from_dict(self.manifest["config"])
+        self.preprocessing = Preprocessing(gen.cloud, gen.camera.max_depth)
+        self.sensor_noise = augmentation
+
+    def set_epoch(self, epoch: int, seed: int = 0) -> None:
+        """Draw the sensor noise of ``epoch`` (and ``seed``) from now on: each epoch sees
+        every episode through another random sensor."""
+        self.epoch, self.noise_seed = int(epoch), int(seed)
 
     def __len__(self) -> int:
         return len(self.index)
@@ -145,9 +243,13 @@ class EpisodeDataset(Dataset):
         if not -len(self) <= i < len(self):
             raise IndexError(i)
         file, sid, c, e, robot = self.index[i]
-        a = self._shard(file).arrays(c, e, CLOUD_FIELDS)
+        fields = CLOUD_FIELDS + (NOISE_FIELDS if self.sensor_noise is not None else ())
+        a = self._shard(file).arrays(c, e, fields)
         if a["descriptor"].shape != (DESCRIPTOR_DIM,):
             raise MomaError(f"{file} episode {c}/{e}: descriptor shape {a['descriptor'].shape}")
+        if self.sensor_noise is not None:
+            rng = np.random.default_rng([self.noise_seed, self.epoch, sid, c, e])
+            a = noisy_sample(a, self.sensor_noise, rng, self.preprocessing)
         sample = episode_sample(a, sid, c, e, robot)
         return self.transform(sample) if self.transform else sample
 

@@ -204,8 +204,13 @@ def predict(
     mc_samples: int = MC_SAMPLES,
     episode_id: tuple[int, int, int] | None = None,
     threads: int | None = 1,
+    metric_depth: bool = True,
 ) -> Prediction:
     """Affordance map and Top-k base poses from one RGB-D frame.
+
+    The calibrated ``camera_to_base`` is only a prior: the floor plane is fitted to the
+    frame and the camera's height, pitch and roll corrected from it (reported in
+    ``Prediction.correction``); the target is the depth-consistent part of its mask.
 
     Args:
         depth: (H, W) metres, or a ``.npy`` (metres) / 16-bit ``.png`` (millimetres) file;
@@ -230,6 +235,9 @@ def predict(
             restored). One is fastest for a single frame: the model is many small
             operations, and a second thread mostly waits (BENCHMARKS.md). None: leave
             torch's setting.
+        metric_depth: False for depth known only up to scale (a monocular depth
+            network): the calibrated camera height then fixes the scale, read from the
+            floor, instead of the floor correcting the height.
     """
     from momakitchen.models.inference import frame_inputs, predict_map
     from momakitchen.train.checkpoint import LoadedRun, default_checkpoint, load_checkpoint
@@ -256,8 +264,6 @@ def predict(
     valid = np.isfinite(d) & (d > 0)
     if not valid.any():
         raise MomaError("the depth image has no valid pixel (all 0 or NaN)")
-    if not (masks["target mask"] & valid).any():
-        raise MomaError("the target mask is empty (no target pixel with a valid depth)")
     name, descriptor = robot_input(robot)
 
     run = (
@@ -276,6 +282,7 @@ def predict(
         tf,
         run.preprocessing.cloud,
         run.preprocessing.max_depth,
+        metric_depth=metric_depth,
     )
     return predict_map(
         run,

@@ -23,16 +23,27 @@ from scipy.spatial import cKDTree
 from momakitchen.data.batch import EpisodeCollator
 from momakitchen.data.torch_dataset import episode_sample
 from momakitchen.errors import MomaError
+from momakitchen.frames import transform_into
 from momakitchen.models.base import AffordanceModel
 from momakitchen.models.navaff import target_centroid
 from momakitchen.perception.camera import CameraConfig, Intrinsics
-from momakitchen.perception.clouds import CloudConfig, frame_clouds
+from momakitchen.perception.clouds import CloudConfig, cloud_in_base, voxel_downsample
+from momakitchen.perception.floor import (
+    FloorCorrection,
+    FloorFitConfig,
+    fit_floor,
+    floor_tolerance,
+)
 
 MC_SAMPLES = 8  # MC-dropout forward passes behind each uncertainty estimate
 # Poses are ranked by the raw map (the paper's rule) unless a radius is given: averaging over
 # 10 cm helped short runs on held-out train scenes but not the full-length models on the
 # test scenes (docs/RESULTS.md), so it is an option, not the default.
 PICK_RADIUS = 0.0
+# Points this close to the fitted floor are tested against the floor's measured noise.
+FLOOR_SEARCH = 0.1
+# The farthest target of the training views (ViewConfig: 3.8 m ahead, 1.5 m aside).
+TRAINED_DISTANCE = math.hypot(3.8, 1.5)
 
 
 @dataclass(frozen=True)
@@ -42,7 +53,10 @@ class Prediction:
     Shapes: ``floor_xyz`` (N, 3); ``affordance`` (N,) in [0, 1]; ``uncertainty`` (N,)
     (MC-dropout standard deviation; zeros without MC samples); ``poses`` (k, 3) rows
     ``x, y, yaw`` facing the target, best first; ``pose_scores`` and
-    ``pose_uncertainty`` (k,); ``target_xyz`` (3,) the target's centroid.
+    ``pose_uncertainty`` (k,); ``target_xyz`` (3,) the target's position (the median of
+    its mask's depth-consistent points for a live frame); ``correction``: the floor-plane
+    correction applied to the frame (None for stored episodes); ``warnings``: what the
+    robot should know (a target farther than the training views).
     """
 
     floor_xyz: np.ndarray
@@ -54,6 +68,8 @@ class Prediction:
     target_xyz: np.ndarray
     robot: str
     model: str
+    correction: FloorCorrection | None = None
+    warnings: tuple[str, ...] = ()
 
     def to_dict(self, floor_points: bool = True) -> dict[str, Any]:
         out: dict[str, Any] = {
@@ -61,6 +77,9 @@ class Prediction:
             "robot": self.robot,
             "model": self.model,
             "target_xyz": [round(float(v), 4) for v in self.target_xyz],
+            "target_distance_m": round(float(np.hypot(*self.target_xyz[:2])), 3),
+            "floor_correction": None if self.correction is None else self.correction.to_dict(),
+            "warnings": list(self.warnings),
             "poses": [
                 {
                     "x": round(float(x), 4),
@@ -195,6 +214,68 @@ def select_points(
     return kept
 
 
+@dataclass(frozen=True)
+class FrameClouds:
+    """A live frame's model input (:func:`frame_inputs`), in the corrected base frame.
+
+    Shapes: ``global_xyz`` (Ng, 3), ``global_rgb`` (Ng, 3) uint8, ``global_align`` (Ng,)
+    int8, ``floor_xyz`` (Nf, 3) with z = 0, ``target_xyz`` (3,). ``target_distance``: the
+    target's horizontal distance from the base (m); ``correction``: the floor-plane
+    correction applied (None when the floor was taken as calibrated).
+    """
+
+    global_xyz: np.ndarray
+    global_rgb: np.ndarray
+    global_align: np.ndarray
+    floor_xyz: np.ndarray
+    target_xyz: np.ndarray
+    target_distance: float
+    correction: FloorCorrection | None
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        """The cloud arrays a model sample is made of (:func:`episode_sample`)."""
+        return {
+            "global_xyz": self.global_xyz,
+            "global_rgb": self.global_rgb,
+            "global_align": self.global_align,
+            "floor_xyz": self.floor_xyz,
+        }
+
+
+def consistent_target(
+    depth: np.ndarray, bin_width: float = 0.03, floor: float = 0.1, mode: float = 0.25
+) -> np.ndarray:
+    """The depth-consistent part of a target mask: the nearest depth mode that holds at
+    least ``mode`` times the pixels of the largest one, with the depths around it down
+    to ``floor`` times its count (a walk over a histogram of ``bin_width`` bins). A mask
+    that spills onto, or is shifted onto, the wall behind the target, and flying pixels
+    between the two, are left out (a segmenter's errors land on what lies behind the
+    target more often than in front of it); a door seen at an angle, whose depths spread
+    evenly, is kept whole.
+
+    Shapes: ``depth`` (M,) the mask's valid depths (m) -> (M,) bool.
+    """
+    d = np.asarray(depth, np.float64)
+    if len(d) < 3:
+        return np.ones(len(d), bool)
+    bins = np.floor((d - float(d.min())) / bin_width).astype(np.int64)
+    # smoothed over three bins so that noise does not split one surface into modes
+    smooth = np.convolve(np.bincount(bins), np.ones(3), mode="same")
+    padded = np.r_[-1.0, smooth, -1.0]
+    peaks = np.flatnonzero(
+        (smooth >= padded[:-2]) & (smooth >= padded[2:]) & (smooth >= mode * smooth.max())
+    )
+    peak = int(peaks[0])
+    enough = smooth >= floor * smooth[peak]
+    first = peak
+    while first > 0 and enough[first - 1]:
+        first -= 1
+    last = peak
+    while last + 1 < len(enough) and enough[last + 1]:
+        last += 1
+    return (bins >= first) & (bins <= last)
+
+
 def frame_inputs(
     depth: np.ndarray,
     valid: np.ndarray,
@@ -205,34 +286,89 @@ def frame_inputs(
     camera_to_base: np.ndarray,
     cloud: CloudConfig | None = None,
     max_depth: float | None = None,
-) -> dict[str, np.ndarray]:
-    """The model's clouds of one RGB-D frame, with the visual-alignment channel from the
-    masks (+1 target, -1 obstacle, 0 else); MomaError if no floor or no target is seen.
+    *,
+    floor: FloorFitConfig | None = None,
+    metric_depth: bool = True,
+) -> FrameClouds:
+    """The model's clouds of one live RGB-D frame, built not to trust what the frame
+    cannot show: the floor plane is fitted to the frame (the calibrated extrinsics only as
+    a prior; :func:`~momakitchen.perception.floor.fit_floor`) and the points moved so it
+    is z = 0; floor points (within the measured floor noise of the plane) are put on it,
+    so per-point depth noise never reads as "a few millimetres up"; the target is the
+    depth-consistent part of its mask (:func:`consistent_target`), and its points are
+    always in the global cloud. MomaError names the cause when no floor plane is found,
+    the mask has no pixel of valid depth, or the target lies beyond ``max_depth``.
 
     ``cloud`` and ``max_depth`` must be those the model was trained with (a loaded run's
     ``preprocessing``); None: the defaults (:class:`CloudConfig`, :class:`CameraConfig`).
+    ``metric_depth`` False: the depth is known only up to scale (monocular), which the
+    calibrated camera height then fixes.
 
     Shapes: ``depth`` (H, W) metres and ``valid`` (H, W) bool; ``rgb`` (H, W, 3) uint8;
-    masks (H, W) bool; ``camera_to_base`` (4, 4). Returns ``global_xyz`` (Ng, 3),
-    ``global_rgb`` (Ng, 3), ``global_align`` (Ng,), ``floor_xyz`` (Nf, 3).
+    masks (H, W) bool; ``camera_to_base`` (4, 4).
     """
     cloud = cloud if cloud is not None else CloudConfig()
     max_depth = max_depth if max_depth is not None else CameraConfig().max_depth
-    align = np.zeros(depth.shape, np.int8)
+    d = np.where(valid, depth, 0.0)
+    pts, idx = cloud_in_base(d, intrinsics, camera_to_base, max_depth)
+    tmask = np.asarray(target_mask, bool).reshape(-1)
+    in_mask = tmask[idx]
+    if not in_mask.any():
+        _no_target(d, np.asarray(target_mask, bool), max_depth)
+    cam = np.asarray(camera_to_base, np.float64)[:3, 3]
+    correction = fit_floor(pts, cam, floor, metric_depth)
+    rows = pts.T  # cloud_in_base's points are a transposed (3, N) array
+    transform_into(correction.matrix, rows.copy(), rows)
+    near = np.flatnonzero(np.abs(pts[:, 2]) < FLOOR_SEARCH)
+    flat = near[
+        np.abs(pts[near, 2]) <= floor_tolerance(pts[near], correction.new_camera, cloud.floor_z)
+    ]
+    # The floor cloud is thinned as the data's were (its points' heights decide their
+    # voxels), then put on the plane: no per-point depth noise reaches the model.
+    f_pts = pts[flat[voxel_downsample(pts[flat], cloud.floor_voxel)]]
+    f_pts[:, 2] = 0.0
+    pts[flat, 2] = 0.0
+    if len(f_pts) == 0:
+        raise MomaError("no floor is visible (no point on the fitted floor plane)")
+
+    align = np.zeros(len(pts), np.int8)
     for m in obstacle_masks:
-        align[m] = -1
-    align[target_mask] = 1
-    g_xyz, g_rgb, g_align, f_xyz = frame_clouds(
-        np.where(valid, depth, 0.0), rgb, align, intrinsics, camera_to_base, cloud, max_depth
+        align[np.asarray(m, bool).reshape(-1)[idx]] = -1
+    t_rows = np.flatnonzero(in_mask)
+    t_rows = t_rows[consistent_target(d.reshape(-1)[idx[t_rows]])]
+    align[t_rows] = 1
+    keep = voxel_downsample(pts, cloud.voxel)
+    if not (align[keep] > 0).any():  # a small target thinned away: its own voxels
+        t_keep = t_rows[voxel_downsample(pts[t_rows], cloud.voxel)]
+        keep = np.union1d(keep, t_keep)
+    target = np.median(pts[t_rows], axis=0)
+    return FrameClouds(
+        global_xyz=pts[keep],
+        global_rgb=rgb.reshape(-1, 3)[idx[keep]],
+        global_align=align[keep],
+        floor_xyz=f_pts,
+        target_xyz=target,
+        target_distance=float(np.hypot(target[0], target[1])),
+        correction=correction,
     )
-    if len(f_xyz) == 0:
+
+
+def _no_target(depth: np.ndarray, mask: np.ndarray, max_depth: float) -> None:
+    """Raise the MomaError that says why the target has no point in the clouds."""
+    n = int(mask.sum())
+    if n == 0:
+        raise MomaError("the target mask is empty (0 pixels)")
+    dm = depth[mask]
+    good = dm[dm > 0]
+    if len(good) == 0:
         raise MomaError(
-            f"no floor is visible (no point below {_length(cloud.floor_z)} in the "
-            "base frame); check the extrinsics"
+            f"the target mask has {n} pixels but none with a valid depth (the target may "
+            "be beyond the depth sensor's range: move closer)"
         )
-    if not (g_align > 0).any():
-        raise MomaError(f"the target is beyond the depth range used ({_length(max_depth)})")
-    return {"global_xyz": g_xyz, "global_rgb": g_rgb, "global_align": g_align, "floor_xyz": f_xyz}
+    raise MomaError(
+        f"the target is {float(np.median(good)):.2f} m away, beyond the "
+        f"{_length(max_depth)} the model uses: move closer"
+    )
 
 
 def _length(metres: float) -> str:
@@ -244,7 +380,7 @@ def _length(metres: float) -> str:
 
 def predict_map(
     run: Any,
-    clouds: dict[str, np.ndarray],
+    clouds: FrameClouds | dict[str, np.ndarray],
     robot: str,
     descriptor: np.ndarray,
     *,
@@ -256,23 +392,34 @@ def predict_map(
     threads: int | None = 1,
 ) -> Prediction:
     """The map of a loaded run (:func:`momakitchen.train.load_checkpoint`) over the floor
-    points of ``clouds`` (:func:`frame_inputs`) and the Top-k base poses facing the target,
-    ranked by the map averaged over ``pick_radius`` (m; 0: the raw map, see
-    :func:`select_points`).
+    points of ``clouds`` (:func:`frame_inputs`, or a stored episode's cloud arrays) and
+    the Top-k base poses facing the target, ranked by the map averaged over
+    ``pick_radius`` (m; 0: the raw map, see :func:`select_points`).
 
     ``episode_id`` seeds the cloud down-sampling exactly as ``evaluate`` does (None for
     live frames); ``threads``: torch threads while the model runs (None: unchanged).
     """
-    f_xyz = clouds["floor_xyz"]
+    arrays = clouds.arrays() if isinstance(clouds, FrameClouds) else clouds
+    f_xyz = arrays["floor_xyz"]
     ids = episode_id if episode_id is not None else (-1, -1, -1)
-    sample = episode_sample({**clouds, "descriptor": descriptor}, *ids, robot)
+    sample = episode_sample({**arrays, "descriptor": descriptor}, *ids, robot)
     with torch_threads(threads):
         batch, affordance, uncertainty = run_model(run, sample, mc_samples)
-    target = (
-        target_centroid(batch["global_xyz"], batch["global_align"], batch["global_mask"])[0]
-        .numpy()
-        .astype(np.float64)
-    )
+    if isinstance(clouds, FrameClouds):
+        target = clouds.target_xyz
+    else:
+        target = (
+            target_centroid(batch["global_xyz"], batch["global_align"], batch["global_mask"])[0]
+            .numpy()
+            .astype(np.float64)
+        )
+    distance = float(np.hypot(target[0], target[1]))
+    warnings = []
+    if distance > TRAINED_DISTANCE:
+        warnings.append(
+            f"the target is {distance:.2f} m away, farther than the model's training views "
+            f"(up to {TRAINED_DISTANCE:.1f} m): move closer for a reliable map"
+        )
 
     chosen = select_points(f_xyz[:, :2], affordance, top_k, min_spread, radius=pick_radius)
     poses = np.array(
@@ -291,4 +438,6 @@ def predict_map(
         target_xyz=target,
         robot=robot,
         model=run.config.model,
+        correction=clouds.correction if isinstance(clouds, FrameClouds) else None,
+        warnings=tuple(warnings),
     )

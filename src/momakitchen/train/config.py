@@ -48,6 +48,10 @@ class TrainConfig:
         val_every, checkpoint_every: validate / write the checkpoint, log and loss curve
             every this many epochs (and always after the last one).
         progress: show tqdm progress bars (rank 0 only).
+        sensor_noise: train on the stored frames as real sensors, segmenters and
+            calibrations would give them (a random
+            :class:`~momakitchen.perception.sensors.SensorAugmentation` draw per sample
+            and epoch, rebuilt by the real-robot path); the stored data stay clean.
     """
 
     model: str = "navaff"
@@ -72,6 +76,7 @@ class TrainConfig:
     val_every: int = 1
     checkpoint_every: int = 1
     progress: bool = True
+    sensor_noise: bool = False
 
     def __post_init__(self) -> None:
         def bad(name: str, rule: str) -> MomaError:

@@ -280,6 +280,12 @@ def _train(
     if world > 1 or not resuming:
         torch.manual_seed(config.seed * 7919 + 1 + rank + 131 * progress["epoch"])
 
+    if config.sensor_noise:
+        from momakitchen.perception.sensors import SensorAugmentation
+
+        if not hasattr(train_set, "use_sensor_noise"):
+            raise MomaError("sensor_noise needs a generated dataset (its stored RGB-D frames)")
+        cast(Any, train_set).use_sensor_noise(SensorAugmentation())
     collate = PlanningCollator(
         EpisodeCollator(config.num_global, config.num_floor, config.seed), model.backbone
     )
@@ -319,6 +325,8 @@ def _train(
         if step >= total_steps:
             break
         sampler.set_epoch(epoch)
+        if config.sensor_noise:
+            cast(Any, train_set).set_epoch(epoch, config.seed)
         net.train()
         t0 = time.perf_counter()
         loss_sum = torch.zeros(3, dtype=torch.float64)  # loss*B, mse*B, samples

@@ -1,0 +1,362 @@
+"""The robustness track: a model on the frames a real robot would give it.
+
+For each configuration of a split, the view that ``msr`` picks for the same seed is
+taken as a perfect render and corrupted by each named corruption
+(:data:`momakitchen.perception.sensors.CORRUPTIONS`: sensor noise, segmenter masks,
+calibration errors, monocular depth); the corrupted frame goes through the real-robot
+path (:func:`momakitchen.models.inference.frame_inputs`, floor-plane correction
+included) and the model's Top-k base positions, in the frame the robot believes, are
+driven to and tried with the labelling's own trial in PyBullet. Map metrics compare the
+predicted map with the ground truth at the same floor points (the labels' interpolation
+at those points, :func:`momakitchen.sim.labels.floor_affordance`).
+
+Views whose target lies beyond the sensor's working range are counted apart (a robot
+there should move closer, not trust a model); every other failure to predict is an error
+counted by its cause.
+"""
+
+from __future__ import annotations
+
+import zlib
+from collections import Counter
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from types import SimpleNamespace
+from typing import Any
+
+import numpy as np
+
+from momakitchen.errors import MomaError
+
+SPLITS = ("test", "train", "all")
+# Error causes, from the messages of frame_inputs / fit_floor (one word each for tables).
+ERROR_CAUSES = {
+    "the target mask is empty": "empty_mask",
+    "but none with a valid depth": "no_target_depth",
+    "beyond the": "target_range",
+    "no floor plane found": "no_floor",
+    "no floor is visible": "no_floor",
+}
+
+
+def error_cause(message: str) -> str:
+    """The cause of a prediction error, from its message (``other`` if unknown)."""
+    for needle, cause in ERROR_CAUSES.items():
+        if needle in message:
+            return cause
+    return "other"
+
+
+@dataclass(frozen=True)
+class RobustnessConfig:
+    """Settings of a robustness run (those of ``msr`` where they mean the same).
+
+    Attributes:
+        corruptions: names from ``CORRUPTIONS`` (``clean`` first is the reference).
+        top_k, min_spread, pick_radius: as ``MsrConfig``.
+        seed: picks the same view per configuration as ``msr --seed``; also seeds the
+            corruptions (with the episode and the corruption's name).
+        split, max_configs: which configurations.
+    """
+
+    corruptions: tuple[str, ...] = ("clean",)
+    top_k: int = 1
+    min_spread: float = 0.2
+    pick_radius: float = 0.0
+    seed: int = 0
+    split: str = "test"
+    max_configs: int = 0
+
+    def __post_init__(self) -> None:
+        from momakitchen.perception.sensors import get_corruption
+
+        if not self.corruptions:
+            raise MomaError("RobustnessConfig.corruptions is empty")
+        for name in self.corruptions:
+            get_corruption(name)
+        if len(set(self.corruptions)) != len(self.corruptions):
+            raise MomaError(f"corruptions named twice: {list(self.corruptions)}")
+        if not 1 <= self.top_k <= 20:
+            raise MomaError(f"RobustnessConfig.top_k must be in [1, 20], got {self.top_k}")
+        if not 0.0 <= self.min_spread <= 2.0 or not 0.0 <= self.pick_radius <= 1.0:
+            raise MomaError("min_spread must be in [0, 2] m and pick_radius in [0, 1] m")
+        if self.seed < 0 or self.max_configs < 0:
+            raise MomaError("seed and max_configs must be >= 0")
+        if self.split not in SPLITS:
+            raise MomaError(f"split must be one of {SPLITS}, got {self.split!r}")
+
+
+def episode_frame(episode: Any) -> Any:
+    """A stored episode's render as a :class:`~momakitchen.perception.sensors.Frame` (the
+    true camera pose; target and obstacle masks from its semantic image)."""
+    from momakitchen.data.episode import SEMANTIC_CLASSES
+    from momakitchen.perception.camera import Intrinsics
+    from momakitchen.perception.sensors import Frame
+
+    sem = episode.semantic
+    return Frame(
+        depth=episode.depth.astype(np.float32),
+        rgb=episode.rgb,
+        target_mask=sem == SEMANTIC_CLASSES.index("target"),
+        obstacle_masks=(sem == SEMANTIC_CLASSES.index("obstacle"),),
+        intrinsics=Intrinsics(*(float(v) for v in episode.intrinsics), sem.shape[1], sem.shape[0]),
+        camera_to_base=np.asarray(episode.camera_to_base, np.float64),
+    )
+
+
+def corruption_rng(seed: int, ids: Sequence[int], name: str) -> np.random.Generator:
+    """The generator of one corruption of one episode: the same every run."""
+    return np.random.default_rng([seed, *(int(i) for i in ids), zlib.crc32(name.encode())])
+
+
+def target_range(frame: Any) -> float:
+    """The target's distance from the camera along the optical axis (m): the median
+    depth of its pixels in the clean render (inf without any)."""
+    d = frame.depth[frame.target_mask]
+    d = d[np.isfinite(d) & (d > 0)]
+    return float(np.median(d)) if len(d) else float("inf")
+
+
+def run_view(
+    run: Any,
+    frame: Any,
+    corruption_name: str,
+    ids: tuple[int, int, int],
+    robot: str,
+    descriptor: np.ndarray,
+    config: RobustnessConfig,
+) -> dict[str, Any]:
+    """One model on one corrupted view: ``{"status": "ok"|"beyond_range"|"error", ...}``
+    with the prediction (``prediction``) when ok."""
+    from momakitchen.models.inference import frame_inputs, predict_map
+    from momakitchen.perception.sensors import corrupt_frame, get_corruption
+
+    corruption = get_corruption(corruption_name)
+    preset = corruption.preset
+    distance = target_range(frame)
+    if distance > preset.max_range:
+        return {"status": "beyond_range", "target_range": round(distance, 3)}
+    bad = corrupt_frame(frame, corruption, corruption_rng(config.seed, ids, corruption_name))
+    depth = bad.depth
+    try:
+        clouds = frame_inputs(
+            depth,
+            np.isfinite(depth) & (depth > 0),
+            bad.rgb,
+            bad.target_mask,
+            list(bad.obstacle_masks),
+            bad.intrinsics,
+            bad.camera_to_base,
+            run.preprocessing.cloud,
+            run.preprocessing.max_depth,
+            metric_depth=preset.depth.metric,
+        )
+        pred = predict_map(
+            run,
+            clouds,
+            robot,
+            descriptor,
+            top_k=config.top_k,
+            min_spread=config.min_spread,
+            pick_radius=config.pick_radius,
+            mc_samples=0,
+        )
+    except MomaError as exc:
+        return {"status": "error", "cause": error_cause(str(exc)), "message": str(exc)}
+    return {"status": "ok", "prediction": pred}
+
+
+def run_robustness(
+    data: str | Path,
+    checkpoints: Sequence[str | Path] = (),
+    config: RobustnessConfig | None = None,
+    progress: bool = False,
+) -> dict[str, Any]:
+    """The robustness track of trained runs (none given: the bundled model) on a dataset
+    split. Returns ``{"config", "configurations", "models": {model: {corruption: summary}},
+    "records": [...]}``; a summary has ``views``, ``beyond_range``, ``errors`` (by cause),
+    ``top1`` (views beyond range left out; errors count as failures), ``top1_feasible``,
+    ``topk``, ``pcc``, ``sim`` (over the views predicted)."""
+    from tqdm.auto import tqdm
+
+    from momakitchen.data.config import GenerationConfig, Preprocessing
+    from momakitchen.data.integrity import check_shard_files
+    from momakitchen.eval.msr import _load_dataset, rebuilt_configurations, split_configurations
+    from momakitchen.frames import base_to_world_xy
+    from momakitchen.metrics import episode_metrics
+    from momakitchen.robots.spec import get_robot_spec, robot_descriptor
+    from momakitchen.sim.labels import floor_affordance
+    from momakitchen.sim.trials import TrialRunner
+    from momakitchen.sim.world import World
+    from momakitchen.train.checkpoint import (
+        check_preprocessing,
+        default_checkpoint,
+        load_checkpoint,
+    )
+
+    config = config or RobustnessConfig()
+    root = Path(data)
+    manifest = _load_dataset(root)
+    try:
+        gen = GenerationConfig.from_dict(manifest["config"])
+    except (TypeError, KeyError, ValueError) as exc:
+        raise MomaError(f"{root}: unreadable generation config in manifest.json ({exc})") from exc
+    preprocessing = Preprocessing(gen.cloud, gen.camera.max_depth)
+    runs: dict[str, Any] = {}
+    for run_dir in checkpoints or [default_checkpoint()]:
+        run = load_checkpoint(run_dir)
+        check_preprocessing(run, preprocessing, f"dataset {str(root)!r}")
+        name = (
+            run.config.model
+            if run.config.model not in runs
+            else f"{run.config.model}:{Path(run_dir).name}"
+        )
+        runs[name] = run
+    todo = split_configurations(manifest, config.split)
+    if config.max_configs:
+        todo = todo[: config.max_configs]
+    if not todo:
+        raise MomaError(f"dataset {str(root)!r} has no {config.split} configurations")
+    check_shard_files(root, manifest, {sid for sid, _, _ in todo})
+
+    records: list[dict[str, Any]] = []
+    bar = tqdm(todo, desc="robustness", unit="config", disable=not progress)
+    for scene, shard, ci in rebuilt_configurations(root, bar, gen.scene):
+        sid = scene.layout.scene_id
+        labels = shard.configuration(ci)
+        episodes = [e for e in shard.episode_indices(ci) if shard.num_points(ci, e)[1] > 0]
+        if ci >= len(scene.configurations) or not episodes:
+            continue
+        cfg = scene.configurations[ci]
+        # the view msr picks for the same seed
+        rng = np.random.default_rng([config.seed, sid, ci])
+        ep = int(episodes[int(rng.integers(len(episodes)))])
+        episode = shard.episode(ci, ep)
+        frame = episode_frame(episode)
+        descriptor = np.asarray(robot_descriptor(get_robot_spec(cfg.robot)), np.float32)
+        grid = SimpleNamespace(positions=labels.trial_positions, outcomes=labels.trial_outcomes)
+        record: dict[str, Any] = {
+            "scene_id": sid,
+            "config_index": ci,
+            "episode_index": ep,
+            "robot": cfg.robot,
+            "target": labels.target,
+            "feasible": bool(labels.trial_outcomes.any()),
+            "target_range": round(target_range(frame), 3),
+            "views": {},
+        }
+        with World(scene.layout) as world:
+            world.load_configuration(cfg)
+            runner = TrialRunner(world, cfg.robot, gen.trial)
+            trials: dict[tuple[float, float], Any] = {}
+            try:
+                for model, run in runs.items():
+                    for name in config.corruptions:
+                        view = run_view(
+                            run, frame, name, (sid, ci, ep), cfg.robot, descriptor, config
+                        )
+                        pred = view.pop("prediction", None)
+                        if pred is not None:
+                            world_xy = base_to_world_xy(pred.poses[:, :2], episode.base_pose)
+                            outcomes, stages = [], []
+                            for x, y in world_xy:
+                                key = (round(float(x), 4), round(float(y), 4))
+                                if key not in trials:
+                                    trials[key] = runner.run(*key)
+                                outcomes.append(int(trials[key].success))
+                                stages.append(int(trials[key].stage))
+                            gt = floor_affordance(
+                                grid,
+                                scene.layout,
+                                cfg,
+                                pred.floor_xyz[:, :2],
+                                episode.base_pose,
+                                gen.dense,
+                            )
+                            m = episode_metrics(pred.affordance, gt.astype(np.float64))
+                            view.update(
+                                points=[[round(float(v), 4) for v in p] for p in world_xy],
+                                outcomes=outcomes,
+                                stages=stages,
+                                pcc=round(m["pcc"], 5),
+                                sim=round(m["sim"], 5),
+                                correction=(pred.correction.to_dict() if pred.correction else None),
+                            )
+                        record["views"].setdefault(model, {})[name] = view
+            finally:
+                runner.close()
+        records.append(record)
+
+    models = {
+        model: {name: summarize(records, model, name) for name in config.corruptions}
+        for model in runs
+    }
+    return {
+        "dataset": str(root),
+        "config": {
+            "corruptions": list(config.corruptions),
+            "top_k": config.top_k,
+            "min_spread": config.min_spread,
+            "pick_radius": config.pick_radius,
+            "seed": config.seed,
+            "split": config.split,
+            "max_configs": config.max_configs,
+        },
+        "configurations": len(records),
+        "models": models,
+        "records": records,
+    }
+
+
+def summarize(records: Sequence[dict[str, Any]], model: str, name: str) -> dict[str, Any]:
+    """One model's figures under one corruption (see :func:`run_robustness`)."""
+    views = [(r, r["views"][model][name]) for r in records if name in r["views"].get(model, {})]
+    counted = [(r, v) for r, v in views if v["status"] != "beyond_range"]
+    ok = [v for _, v in counted if v["status"] == "ok"]
+
+    def rate(items: list[tuple[dict[str, Any], dict[str, Any]]], k: bool) -> float:
+        vals = [
+            (float(np.mean(v["outcomes"])) if k else float(v["outcomes"][0]))
+            if v["status"] == "ok"
+            else 0.0
+            for _, v in items
+        ]
+        return round(float(np.mean(vals)), 4) if vals else 0.0
+
+    feasible = [(r, v) for r, v in counted if r["feasible"]]
+    return {
+        "views": len(views),
+        "beyond_range": sum(v["status"] == "beyond_range" for _, v in views),
+        "errors": dict(Counter(v["cause"] for _, v in counted if v["status"] == "error")),
+        "top1": rate(counted, False),
+        "top1_feasible": rate(feasible, False),
+        "topk": rate(counted, True),
+        "pcc": round(float(np.mean([v["pcc"] for v in ok])), 4) if ok else 0.0,
+        "sim": round(float(np.mean([v["sim"] for v in ok])), 4) if ok else 0.0,
+    }
+
+
+def format_robustness_table(result: dict[str, Any]) -> str:
+    """A text table: one row per model and corruption, with the change from ``clean``."""
+    k = result["config"]["top_k"]
+    head = (
+        f"{'model':<12} {'corruption':<14} {'views':>5} {'range':>5} {'errors':>6} "
+        f"{'Top-1':>6} {'dTop-1':>7} {'feas.':>6}"
+        + (f" {f'Top-{k}':>6}" if k > 1 else "")
+        + f" {'PCC':>6} {'dPCC':>6} {'SIM':>6}"
+    )
+    lines = [head, "-" * len(head)]
+    for model, rows in result["models"].items():
+        ref = rows.get("clean")
+        for name, s in rows.items():
+            d1 = f"{(s['top1'] - ref['top1']) * 100:+6.1f}" if ref and name != "clean" else ""
+            dp = f"{s['pcc'] - ref['pcc']:+.3f}" if ref and name != "clean" else ""
+            lines.append(
+                f"{model:<12} {name:<14} {s['views']:>5} {s['beyond_range']:>5} "
+                f"{sum(s['errors'].values()):>6} {s['top1'] * 100:>6.1f} {d1:>7} "
+                f"{s['top1_feasible'] * 100:>6.1f}"
+                + (f" {s['topk'] * 100:>6.1f}" if k > 1 else "")
+                + f" {s['pcc']:>6.3f} {dp:>6} {s['sim']:>6.3f}"
+            )
+    return "\n".join(lines)
