@@ -108,6 +108,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="train on the frames as real depth sensors, segmenters and calibrations would "
         "give them (random per sample and epoch; the data stay clean)",
     )
+    tr.add_argument(
+        "--init",
+        default=None,
+        metavar="RUN",
+        help="start from this run's weights (fine-tuning; 'bundled': the bundled model)",
+    )
     tr.add_argument("--resume", action="store_true", help="continue the run in --out")
     tr.add_argument("--quiet", action="store_true", help="no progress bars")
     tr.set_defaults(func=run_train)
@@ -191,6 +197,7 @@ def train_config(args: argparse.Namespace) -> TrainConfig:
             ("seed", args.seed),
             ("progress", False if args.quiet else None),
             ("sensor_noise", args.sensor_noise),
+            ("init", args.init),
         )
         if value is not None
     }

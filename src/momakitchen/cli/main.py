@@ -32,6 +32,7 @@ COMMANDS = {
     "train": "learn",
     "evaluate": "learn",
     "msr": "msr",
+    "robustness": "robustness",
     "audit": "audit",
     "benchmark": "benchmark",
     "predict": "predict",

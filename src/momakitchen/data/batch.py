@@ -31,7 +31,8 @@ mask is False are dropped before collation.
 Batch (after :class:`EpisodeCollator`, ``B`` samples, ``Ng``/``Nf`` fixed point counts):
 
 - ``global_xyz`` (B, Ng, 3), ``global_rgb`` (B, Ng, 3), ``global_align`` (B, Ng) float32
-- ``global_mask`` (B, Ng) bool: True = real point, False = padding
+- ``global_mask`` (B, Ng) bool: True = real point, False = padding. A cloud sampled down
+  keeps some of its target points (alignment +1) whatever the draw.
 - ``floor_xyz`` (B, Nf, 3) float32, ``floor_mask`` (B, Nf) bool
 - ``floor_label`` (B, Nf) float32 (present when every sample has labels; 0 on padding)
 - ``robot`` (B, D) float32
@@ -161,6 +162,26 @@ def _fit(n_real: int, n_out: int, rng: np.random.Generator) -> np.ndarray:
     return np.sort(rng.choice(n_real, size=n_out, replace=False))
 
 
+# A global cloud sampled down with no target point left gets up to this many back.
+TARGET_KEEP = 16
+
+
+def _keep_target(kept: np.ndarray, align: np.ndarray) -> np.ndarray:
+    """``kept`` (sorted global indices) with target points (alignment > 0) swapped in for
+    evenly spaced others when the draw left none, so that a model never sees a view
+    without its target (a few pixels of a small fruit among 100,000 points). Draws
+    nothing from the generator: every other episode is sampled exactly as before."""
+    target = np.flatnonzero(np.asarray(align) > 0)
+    if len(target) == 0 or len(kept) == len(align) or (np.asarray(align)[kept] > 0).any():
+        return kept
+    k = min(len(target), TARGET_KEEP, len(kept))
+    out = kept.copy()
+    out[np.linspace(0, len(kept) - 1, k).astype(np.int64)] = target[
+        np.linspace(0, len(target) - 1, k).astype(np.int64)
+    ]
+    return np.sort(out)
+
+
 @dataclass(frozen=True)
 class EpisodeCollator:
     """Collate samples into a fixed-size batch (see the module docstring for shapes).
@@ -232,7 +253,7 @@ def collate_episodes(
         out["context_mask"] = np.zeros((b, num_context), bool)
     for i, s in enumerate(clean):
         rng = _sample_seed(seed, s, i)
-        gi = _fit(s["global_xyz"].shape[0], ng, rng)
+        gi = _keep_target(_fit(s["global_xyz"].shape[0], ng, rng), s["global_align"])
         ci = None
         if num_context is not None:  # the floor draw of a collation with num_floor=num_context
             ci = _fit(s["floor_xyz"].shape[0], num_context, copy.deepcopy(rng))

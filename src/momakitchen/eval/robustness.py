@@ -172,9 +172,14 @@ def run_robustness(
     checkpoints: Sequence[str | Path] = (),
     config: RobustnessConfig | None = None,
     progress: bool = False,
+    view_maps: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
     """The robustness track of trained runs (none given: the bundled model) on a dataset
-    split. Returns ``{"config", "configurations", "models": {model: {corruption: summary}},
+    split. ``view_maps``, if given, receives the first model's prediction of the first
+    configuration's view under each corruption (name -> Prediction or the error), for
+    :func:`robustness_figure`.
+
+    Returns ``{"config", "configurations", "models": {model: {corruption: summary}},
     "records": [...]}``; a summary has ``views``, ``beyond_range``, ``errors`` (by cause),
     ``top1`` (views beyond range left out; errors count as failures), ``top1_feasible``,
     ``topk``, ``pcc``, ``sim`` (over the views predicted)."""
@@ -257,6 +262,8 @@ def run_robustness(
                             run, frame, name, (sid, ci, ep), cfg.robot, descriptor, config
                         )
                         pred = view.pop("prediction", None)
+                        if view_maps is not None and not records and model == next(iter(runs)):
+                            view_maps[name] = pred if pred is not None else view
                         if pred is not None:
                             world_xy = base_to_world_xy(pred.poses[:, :2], episode.base_pose)
                             outcomes, stages = [], []
@@ -360,3 +367,41 @@ def format_robustness_table(result: dict[str, Any]) -> str:
                 + f" {s['pcc']:>6.3f} {dp:>6} {s['sim']:>6.3f}"
             )
     return "\n".join(lines)
+
+
+def robustness_figure(view_maps: dict[str, Any], title: str) -> bytes:
+    """One view's map under each corruption, on one 0-1 colour scale (PNG bytes)."""
+    from momakitchen.perception.figures import floor_map, png_bytes, pyplot
+
+    plt = pyplot()
+    names = list(view_maps)
+    cols = min(5, len(names))
+    rows = (len(names) + cols - 1) // cols
+    fig, axes = plt.subplots(rows, cols, figsize=(3.0 * cols, 2.6 * rows + 0.6), squeeze=False)
+    preds = [p for p in view_maps.values() if hasattr(p, "floor_xyz")]
+    # the floor within 1.2 m of the target, where the robot may stand
+    t = preds[0].target_xyz[:2] if preds else np.zeros(2)
+    extent = (float(t[0] - 1.2), float(t[0] + 0.3), float(t[1] - 1.2), float(t[1] + 1.2))
+    scatter = None
+    for ax, name in zip(axes.flat, names, strict=False):
+        p = view_maps[name]
+        if hasattr(p, "floor_xyz"):
+            scatter = floor_map(
+                ax, p.floor_xyz, p.affordance, name, p.target_xyz, p.poses[:1], extent=extent
+            )
+        else:
+            ax.set_title(name, fontsize=9)
+            reason = (
+                "target beyond the sensor's range"
+                if p["status"] == "beyond_range"
+                else (p.get("cause", "error").replace("_", " "))
+            )
+            ax.text(0.5, 0.5, reason, ha="center", va="center", transform=ax.transAxes)
+            ax.set_xticks([])
+            ax.set_yticks([])
+    for ax in list(axes.flat)[len(names) :]:
+        ax.axis("off")
+    if scatter is not None:
+        fig.colorbar(scatter, ax=axes, shrink=0.6, label="predicted affordance")
+    fig.suptitle(title, fontsize=10)
+    return png_bytes(fig)

@@ -52,6 +52,9 @@ class TrainConfig:
             calibrations would give them (a random
             :class:`~momakitchen.perception.sensors.SensorAugmentation` draw per sample
             and epoch, rebuilt by the real-robot path); the stored data stay clean.
+        init: start from the weights of this run directory (``bundled``: the bundled
+            model) instead of a random initialisation: fine-tuning. Its model and sizes
+            must be this config's.
     """
 
     model: str = "navaff"
@@ -77,6 +80,7 @@ class TrainConfig:
     checkpoint_every: int = 1
     progress: bool = True
     sensor_noise: bool = False
+    init: str = ""
 
     def __post_init__(self) -> None:
         def bad(name: str, rule: str) -> MomaError:

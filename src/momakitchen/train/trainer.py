@@ -217,6 +217,21 @@ def validate(
     }
 
 
+def _initial_weights(config: TrainConfig, model: torch.nn.Module) -> None:
+    """Load ``config.init``'s weights into ``model`` (fine-tuning); MomaError when that run
+    is another model or another size."""
+    from momakitchen.train.checkpoint import default_checkpoint, read_run_config
+
+    src = default_checkpoint() if config.init == "bundled" else Path(config.init)
+    other, _ = read_run_config(src)
+    if other.model != config.model or other.model_config != config.model_config:
+        raise MomaError(
+            f"TrainConfig.init {config.init!r} holds a {other.model!r} model of other sizes "
+            f"than this {config.model!r} run's; fine-tuning needs the same model and sizes"
+        )
+    load_weights(src / WEIGHTS_FILE, model)
+
+
 def train(
     config: TrainConfig,
     train_set: Dataset,
@@ -277,6 +292,8 @@ def _train(
     if resuming:
         load_weights(run_dir / WEIGHTS_FILE, model)
         progress = load_trainer_state(run_dir, optimizer)
+    elif config.init:
+        _initial_weights(config, model)
     if world > 1 or not resuming:
         torch.manual_seed(config.seed * 7919 + 1 + rank + 131 * progress["epoch"])
 
