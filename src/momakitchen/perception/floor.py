@@ -117,6 +117,9 @@ class FloorCorrection:
 
 REFINE_POINTS = 20000
 MIN_TOL = 0.002  # m: the refinement's inlier band never narrows below this
+# The floor is most of what lies near the calibrated floor height: a plane that explains
+# less than this share of those points is a tilted floor, a wall or clutter, not it.
+MIN_SHARE = 0.2
 
 
 def _tolerance(ranges: np.ndarray, cfg: FloorFitConfig) -> np.ndarray:
@@ -212,21 +215,26 @@ def fit_floor(
     n, d = normals[best], float(offsets[best])
     shape = _tolerance(np.linalg.norm(cand - cam, axis=1), cfg)  # the expected noise shape
     tol = shape
-    for _ in range(4):
+    previous = None
+    for _ in range(8):
         # Least squares on the inliers, weighted by the expected noise; then the inlier
         # band shrinks to three robust standard deviations of the measured residuals
-        # (a perfect floor: about a millimetre, so object bottoms and plinths drop out).
+        # (a perfect floor: a couple of millimetres, so object bottoms and plinths drop
+        # out), never wider than RANSAC's; until the inliers no longer change.
         inl = np.abs(cand @ n + d) <= tol
-        if inl.sum() < cfg.min_inliers:
+        if inl.sum() < cfg.min_inliers or (previous is not None and (inl == previous).all()):
             break
+        previous = inl
         n, d = _refine(cand[inl], 1.0 / shape[inl])
         res = np.abs(cand[inl] @ n + d) / shape[inl]
-        tol = np.maximum(3.0 * 1.4826 * float(np.median(res)) * shape, MIN_TOL)
+        tol = np.clip(3.0 * 1.4826 * float(np.median(res)) * shape, MIN_TOL, shape)
     inl = np.abs(cand @ n + d) <= tol
-    if inl.sum() < cfg.min_inliers:
+    need = max(cfg.min_inliers, int(MIN_SHARE * len(cand)))
+    if inl.sum() < need:
         raise MomaError(
             f"no floor plane found: the best plane near the calibrated floor has "
-            f"{int(inl.sum())} supporting points (need {cfg.min_inliers})"
+            f"{int(inl.sum())} supporting points of {len(cand)} (need {need}); check the "
+            "extrinsics"
         )
     tilt = math.degrees(math.acos(min(1.0, float(n[2]))))
     cam_height = float(n @ cam + d)
