@@ -48,7 +48,6 @@ def test_predict_gives_evaluates_map_on_a_dataset_episode(real_view, episode, ti
     collate = EpisodeCollator(
         run.config.num_global, None, run.config.seed, num_context=run.config.num_floor
     )
-    expected = predict_batch(run.model, collate([sample]))[0].numpy()
     ep = episode
     pred = momakitchen.predict(
         **_inputs(ep),
@@ -57,7 +56,19 @@ def test_predict_gives_evaluates_map_on_a_dataset_episode(real_view, episode, ti
         checkpoint=tiny_run,
         episode_id=(3, 0, ep.episode_index),
     )
-    np.testing.assert_array_equal(pred.floor_xyz.astype(np.float32), ep.floor_xyz)
+    # The clean render's floor is found where it is: no correction, the clouds are the
+    # stored ones with the floor (points within 2 cm of it) put on the plane, and the map
+    # is evaluate's on those clouds.
+    c = pred.correction
+    assert (c.height, c.pitch, c.roll, c.scale) == (0.0, 0.0, 0.0, 1.0)
+    np.testing.assert_array_equal(pred.floor_xyz[:, :2].astype(np.float32), ep.floor_xyz[:, :2])
+    assert (pred.floor_xyz[:, 2] == 0).all()
+    flat = dict(sample)
+    flat["floor_xyz"] = sample["floor_xyz"].clone()
+    flat["floor_xyz"][:, 2] = 0
+    flat["global_xyz"] = sample["global_xyz"].clone()
+    flat["global_xyz"][sample["global_xyz"][:, 2].abs() <= 0.02, 2] = 0
+    expected = predict_batch(run.model, collate([flat]))[0].numpy()
     np.testing.assert_allclose(pred.affordance, expected, rtol=0, atol=1e-6)
     assert pred.poses.shape == (5, 3) and (pred.uncertainty >= 0).all()
     assert PICK_RADIUS == 0.0 and pred.pose_scores[0] == pytest.approx(pred.affordance.max())

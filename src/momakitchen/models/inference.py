@@ -323,9 +323,11 @@ def frame_inputs(
     flat = near[
         np.abs(pts[near, 2]) <= floor_tolerance(pts[near], correction.new_camera, cloud.floor_z)
     ]
-    # The floor cloud is thinned as the data's were (its points' heights decide their
-    # voxels), then put on the plane: no per-point depth noise reaches the model.
+    # Both clouds are thinned as the data's were (the points' heights decide their
+    # voxels), then the floor is put on the plane: no per-point depth noise reaches the
+    # model. A clean render thus gives the data's clouds, with the floor at z = 0.
     f_pts = pts[flat[voxel_downsample(pts[flat], cloud.floor_voxel)]]
+    keep = voxel_downsample(pts, cloud.voxel)
     f_pts[:, 2] = 0.0
     pts[flat, 2] = 0.0
     if len(f_pts) == 0:
@@ -337,7 +339,6 @@ def frame_inputs(
     t_rows = np.flatnonzero(in_mask)
     t_rows = t_rows[consistent_target(d.reshape(-1)[idx[t_rows]])]
     align[t_rows] = 1
-    keep = voxel_downsample(pts, cloud.voxel)
     if not (align[keep] > 0).any():  # a small target thinned away: its own voxels
         t_keep = t_rows[voxel_downsample(pts[t_rows], cloud.voxel)]
         keep = np.union1d(keep, t_keep)

@@ -120,6 +120,8 @@ MIN_TOL = 0.002  # m: the refinement's inlier band never narrows below this
 # The floor is most of what lies near the calibrated floor height: a plane that explains
 # less than this share of those points is a tilted floor, a wall or clutter, not it.
 MIN_SHARE = 0.2
+# (m, deg) corrections smaller than both are not applied
+NEGLIGIBLE = (1e-4, 0.005)
 
 
 def _tolerance(ranges: np.ndarray, cfg: FloorFitConfig) -> np.ndarray:
@@ -248,6 +250,10 @@ def fit_floor(
     scale = 1.0 if metric else height / cam_height
     new_height = cam_height if metric else height
     rot = _levelling(n)
+    if metric and abs(cam_height - height) < NEGLIGIBLE[0] and tilt < NEGLIGIBLE[1]:
+        # below what the floor can tell: the calibration stands (a perfect render is
+        # then read exactly as the data were made)
+        n, new_height, rot = np.array([0.0, 0.0, 1.0]), height, np.eye(3)
     residual = float(np.sqrt(np.mean((cand[inl] @ n + d) ** 2))) * scale
     return FloorCorrection(
         height=new_height - height,
@@ -270,26 +276,22 @@ def floor_tolerance(
     most: float = 0.08,
 ) -> np.ndarray:
     """How far from z = 0 each (corrected) point may be and still count as floor: three
-    times the floor's measured noise at the point's range (a robust spread of the
-    heights of points near z = 0, per range bin), never less than ``base`` nor more than
-    ``most`` (m).
+    times the floor's measured noise at the point's range, never less than ``base`` nor
+    more than ``most`` (m). The noise is measured below the plane only (a robust spread
+    of the depths of the points under it, per range bin): objects add points above the
+    floor, never below, so what lies under the plane is floor noise alone.
 
     Shapes: ``points`` (N, 3), ``camera`` (3,) -> (N,) metres.
     """
     pts = np.asarray(points, np.float64)
     ranges = np.linalg.norm(pts - np.asarray(camera, np.float64), axis=1)
-    out = np.full(len(pts), float(base))
-    near = np.abs(pts[:, 2]) < 0.15
-    if not near.any():
-        return out
     bins = np.floor(ranges / bin_width).astype(np.int64)
-    nb = int(bins.max()) + 1
-    sigma = np.zeros(nb)
-    for b in np.unique(bins[near]):
-        z = pts[near & (bins == b), 2]
+    below = pts[:, 2] < 0
+    sigma = np.zeros(int(bins.max()) + 1 if len(bins) else 1)
+    for b in np.unique(bins[below]):
+        z = pts[below & (bins == b), 2]
         if len(z) >= 20:
-            sigma[b] = 1.4826 * float(np.median(np.abs(z)))
+            sigma[b] = 1.4826 * float(np.median(-z))
     # A bin without enough floor takes the noise of the nearest measured range below it.
     sigma = np.maximum.accumulate(sigma)
     return np.clip(3.0 * sigma[bins], base, max(base, most))
-
