@@ -87,7 +87,7 @@ def test_no_floor_plane_is_a_clear_error():
     with pytest.raises(MomaError, match="no floor plane found: 0 points lie within 30 cm"):
         fit_floor(wall, CAM)
     high = _turn(_room(rng), 0.0, 0.0, 0.5)  # extrinsics 50 cm off: no floor near z = 0
-    with pytest.raises(MomaError, match="no floor plane found.*check the extrinsics"):
+    with pytest.raises(MomaError, match=r"no floor plane found.*check the extrinsics"):
         fit_floor(high, CAM)
     with pytest.raises(MomaError, match="max_tilt"):
         FloorFitConfig(max_tilt=0)

@@ -131,7 +131,7 @@ def test_calibration_error_is_undone_by_its_inverse():
 
 
 def test_named_corruptions_and_bad_values():
-    assert list(CORRUPTIONS)[0] == "clean"
+    assert next(iter(CORRUPTIONS)) == "clean"
     assert get_corruption("combined").sensor == "kinect"
     with pytest.raises(MomaError, match="unknown corruption 'fog'"):
         get_corruption("fog")
