@@ -139,9 +139,9 @@ def test_named_corruptions_and_bad_values():
         Corruption(sensor="lidar")
     with pytest.raises(MomaError, match=r"MaskError.erode must be in \[0, 50\] px, got -1"):
         MaskError(erode=-1)
-    with pytest.raises(MomaError, match="CalibrationError.pitch"):
+    with pytest.raises(MomaError, match=r"CalibrationError\.pitch"):
         CalibrationError(pitch=45.0)
-    with pytest.raises(MomaError, match="DepthModel.kind"):
+    with pytest.raises(MomaError, match=r"DepthModel\.kind"):
         DepthModel(kind="sonar")
     with pytest.raises(MomaError, match="ColourError"):
         ColourError(gain=0.0)
