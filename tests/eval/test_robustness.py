@@ -1,0 +1,161 @@
+"""The robustness track: msr's views, corrupted, through the real-robot path, tried in
+physics; the CLI, its files and its bad input."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from momakitchen.errors import MomaError
+from momakitchen.eval.robustness import (
+    RobustnessConfig,
+    error_cause,
+    format_robustness_table,
+    run_robustness,
+    summarize,
+)
+
+
+def test_robustness_runs_msr_views_through_the_robot_path(real_dataset, tiny_run):
+    from momakitchen.eval.msr import MsrConfig, run_msr
+
+    names = ("clean", "kinect", "pitch+2", "erode5")
+    config = RobustnessConfig(corruptions=names, top_k=2)
+    maps: dict = {}
+    result = run_robustness(real_dataset, [tiny_run], config, view_maps=maps)
+    again = run_robustness(real_dataset, [tiny_run], config)
+    assert result["records"] == again["records"]  # the same corruptions every run
+    msr = run_msr(real_dataset, [tiny_run], config=MsrConfig(top_k=1))
+    assert [r["episode_index"] for r in result["records"]] == [
+        r["episode_index"] for r in msr["records"]
+    ]
+    assert result["configurations"] == 2 and set(maps) == set(names)
+    for record in result["records"]:
+        for name in names:
+            view = record["views"]["navaff"][name]
+            assert view["status"] in ("ok", "error", "beyond_range")
+            if view["status"] == "ok":
+                # a trial ran in physics at each pick: a stage code, success only if 0
+                assert len(view["outcomes"]) == len(view["stages"]) >= 1
+                assert all(
+                    o == (s == 0) for o, s in zip(view["outcomes"], view["stages"], strict=True)
+                )
+                assert -1 <= view["pcc"] <= 1 and 0 <= view["sim"] <= 1
+        # a 2 deg pitch is found back by the floor fit
+        pitched = record["views"]["navaff"]["pitch+2"]
+        assert pitched["status"] == "ok"
+        assert abs(pitched["correction"]["pitch_deg"]) == pytest.approx(2.0, abs=0.3)
+        assert record["views"]["navaff"]["clean"]["correction"]["pitch_deg"] == 0.0
+    summary = result["models"]["navaff"]["kinect"]
+    assert summary["views"] == 2 and 0 <= summary["top1"] <= 1
+    table = format_robustness_table(result)
+    assert "kinect" in table and "Top-2" in table
+
+
+def test_summary_counts_range_apart_and_errors_as_failures():
+    records = [
+        {
+            "feasible": True,
+            "views": {"m": {"x": {"status": "ok", "outcomes": [1, 0], "pcc": 0.5, "sim": 0.4}}},
+        },
+        {"feasible": True, "views": {"m": {"x": {"status": "error", "cause": "empty_mask"}}}},
+        {"feasible": False, "views": {"m": {"x": {"status": "beyond_range"}}}},
+    ]
+    s = summarize(records, "m", "x")
+    assert s["views"] == 3 and s["beyond_range"] == 1
+    assert s["errors"] == {"empty_mask": 1}
+    assert s["top1"] == 0.5 and s["topk"] == 0.25 and s["pcc"] == 0.5
+
+
+def test_error_causes_name_the_real_cause():
+    assert error_cause("the target mask is empty (0 pixels)") == "empty_mask"
+    assert error_cause("the target mask has 12 pixels but none with a valid depth") == (
+        "no_target_depth"
+    )
+    assert error_cause("no floor plane found: 3 points") == "no_floor"
+    assert error_cause("the target is 7.10 m away, beyond the 6 m the model uses") == (
+        "target_range"
+    )
+
+
+def test_bad_config():
+    with pytest.raises(MomaError, match="unknown corruption 'fog'"):
+        RobustnessConfig(corruptions=("clean", "fog"))
+    with pytest.raises(MomaError, match="named twice"):
+        RobustnessConfig(corruptions=("clean", "clean"))
+    with pytest.raises(MomaError, match="top_k"):
+        RobustnessConfig(top_k=0)
+
+
+def test_robustness_cli(real_dataset, tiny_run, tmp_path, capsys):
+    from momakitchen.cli.main import main
+
+    assert main(["robustness", "--list"]) == 0
+    listed = capsys.readouterr().out
+    assert "d435" in listed and "mono" in listed and "combined" in listed
+    out = tmp_path / "rb"
+    code = main(
+        [
+            "robustness",
+            "--data",
+            str(real_dataset),
+            "--checkpoint",
+            str(tiny_run),
+            "--corruption",
+            "d435",
+            "--max-configs",
+            "1",
+            "--json",
+            str(tmp_path / "r.json"),
+            "--out",
+            str(out),
+            "--quiet",
+        ]
+    )
+    assert code == 0
+    result = json.loads((tmp_path / "r.json").read_text())
+    assert result["config"]["corruptions"] == ["clean", "d435"]
+    assert (out / "robustness.png").stat().st_size > 10_000
+    assert "d435" in (out / "robustness.md").read_text()
+    # bad input: one line, status 2, nothing written
+    for args, message in [
+        (["--corruption", "fog"], "unknown corruption 'fog'"),
+        (["--data", str(tmp_path / "none")], "does not exist"),
+    ]:
+        base = [
+            "robustness",
+            "--data",
+            str(real_dataset),
+            "--json",
+            str(tmp_path / "b.json"),
+            "--out",
+            str(tmp_path / "b"),
+        ]
+        assert main(base + args) == 2
+        err = capsys.readouterr().err.strip()
+        assert message in err and len(err.splitlines()) == 1
+        assert not (tmp_path / "b.json").exists() and not (tmp_path / "b").exists()
+
+
+def test_noisy_training_samples_keep_their_labels_where_the_robot_would_stand(real_dataset):
+    from momakitchen.data import EpisodeDataset
+    from momakitchen.perception.sensors import SensorAugmentation
+
+    clean = EpisodeDataset(real_dataset, "all")
+    noisy = EpisodeDataset(real_dataset, "all")
+    noisy.use_sensor_noise(SensorAugmentation(p_ideal=0.0, sensors=("kinect",)))
+    a, b = clean[0], noisy[0]
+    assert not np.array_equal(a["global_xyz"].numpy(), b["global_xyz"].numpy())
+    assert (b["floor_xyz"][:, 2] == 0).all()  # the floor on its fitted plane
+    # labels are those of the nearest stored floor point
+    from scipy.spatial import cKDTree
+
+    d, i = cKDTree(a["floor_xyz"][:, :2].numpy()).query(b["floor_xyz"][:, :2].numpy())
+    assert d.max() <= 0.08
+    np.testing.assert_array_equal(b["floor_label"].numpy(), a["floor_label"].numpy()[i])
+    # the same epoch draws the same noise; another epoch another
+    np.testing.assert_array_equal(noisy[0]["global_xyz"], b["global_xyz"])
+    noisy.set_epoch(1)
+    assert not np.array_equal(noisy[0]["global_xyz"].numpy(), b["global_xyz"].numpy())
