@@ -1,10 +1,13 @@
-"""The one registry of models: NavAff, its ablations and the baselines, by name."""
+"""The one registry of models: NavAff, its ablations and the baselines, by name, and
+models defined outside the package (:mod:`momakitchen.models.plugins`), found on first use
+by an entry-point name or a ``package.module:ClassName`` path."""
 
 from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
 
+from momakitchen.errors import MomaError
 from momakitchen.models.base import AffordanceModel, Backbone
 from momakitchen.models.baselines import H3DNetBackbone, PointNet2Backbone, VoteNetBackbone
 from momakitchen.models.config import ModelConfig
@@ -18,13 +21,15 @@ class ModelEntry:
 
     Attributes:
         name: registry key.
-        build_backbone: ``ModelConfig -> Backbone``.
+        build_backbone: ``ModelConfig -> Backbone`` (a plug-in network with ``plugin``).
         head_uses_robot: whether the head is always conditioned on the robot descriptor
             (the baselines; NavAff reads the robot through its attention tokens instead,
             and through its head too with ``ModelConfig.robot_head``).
         description: one line for listings and docs.
         unused_config: ``ModelConfig`` fields the architecture never reads, so a run may
             resume under a preset that has changed them since.
+        plugin: ``build_backbone`` makes a whole network that returns the affordance
+            (B, Nf) itself, wrapped in :class:`~momakitchen.models.plugins.PluginModel`.
     """
 
     name: str
@@ -32,6 +37,7 @@ class ModelEntry:
     head_uses_robot: bool
     description: str
     unused_config: frozenset[str] = frozenset()
+    plugin: bool = False
 
 
 MODELS: Registry[ModelEntry] = Registry("model")
@@ -43,13 +49,34 @@ def register_model(entry: ModelEntry, *, replace: bool = False) -> ModelEntry:
 
 
 def model_names() -> tuple[str, ...]:
-    """Registered model names, in registration order."""
+    """Registered model names, in registration order (built-in ones first; plug-ins once
+    used)."""
     return MODELS.names()
 
 
 def get_model_entry(name: str) -> ModelEntry:
-    """The entry of model ``name``; MomaError naming it and listing the known models."""
-    return MODELS.get_entry(name)
+    """The entry of model ``name``: a built-in one, else a plug-in found by its
+    ``package.module:ClassName`` path or its entry point (group ``momakitchen.models``),
+    registered on first use. MomaError naming it and listing the known models when there
+    is none, or when the plug-in fails to import, is no model class, or claims a built-in
+    name."""
+    from momakitchen.models import plugins
+
+    if not isinstance(name, str) or not name:
+        raise MomaError(f"model name must be a non-empty string, got {name!r}")
+    entry = MODELS.get(name)
+    if entry is not None:
+        if name in BUILTIN_MODELS:
+            plugins.check_no_clash(name)
+        return entry
+    obj = plugins.load_plugin(name)
+    if obj is None:
+        known = [*BUILTIN_MODELS, *plugins.plugin_names()]
+        raise MomaError(
+            f"unknown model {name!r}; known models: {', '.join(known)} (or "
+            "package.module:ClassName, see docs/METHODS.md)"
+        )
+    return register_model(plugins.plugin_entry(name, obj), replace=True)
 
 
 def build_model(name: str, config: ModelConfig | None = None) -> AffordanceModel:
@@ -59,6 +86,10 @@ def build_model(name: str, config: ModelConfig | None = None) -> AffordanceModel
     head_robot = entry.head_uses_robot or (
         cfg.robot_head and "robot_head" not in entry.unused_config
     )
+    if entry.plugin:
+        from momakitchen.models.plugins import PluginModel
+
+        return PluginModel(name, cfg, entry.build_backbone(cfg))
     return AffordanceModel(name, cfg, entry.build_backbone(cfg), head_robot)
 
 
@@ -114,3 +145,6 @@ for _entry in (
     ),
 ):
     register_model(_entry)
+
+# The names shipped with the package (a plug-in may not reuse one).
+BUILTIN_MODELS = MODELS.names()
