@@ -61,9 +61,13 @@ def entry_points() -> dict[str, list[importlib.metadata.EntryPoint]]:
 
 
 def refresh() -> None:
-    """Forget the entry points read so far (after installing a distribution in-process)."""
+    """Forget the entry points and plug-ins read so far (after installing or removing a
+    distribution in-process)."""
+    from momakitchen.models.registry import PLUGINS
+
     importlib.invalidate_caches()
     entry_points.cache_clear()
+    PLUGINS.clear()
 
 
 def _origin(ep: importlib.metadata.EntryPoint) -> str:

@@ -41,6 +41,9 @@ class ModelEntry:
 
 
 MODELS: Registry[ModelEntry] = Registry("model")
+# Plug-in models already looked up in this process (kept apart from MODELS, whose names
+# are those every installation has).
+PLUGINS: dict[str, ModelEntry] = {}
 
 
 def register_model(entry: ModelEntry, *, replace: bool = False) -> ModelEntry:
@@ -49,8 +52,8 @@ def register_model(entry: ModelEntry, *, replace: bool = False) -> ModelEntry:
 
 
 def model_names() -> tuple[str, ...]:
-    """Registered model names, in registration order (built-in ones first; plug-ins once
-    used)."""
+    """Registered model names, in registration order (plug-ins not included: see
+    :func:`momakitchen.models.plugins.plugin_names`)."""
     return MODELS.names()
 
 
@@ -59,7 +62,7 @@ def get_model_entry(name: str) -> ModelEntry:
     ``package.module:ClassName`` path or its entry point (group ``momakitchen.models``),
     registered on first use. MomaError naming it and listing the known models when there
     is none, or when the plug-in fails to import, is no model class, or claims a built-in
-    name."""
+    name. A plug-in is imported once per process."""
     from momakitchen.models import plugins
 
     if not isinstance(name, str) or not name:
@@ -69,6 +72,8 @@ def get_model_entry(name: str) -> ModelEntry:
         if name in BUILTIN_MODELS:
             plugins.check_no_clash(name)
         return entry
+    if name in PLUGINS:
+        return PLUGINS[name]
     obj = plugins.load_plugin(name)
     if obj is None:
         known = [*BUILTIN_MODELS, *plugins.plugin_names()]
@@ -76,7 +81,8 @@ def get_model_entry(name: str) -> ModelEntry:
             f"unknown model {name!r}; known models: {', '.join(known)} (or "
             "package.module:ClassName, see docs/METHODS.md)"
         )
-    return register_model(plugins.plugin_entry(name, obj), replace=True)
+    PLUGINS[name] = plugins.plugin_entry(name, obj)
+    return PLUGINS[name]
 
 
 def build_model(name: str, config: ModelConfig | None = None) -> AffordanceModel:
