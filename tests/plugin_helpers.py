@@ -64,10 +64,10 @@ def pip_install(target: Path) -> Path:
 def on_path(site: Path) -> Iterator[None]:
     """``site`` on ``sys.path`` (its distributions' entry points visible) for the block; the
     test package's modules and every plug-in looked up are forgotten afterwards."""
-    from momakitchen.models import plugins
+    from momakitchen.models.registry import refresh_plugins
 
     sys.path.insert(0, str(site))
-    plugins.refresh()
+    refresh_plugins()
     try:
         yield
     finally:
@@ -76,4 +76,4 @@ def on_path(site: Path) -> Iterator[None]:
             m for m in sys.modules if m == "mk_testplugin" or m.startswith("mk_testplugin.")
         ]:
             del sys.modules[mod]
-        plugins.refresh()
+        refresh_plugins()

@@ -333,10 +333,10 @@ def run_msr(
 
     models: dict[str, _Checkpoint | _PredictionsMethod] = {}
     for run_dir in checkpoints:
-        model = _Checkpoint(run_dir)
-        check_preprocessing(model.run, preprocessing, f"dataset {str(root)!r}")
-        name = model.name if model.name not in models else f"{model.name}:{Path(run_dir).name}"
-        models[name] = model
+        run = _Checkpoint(run_dir)
+        check_preprocessing(run.run, preprocessing, f"dataset {str(root)!r}")
+        name = run.name if run.name not in models else f"{run.name}:{Path(run_dir).name}"
+        models[name] = run
     if predictions:
         from momakitchen.eval.predictions import load_predictions, split_episodes
 

@@ -30,6 +30,7 @@ import functools
 import importlib
 import importlib.metadata
 import inspect
+from collections.abc import Callable
 from typing import Any
 
 import torch
@@ -52,22 +53,13 @@ def _one_line(exc: BaseException) -> str:
 def entry_points() -> dict[str, list[importlib.metadata.EntryPoint]]:
     """The installed entry points of :data:`GROUP`, by name (a name may be claimed by
     several distributions: an error when it is used). Read once per process (scanning the
-    installed distributions takes tens of milliseconds); :func:`refresh` reads them again.
+    installed distributions takes tens of milliseconds);
+    :func:`momakitchen.models.registry.refresh_plugins` reads them again.
     """
     found: dict[str, list[importlib.metadata.EntryPoint]] = {}
     for ep in importlib.metadata.entry_points(group=GROUP):
         found.setdefault(ep.name, []).append(ep)
     return found
-
-
-def refresh() -> None:
-    """Forget the entry points and plug-ins read so far (after installing or removing a
-    distribution in-process)."""
-    from momakitchen.models.registry import PLUGINS
-
-    importlib.invalidate_caches()
-    entry_points.cache_clear()
-    PLUGINS.clear()
 
 
 def _origin(ep: importlib.metadata.EntryPoint) -> str:
@@ -128,11 +120,11 @@ def load_plugin(name: str) -> Any:
         ) from None
 
 
-def plugin_entry(name: str, obj: Any) -> Any:
-    """A :class:`~momakitchen.models.registry.ModelEntry` for the plug-in class ``obj``
-    found under ``name``; MomaError unless it is a ``torch.nn.Module`` subclass."""
-    from momakitchen.models.registry import ModelEntry
-
+def plugin_class(name: str, obj: Any) -> tuple[Callable[[ModelConfig], nn.Module], bool, str]:
+    """What the registry needs of the plug-in class ``obj`` found under ``name``: a builder
+    ``ModelConfig -> module``, whether the class is a :class:`Backbone` (it then gets the
+    built-in head) and a one-line description; MomaError unless it is a
+    ``torch.nn.Module`` subclass."""
     if not (inspect.isclass(obj) and issubclass(obj, nn.Module)):
         raise MomaError(
             f"model {name!r} is {type(obj).__name__} {obj!r}, not a torch.nn.Module "
@@ -140,12 +132,10 @@ def plugin_entry(name: str, obj: Any) -> Any:
         )
     doc = (inspect.getdoc(obj) or obj.__name__).strip().splitlines()[0]
     description = str(getattr(obj, "description", doc))
-    if issubclass(obj, Backbone):
-        return ModelEntry(name, _construct(name, obj), True, description)
-    return ModelEntry(name, _construct(name, obj), False, description, plugin=True)
+    return _construct(name, obj), issubclass(obj, Backbone), description
 
 
-def _construct(name: str, cls: type[nn.Module]) -> Any:
+def _construct(name: str, cls: type[nn.Module]) -> Callable[[ModelConfig], nn.Module]:
     def build(config: ModelConfig) -> nn.Module:
         try:
             module = cls(config)

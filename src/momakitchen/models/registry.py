@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import cast
 
 from momakitchen.errors import MomaError
 from momakitchen.models.base import AffordanceModel, Backbone
@@ -81,8 +82,25 @@ def get_model_entry(name: str) -> ModelEntry:
             f"unknown model {name!r}; known models: {', '.join(known)} (or "
             "package.module:ClassName, see docs/METHODS.md)"
         )
-    PLUGINS[name] = plugins.plugin_entry(name, obj)
+    build, is_backbone, description = plugins.plugin_class(name, obj)
+    # A Backbone gets the built-in head (robot-conditioned, as the baselines'); any other
+    # module is the whole network (plugin=True).
+    # (build_backbone's type names the built-in case; with plugin=True it is any module.)
+    builder = cast(Callable[[ModelConfig], Backbone], build)
+    PLUGINS[name] = ModelEntry(name, builder, is_backbone, description, plugin=not is_backbone)
     return PLUGINS[name]
+
+
+def refresh_plugins() -> None:
+    """Forget the entry points and plug-ins read so far (after installing or removing a
+    distribution in-process)."""
+    import importlib
+
+    from momakitchen.models import plugins
+
+    importlib.invalidate_caches()
+    plugins.entry_points.cache_clear()
+    PLUGINS.clear()
 
 
 def build_model(name: str, config: ModelConfig | None = None) -> AffordanceModel:
