@@ -310,7 +310,7 @@ def run_msr(
     if unknown:
         raise MomaError(
             f"unknown MSR method {unknown[0]!r}; methods: {', '.join(BASELINES)} "
-            "(or --checkpoint RUN)"
+            "(or --checkpoint RUN, --predictions FILE)"
         )
     if not checkpoints and not methods and not predictions:  # the bundled model
         from momakitchen.train.checkpoint import default_checkpoint
@@ -325,18 +325,18 @@ def run_msr(
     # Models score the episodes' stored clouds: they must be built as for their training.
     preprocessing = Preprocessing(gen.cloud, gen.camera.max_depth)
 
-    todo = split_configurations(manifest, config.split)
-    if config.max_configs:
-        todo = todo[: config.max_configs]
-    if not todo:
-        raise MomaError(f"dataset {str(root)!r} has no {config.split} configurations")
-
     models: dict[str, _Checkpoint | _PredictionsMethod] = {}
     for run_dir in checkpoints:
         run = _Checkpoint(run_dir)
         check_preprocessing(run.run, preprocessing, f"dataset {str(root)!r}")
         name = run.name if run.name not in models else f"{run.name}:{Path(run_dir).name}"
         models[name] = run
+
+    todo = split_configurations(manifest, config.split)
+    if config.max_configs:
+        todo = todo[: config.max_configs]
+    if not todo:
+        raise MomaError(f"dataset {str(root)!r} has no {config.split} configurations")
     if predictions:
         from momakitchen.eval.predictions import load_predictions, split_episodes
 
