@@ -218,3 +218,34 @@ def test_export_inputs_is_readable_without_momakitchen(real_dataset, tmp_path, s
     )
     assert "unknown file type '.csv'" in capsys.readouterr().err
     assert not (tmp_path / "x").exists()
+
+
+def test_benchmark_gives_each_predictions_file_a_row(real_dataset, tmp_path):
+    from momakitchen.eval.report import BenchmarkRequest, run_benchmark
+
+    labels = _labels(real_dataset)
+    write_predictions(tmp_path / "labels.npz", labels)
+    write_predictions(tmp_path / "flat.h5", {k: np.full(len(v), 0.5) for k, v in labels.items()})
+    files = (tmp_path / "labels.npz", tmp_path / "flat.h5")
+    req = BenchmarkRequest(
+        real_dataset, (), tmp_path / "out", predictions=files, examples=1, progress=False
+    )
+    result = run_benchmark(req, log=lambda _: None)
+    text = (tmp_path / "out" / "RESULTS.md").read_text()
+    table = text.split("## Methods")[1].split("\n\n")[1].splitlines()[2:]
+    assert [row.split(" | ")[0].strip("| ") for row in table] == [
+        "labels",
+        "flat",
+        "random",
+        "nearest",
+        "oracle",
+    ]
+    assert result["msr"]["labels"] == result["msr"]["oracle"]
+    assert result["predictions"][str(files[0])]["metrics"]["rmse"] == 0.0
+    assert result["predictions"][str(files[1])]["metrics"]["pcc"] == 0.0  # a constant map
+    assert (tmp_path / "out" / "metrics" / "flat.json").is_file()
+    same = BenchmarkRequest(
+        real_dataset, (), tmp_path / "o2", predictions=(files[0], files[0]), progress=False
+    )
+    with pytest.raises(MomaError, match="distinct names"):
+        run_benchmark(same, log=lambda _: None)

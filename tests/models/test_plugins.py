@@ -147,3 +147,17 @@ def test_train_cli_refuses_a_broken_plugin_in_one_line(installed, tmp_path, caps
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "fails to import" in err
     assert not (tmp_path / "run").exists()
+
+
+class NeedsMore(torch.nn.Module):
+    """A class whose constructor does not take a ModelConfig alone."""
+
+    def __init__(self, config, size):
+        super().__init__()
+
+
+def test_a_constructor_that_fails_is_one_line():
+    with pytest.raises(
+        MomaError, match=r"'test_plugins:NeedsMore'.*NeedsMore\(ModelConfig\) fails"
+    ):
+        build_model("test_plugins:NeedsMore", TINY_MODEL)

@@ -164,8 +164,9 @@ def run_benchmark(req: BenchmarkRequest, log: Callable[[str], None] = print) -> 
     if len(set(models)) != len(models):
         raise MomaError(f"--runs need one run per model, got models {models}")
     # Methods run elsewhere, named by their files; one leaderboard row each, as a run's.
-    named = {method_name(p): p for p in req.predictions}
-    methods = [*models, *named]
+    stems = [method_name(p) for p in req.predictions]
+    named = dict(zip(stems, req.predictions, strict=True))
+    methods = [*models, *stems]
     if len(set(methods)) != len(methods) or set(methods) & set(BASELINES):
         raise MomaError(
             f"the compared methods need distinct names, none of {list(BASELINES)}: got "
