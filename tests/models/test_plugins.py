@@ -161,3 +161,21 @@ def test_a_constructor_that_fails_is_one_line():
         MomaError, match=r"'test_plugins:NeedsMore'.*NeedsMore\(ModelConfig\) fails"
     ):
         build_model("test_plugins:NeedsMore", TINY_MODEL)
+
+
+def test_train_cli_probes_a_plugin_before_writing_the_run(installed, tmp_path, capsys):
+    from momakitchen.cli.main import main
+    from momakitchen.data.generator import GenerateRequest, generate_dataset
+    from momakitchen.data.synthetic_scene import SyntheticSceneConfig, synthetic_scene_records
+
+    root = tmp_path / "ds"
+    small = SyntheticSceneConfig(configs_per_scene=1, episodes_per_config=2)
+    request = GenerateRequest(out=root, num_scenes=2)
+    generate_dataset(request, synthetic_scene_records, small, progress=False, write_card=False)
+    args = ["train", "--data", str(root), "--max-steps", "1", "--workers", "0", "--quiet"]
+    assert main([*args, "--model", "badshape", "--out", str(tmp_path / "bad")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "'badshape' returned (2,)" in err
+    assert not (tmp_path / "bad").exists()
+    assert main([*args, "--model", "tinyaff", "--out", str(tmp_path / "ok")]) == 0
+    assert (tmp_path / "ok" / "model.safetensors").is_file()

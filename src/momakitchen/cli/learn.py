@@ -210,6 +210,7 @@ def run_train(args: argparse.Namespace) -> int:
     planned_output_dir(args.out)  # a file or an impossible place fails before any work
     config = train_config(args)
     data = _dataset(args.data, "train")
+    _probe_plugin(config, data)
     result = train(config, data, None, Path(args.out), resume=args.resume)
     last = result.history[-1] if result.history else {}
     print(
@@ -218,6 +219,19 @@ def run_train(args: argparse.Namespace) -> int:
         f" -> {args.out}"
     )
     return 0
+
+
+def _probe_plugin(config: TrainConfig, data) -> None:
+    """A plug-in model runs once on two training episodes, so that one that does not
+    follow the interface fails in one line before the run directory is written."""
+    from momakitchen.data.batch import EpisodeCollator
+    from momakitchen.models.plugins import probe_plugin
+    from momakitchen.models.registry import is_plugin
+
+    if is_plugin(config.model):
+        collate = EpisodeCollator(config.num_global, config.num_floor, config.seed)
+        batch = collate([data[i] for i in range(min(2, len(data)))])
+        probe_plugin(config.model, config.model_config, batch)
 
 
 def run_evaluate(args: argparse.Namespace) -> int:

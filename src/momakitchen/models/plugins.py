@@ -152,6 +152,25 @@ def _construct(name: str, cls: type[nn.Module]) -> Callable[[ModelConfig], nn.Mo
     return build
 
 
+def probe_plugin(name: str, config: ModelConfig, batch: dict[str, Any]) -> None:
+    """Run plug-in ``name`` once on ``batch`` (a collated batch of a few episodes), so that
+    one that does not follow the interface fails with one line before any work is
+    written: MomaError naming it and what went wrong."""
+    from momakitchen.models.registry import build_model
+
+    model = build_model(name, config)
+    model.eval()
+    try:
+        with torch.no_grad():
+            pred = model(batch)["pred"]
+    except MomaError:
+        raise
+    except Exception as exc:  # foreign code
+        raise MomaError(f"model {name!r} fails on a batch ({_one_line(exc)})") from None
+    if tuple(pred.shape) != tuple(batch["floor_xyz"].shape[:2]):  # a Backbone's head
+        raise MomaError(f"model {name!r} gives maps of shape {tuple(pred.shape)}")
+
+
 class PluginModel(AffordanceModel):
     """A plug-in network (per-floor-point affordance) wrapped as a registered model:
     ``model(batch)`` returns ``{"pred": (B, Nf)}`` (0 on padded floor points), plus

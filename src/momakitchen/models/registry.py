@@ -91,6 +91,12 @@ def get_model_entry(name: str) -> ModelEntry:
     return PLUGINS[name]
 
 
+def is_plugin(name: str) -> bool:
+    """Whether model ``name`` is a plug-in (found outside the package)."""
+    get_model_entry(name)
+    return name in PLUGINS
+
+
 def refresh_plugins() -> None:
     """Forget the entry points and plug-ins read so far (after installing or removing a
     distribution in-process)."""
