@@ -226,12 +226,12 @@ def _probe_plugin(config: TrainConfig, data) -> None:
     follow the interface fails in one line before the run directory is written."""
     from momakitchen.data.batch import EpisodeCollator
     from momakitchen.models.plugins import probe_plugin
-    from momakitchen.models.registry import is_plugin
+    from momakitchen.models.registry import build_model, is_plugin
 
     if is_plugin(config.model):
         collate = EpisodeCollator(config.num_global, config.num_floor, config.seed)
         batch = collate([data[i] for i in range(min(2, len(data)))])
-        probe_plugin(config.model, config.model_config, batch)
+        probe_plugin(config.model, build_model(config.model, config.model_config), batch)
 
 
 def run_evaluate(args: argparse.Namespace) -> int:

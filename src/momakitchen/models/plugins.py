@@ -152,13 +152,10 @@ def _construct(name: str, cls: type[nn.Module]) -> Callable[[ModelConfig], nn.Mo
     return build
 
 
-def probe_plugin(name: str, config: ModelConfig, batch: dict[str, Any]) -> None:
-    """Run plug-in ``name`` once on ``batch`` (a collated batch of a few episodes), so that
-    one that does not follow the interface fails with one line before any work is
-    written: MomaError naming it and what went wrong."""
-    from momakitchen.models.registry import build_model
-
-    model = build_model(name, config)
+def probe_plugin(name: str, model: nn.Module, batch: dict[str, Any]) -> None:
+    """Run ``model`` (plug-in ``name``, built) once on ``batch`` (a collated batch of a
+    few episodes), so that one that does not follow the interface fails with one line
+    before any work is written: MomaError naming it and what went wrong."""
     model.eval()
     try:
         with torch.no_grad():
