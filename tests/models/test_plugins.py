@@ -179,3 +179,22 @@ def test_train_cli_probes_a_plugin_before_writing_the_run(installed, tmp_path, c
     assert not (tmp_path / "bad").exists()
     assert main([*args, "--model", "tinyaff", "--out", str(tmp_path / "ok")]) == 0
     assert (tmp_path / "ok" / "model.safetensors").is_file()
+
+
+class NoWeights(torch.nn.Module):
+    """A hand-made rule: nothing to train."""
+
+    def __init__(self, config):
+        super().__init__()
+
+    def forward(self, batch):
+        return torch.full(batch["floor_xyz"].shape[:2], 0.5)
+
+
+def test_a_plugin_without_weights_is_sent_to_predictions_files():
+    from momakitchen.models.plugins import probe_plugin
+
+    model = build_model("test_plugins:NoWeights", TINY_MODEL)
+    assert model(_batch())["pred"].shape == (2, 64)  # usable, but not trainable
+    with pytest.raises(MomaError, match=r"no parameters to train.*predictions file"):
+        probe_plugin("test_plugins:NoWeights", model, _batch())

@@ -156,6 +156,11 @@ def probe_plugin(name: str, model: nn.Module, batch: dict[str, Any]) -> None:
     """Run ``model`` (plug-in ``name``, built) once on ``batch`` (a collated batch of a
     few episodes), so that one that does not follow the interface fails with one line
     before any work is written: MomaError naming it and what went wrong."""
+    if not any(p.requires_grad for p in model.parameters()):
+        raise MomaError(
+            f"model {name!r} has no parameters to train; a method without weights is "
+            "scored from a predictions file (docs/METHODS.md)"
+        )
     model.eval()
     try:
         with torch.no_grad():
