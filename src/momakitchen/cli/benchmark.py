@@ -1,10 +1,10 @@
 """``momakitchen benchmark``: the paper's tables and figures for a generated dataset.
 
-Map metrics of every run on the test split (reusing ``RUN/test.json`` from ``evaluate``
-when present), closed-loop MSR of the main runs and the random / nearest / oracle
-baselines, the ablation table, the per-scene table, the loss-weight (lambda) sweep, a
-qualitative figure and, with ``--seeds``, each model's spread over its seeds, written as
-``RESULTS.md`` with its PNGs and ``benchmark.json``.
+Map metrics of every run and predictions file on the test split (reusing ``RUN/test.json``
+from ``evaluate`` when present), closed-loop MSR of the main runs, the predictions files
+and the random / nearest / oracle baselines, the ablation table, the per-scene table, the
+loss-weight (lambda) sweep, a qualitative figure and, with ``--seeds``, each model's
+spread over its seeds, written as ``RESULTS.md`` with its PNGs and ``benchmark.json``.
 """
 
 from __future__ import annotations
@@ -23,9 +23,17 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--runs",
         nargs="+",
-        required=True,
+        default=[],
         metavar="RUN",
         help="run directories of the compared models (one per model)",
+    )
+    p.add_argument(
+        "--predictions",
+        nargs="+",
+        default=[],
+        metavar="FILE",
+        help="predictions files of methods run elsewhere (.npz or .h5 of the test split, "
+        "docs/METHODS.md), each named by its file's stem: one row each, like a run",
     )
     p.add_argument(
         "--ablations",
@@ -79,6 +87,7 @@ def run(args: argparse.Namespace) -> int:
         data=Path(args.data),
         runs=tuple(map(Path, args.runs)),
         out=Path(args.out),
+        predictions=tuple(map(Path, args.predictions)),
         ablations=tuple(map(Path, args.ablations)),
         sweep=tuple(map(Path, args.sweep)),
         msr=tuple(map(Path, args.msr)),

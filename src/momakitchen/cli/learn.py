@@ -60,8 +60,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     tr.add_argument(
         "--model",
         default=None,
-        help=f"model name: {', '.join(MODEL_NAMES)} (required unless the "
-        "--config file sets 'model')",
+        help=f"model name: {', '.join(MODEL_NAMES)}, an installed plug-in's name or "
+        "package.module:ClassName (docs/METHODS.md; required unless the --config file "
+        "sets 'model')",
     )
     tr.add_argument("--out", required=True, help="run directory")
     tr.add_argument(
@@ -122,7 +123,16 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "evaluate", help="map metrics of a trained model on the test split", description=__doc__
     )
     ev.add_argument("--data", required=True, help="dataset directory")
-    ev.add_argument("--checkpoint", required=True, help="run directory written by train")
+    which = ev.add_mutually_exclusive_group(required=True)
+    which.add_argument("--checkpoint", help="run directory written by train")
+    which.add_argument(
+        "--predictions",
+        metavar="FILE",
+        help="a method's maps of every episode of the split (.npz or .h5, docs/METHODS.md)",
+    )
+    ev.add_argument(
+        "--name", default=None, help="the --predictions method's name (default: the file's stem)"
+    )
     ev.add_argument("--json", required=True, help="where to write the metrics (JSON)")
     ev.add_argument("--split", default="test", choices=SPLITS)
     ev.add_argument(
@@ -169,11 +179,11 @@ def train_config(args: argparse.Namespace) -> TrainConfig:
     """The training config of ``momakitchen train``: the preset, updated by the --config
     file, updated by the options given explicitly (see ``TRAIN_CONFIG_HELP``)."""
     from momakitchen import codec
-    from momakitchen.models import model_names
+    from momakitchen.models import get_model_entry
     from momakitchen.train import PRESETS, TrainConfig, preset_config
 
-    if args.model is not None and args.model not in model_names():
-        raise MomaError(f"unknown model {args.model!r}; known models: {', '.join(model_names())}")
+    if args.model is not None:  # a built-in, or a plug-in found and imported now
+        get_model_entry(args.model)
     file = codec.read_config_file(args.config) if args.config else {}
     model = args.model if args.model is not None else file.get("model")
     if model is None:
@@ -215,6 +225,7 @@ def run_train(args: argparse.Namespace) -> int:
     planned_output_dir(args.out)  # a file or an impossible place fails before any work
     config = train_config(args)
     data = _dataset(args.data, "train")
+    _probe_plugin(config, data)
     result = train(config, data, None, Path(args.out), resume=args.resume)
     last = result.history[-1] if result.history else {}
     print(
@@ -225,20 +236,56 @@ def run_train(args: argparse.Namespace) -> int:
     return 0
 
 
+def _probe_plugin(config: TrainConfig, data) -> None:
+    """A plug-in model runs once on two training episodes, so that one that does not
+    follow the interface fails in one line before the run directory is written."""
+    from momakitchen.data.batch import EpisodeCollator
+    from momakitchen.models.plugins import probe_plugin
+    from momakitchen.models.registry import build_model, is_plugin
+
+    if is_plugin(config.model):
+        collate = EpisodeCollator(config.num_global, config.num_floor, config.seed)
+        batch = collate([data[i] for i in range(min(2, len(data)))])
+        probe_plugin(config.model, build_model(config.model, config.model_config), batch)
+
+
 def run_evaluate(args: argparse.Namespace) -> int:
     from momakitchen.eval.evaluate import evaluate
-    from momakitchen.metrics import format_table
     from momakitchen.train import load_checkpoint
 
+    if args.predictions is not None:
+        if args.model is not None:
+            raise MomaError("--model checks a --checkpoint; a --predictions file has none")
+        return _evaluate_predictions(args)
+    if args.name is not None:
+        raise MomaError("--name names a --predictions file; a checkpoint's name is its model")
     run_dir = existing_dir(args.checkpoint, "checkpoint directory")
     out = output_file(args.json)  # an unwritable --json fails now, not after the work
     load_checkpoint(run_dir, model=args.model)  # fails early on a checkpoint of another model
     data = _dataset(args.data, args.split)
     report = evaluate(run_dir, data, batch_size=args.batch_size, progress=not args.quiet)
     report = {"data": str(args.data), "split": args.split, "checkpoint": str(run_dir), **report}
+    _write_report(report, out, args.split)
+    return 0
+
+
+def _evaluate_predictions(args: argparse.Namespace) -> int:
+    from momakitchen.eval.evaluate import evaluate_predictions
+    from momakitchen.fileio import existing_file
+
+    existing_file(args.predictions, "predictions file")
+    out = output_file(args.json)
+    data = _dataset(args.data, args.split)
+    report = evaluate_predictions(args.predictions, data, args.name, progress=not args.quiet)
+    _write_report({"data": str(args.data), "split": args.split, **report}, out, args.split)
+    return 0
+
+
+def _write_report(report: dict, out: Path, split: str) -> None:
+    from momakitchen.metrics import format_table
+
     if out.parent and not out.parent.exists():
         out.parent.mkdir(parents=True, exist_ok=True)
     atomic_write_text(out, json.dumps(report, indent=1, default=float) + "\n")
     print(format_table({f"{report['model']} ({report['preset']})": report["metrics"]}))
-    print(f"{report['episodes']} {args.split} episodes -> {out}")
-    return 0
+    print(f"{report['episodes']} {split} episodes -> {out}")

@@ -31,6 +31,7 @@ COMMANDS = {
     "import-reference": "dataset",
     "train": "learn",
     "evaluate": "learn",
+    "export-inputs": "export_inputs",
     "msr": "msr",
     "robustness": "robustness",
     "audit": "audit",

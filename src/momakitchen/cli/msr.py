@@ -13,7 +13,8 @@ import json
 import time
 
 from momakitchen.cli.common import non_negative_float, non_negative_int, output_file, positive_int
-from momakitchen.fileio import atomic_write_text, existing_dir
+from momakitchen.errors import MomaError
+from momakitchen.fileio import atomic_write_text, existing_dir, existing_file
 
 # momakitchen.eval.msr's BASELINES and SPLITS, spelled out so that building the parser
 # (``momakitchen --help``) does not import numpy and h5py; tests/cli/test_main.py checks.
@@ -29,8 +30,22 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         action="append",
         default=[],
         metavar="RUN",
-        help="run directory of a trained model (repeatable; with neither "
-        "--checkpoint nor --method: the bundled model)",
+        help="run directory of a trained model (repeatable; with no --checkpoint, "
+        "--predictions or --method: the bundled model)",
+    )
+    ms.add_argument(
+        "--predictions",
+        action="append",
+        default=[],
+        metavar="FILE",
+        help="a method's maps of the split's episodes (.npz or .h5, docs/METHODS.md; repeatable)",
+    )
+    ms.add_argument(
+        "--name",
+        action="append",
+        default=[],
+        metavar="NAME",
+        help="the name of each --predictions method, in order (default: the file's stem)",
     )
     ms.add_argument(
         "--method",
@@ -71,6 +86,14 @@ def run(args: argparse.Namespace) -> int:
 
     for run_dir in args.checkpoint:
         existing_dir(run_dir, "checkpoint directory")
+    for path in args.predictions:
+        existing_file(path, "predictions file")
+    if args.name and len(args.name) != len(args.predictions):
+        raise MomaError(
+            f"{len(args.name)} --name for {len(args.predictions)} --predictions: give one "
+            "name per predictions file, in order, or none"
+        )
+    names = args.name or [None] * len(args.predictions)
     out = output_file(args.json)  # an unwritable --json fails now, not after the trials
     radius = {} if args.pick_radius is None else {"pick_radius": args.pick_radius}
     config = MsrConfig(
@@ -82,7 +105,14 @@ def run(args: argparse.Namespace) -> int:
         **radius,
     )
     t0 = time.perf_counter()
-    result = run_msr(args.data, args.checkpoint, args.method, config, progress=not args.quiet)
+    result = run_msr(
+        args.data,
+        args.checkpoint,
+        args.method,
+        config,
+        progress=not args.quiet,
+        predictions=list(zip(args.predictions, names, strict=True)),
+    )
     result["seconds"] = round(time.perf_counter() - t0, 1)
     out.parent.mkdir(parents=True, exist_ok=True)
     atomic_write_text(out, json.dumps(result, indent=1) + "\n")

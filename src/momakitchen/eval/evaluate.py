@@ -1,4 +1,5 @@
-"""Evaluation API: predictions for a batch, map metrics of a trained run on a dataset."""
+"""Evaluation API: predictions for a batch, map metrics of a trained run or of a
+predictions file (:mod:`momakitchen.eval.predictions`) on a dataset."""
 
 from __future__ import annotations
 
@@ -102,6 +103,60 @@ def predicted_maps(
         if "floor_label" not in batch:
             raise MomaError("evaluation needs floor labels (floor_label) in every episode")
         yield (batch, *episode_maps(batch, predict_batch(run.model, batch)))
+
+
+def evaluate_predictions(
+    path: str | Path, data: Any, name: str | None = None, progress: bool = False
+) -> dict[str, Any]:
+    """Map metrics of a predictions file on every episode of ``data`` (an
+    :class:`~momakitchen.data.EpisodeDataset`): the same report as :func:`evaluate`, with
+    ``"model"`` the method's name (``name``, else the file's stem), ``"preset"``
+    ``"predictions"`` and ``"floor_context"`` None. A file that lacks an episode, or whose
+    map of one has another length, NaN or values outside [0, 1], is refused (MomaError
+    naming the first such episode) before anything is scored."""
+    from momakitchen.data.shard import SceneShard
+    from momakitchen.eval.predictions import episode_key, load_predictions
+
+    index = list(data.index)
+    if not index:
+        raise MomaError("the evaluation dataset is empty")
+    root = Path(data.root)
+    counts = {
+        (int(sid), c, e): int(data.manifest["shards"][str(sid)]["floor_points"][c][e])
+        for _, sid, c, e, _ in index
+    }
+    expected = [(episode_key(*k), n) for k, n in counts.items()]
+    method = load_predictions(path, expected, name)
+    targets = _targets(data.manifest)
+    preds, gts, scenes, robots, configs = [], [], [], [], []
+    shard: SceneShard | None = None
+    try:
+        for file, sid, c, e, robot in tqdm(index, desc="evaluate", disable=not progress):
+            if shard is None or shard.path != root / file:
+                if shard is not None:
+                    shard.close()
+                shard = SceneShard(root / file)
+            gts.append(shard.arrays(c, e, ("floor_label",))["floor_label"].astype(np.float64))
+            preds.append(method.map(sid, c, e))
+            scenes.append(sid)
+            robots.append(robot)
+            configs.append((sid, c))
+    finally:
+        if shard is not None:
+            shard.close()
+    out = {
+        "model": method.name,
+        "preset": "predictions",
+        "predictions": str(path),
+        "episodes": len(preds),
+        "floor_context": None,
+        "metrics": map_metrics(preds, gts),
+        "per_robot": breakdown(preds, gts, robots),
+        "per_scene": breakdown(preds, gts, scenes),
+    }
+    if targets is not None:
+        out["per_category"] = breakdown(preds, gts, [targets[k] for k in configs])
+    return out
 
 
 def _targets(manifest: dict[str, Any] | None) -> dict[tuple[int, int], str] | None:

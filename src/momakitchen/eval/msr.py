@@ -9,7 +9,8 @@ the world; the robot's base is driven there facing the target and
 executes the manipulation in physics. Top-1 MSR is the success rate of the first point,
 Top-5 MSR the mean success over the (up to) five points.
 
-Methods: a trained run (its prediction), ``oracle`` (the ground-truth map), ``random``
+Methods: a trained run (its prediction), a predictions file (a method run elsewhere, see
+:mod:`momakitchen.eval.predictions`), ``oracle`` (the ground-truth map), ``random``
 (random visible floor points within the arm's reach of the target: the paper's Random) and
 ``nearest`` (the visible floor points nearest to the target where the base fits:
 conventional "go close" navigation).
@@ -89,10 +90,32 @@ class _Checkpoint:
 
         self.run = load_checkpoint(run_dir)
         self.name = self.run.config.model
+        self.floor_context: int | None = self.run.config.num_floor
 
-    def __call__(self, sample: dict[str, Any]) -> tuple[np.ndarray, np.ndarray]:
+    def __call__(self, sample: dict[str, Any]) -> tuple[np.ndarray, np.ndarray | None]:
         _, pred, std = run_model(self.run, sample, MC_SAMPLES)
         return pred, std
+
+
+class _PredictionsMethod:
+    """A predictions file as an MSR method: its stored map of the episode (no
+    uncertainty)."""
+
+    def __init__(self, predictions: Any) -> None:
+        self.predictions = predictions
+        self.name: str = predictions.name
+        self.floor_context: int | None = None
+
+    def __call__(self, sample: dict[str, Any]) -> tuple[np.ndarray, np.ndarray | None]:
+        ids = (sample["scene_id"], sample["config_index"], sample["episode_index"])
+        scores = self.predictions.map(*ids)
+        if len(scores) != len(sample["floor_xyz"]):
+            raise MomaError(
+                f"predictions file {str(self.predictions.path)!r}: episode "
+                f"{'/'.join(map(str, ids))!r} has {len(scores)} values, the episode "
+                f"{len(sample['floor_xyz'])} floor points"
+            )
+        return scores, None
 
 
 def run_configuration(
@@ -157,7 +180,7 @@ def run_configuration(
             for name in names:
                 # Only maps (models, oracle) take the pick radius: random's and nearest's
                 # scores are not maps.
-                accept, std, radius = None, None, config.pick_radius
+                accept, std, radius, is_map = None, None, config.pick_radius, False
                 if name == "oracle":
                     scores = episode.floor_label.astype(np.float64)
                 elif name == "random":
@@ -171,6 +194,7 @@ def run_configuration(
                 else:
                     arrays = {f: getattr(episode, f) for f in CLOUD_FIELDS}
                     scores, std = models[name](episode_sample(arrays, sid, ci, ep, cfg.robot))
+                    is_map = True
                 chosen = select_points(
                     floor_xy, scores, config.top_k, config.min_spread, accept, radius
                 )
@@ -182,10 +206,11 @@ def run_configuration(
                     "outcomes": [int(trials[i].success) for i in chosen],
                     "stages": [int(trials[i].stage) for i in chosen],
                 }
-                if std is not None:  # what the model said at its chosen points
+                if is_map:  # what the method said at its chosen points
                     record["methods"][name]["affordance"] = [
                         round(float(scores[i]), 4) for i in chosen
                     ]
+                if std is not None:
                     record["methods"][name]["uncertainty"] = [
                         round(float(std[i]), 5) for i in chosen
                     ]
@@ -258,9 +283,14 @@ def run_msr(
     methods: Sequence[str] = (),
     config: MsrConfig | None = None,
     progress: bool = False,
+    predictions: Sequence[tuple[str | Path, str | None]] = (),
 ) -> dict[str, Any]:
-    """MSR of trained runs and baselines on the configurations of a dataset split
-    (neither given: the bundled model).
+    """MSR of trained runs, predictions files and baselines on the configurations of a
+    dataset split (none given: the bundled model).
+
+    ``predictions``: ``(file, name)`` pairs (name None: the file's stem); each file must
+    hold a valid map of every episode of the configurations run (checked before the first
+    one: MomaError naming the first bad episode).
 
     Returns ``{"config", "configurations", "methods": {name: {"top1", "topk", "trials",
     "per_robot", "per_category"}}, "records": [...]}`` (``topk``: Top-``top_k`` MSR; trained
@@ -280,9 +310,9 @@ def run_msr(
     if unknown:
         raise MomaError(
             f"unknown MSR method {unknown[0]!r}; methods: {', '.join(BASELINES)} "
-            "(or --checkpoint RUN)"
+            "(or --checkpoint RUN, --predictions FILE)"
         )
-    if not checkpoints and not methods:  # the bundled model, as everywhere else
+    if not checkpoints and not methods and not predictions:  # the bundled model
         from momakitchen.train.checkpoint import default_checkpoint
 
         checkpoints = [default_checkpoint()]
@@ -295,19 +325,31 @@ def run_msr(
     # Models score the episodes' stored clouds: they must be built as for their training.
     preprocessing = Preprocessing(gen.cloud, gen.camera.max_depth)
 
-    models: dict[str, _Checkpoint] = {}
+    models: dict[str, _Checkpoint | _PredictionsMethod] = {}
     for run_dir in checkpoints:
-        model = _Checkpoint(run_dir)
-        check_preprocessing(model.run, preprocessing, f"dataset {str(root)!r}")
-        name = model.name if model.name not in models else f"{model.name}:{Path(run_dir).name}"
-        models[name] = model
-    names = [*models, *methods]
+        run = _Checkpoint(run_dir)
+        check_preprocessing(run.run, preprocessing, f"dataset {str(root)!r}")
+        name = run.name if run.name not in models else f"{run.name}:{Path(run_dir).name}"
+        models[name] = run
 
     todo = split_configurations(manifest, config.split)
     if config.max_configs:
         todo = todo[: config.max_configs]
     if not todo:
         raise MomaError(f"dataset {str(root)!r} has no {config.split} configurations")
+    if predictions:
+        from momakitchen.eval.predictions import load_predictions, split_episodes
+
+        needed = split_episodes(manifest, config.split, [(sid, ci) for sid, ci, _ in todo])
+        for path, label in predictions:
+            method = _PredictionsMethod(load_predictions(path, needed, label))
+            if method.name in models or method.name in (*BASELINES, *methods):
+                raise MomaError(
+                    f"predictions file {str(path)!r} would be reported as {method.name!r}, "
+                    "a name already taken by another method; give it another name"
+                )
+            models[method.name] = method
+    names = [*models, *methods]
     # Every shard to be read is there and sound before the first (slow) configuration.
     check_shard_files(root, manifest, {sid for sid, _, _ in todo})
 
@@ -320,7 +362,7 @@ def run_msr(
 
     summaries = {name: _summary(records, name) for name in names}
     for name, model in models.items():  # the floor points each model encodes per view
-        summaries[name]["floor_context"] = model.run.config.num_floor
+        summaries[name]["floor_context"] = model.floor_context
     return {
         "dataset": str(root),
         "config": {

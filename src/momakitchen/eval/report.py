@@ -1,7 +1,8 @@
 """The benchmark report (``momakitchen benchmark``): the paper's tables and figures for one
 generated dataset.
 
-From trained runs and the dataset it writes, into one directory:
+From trained runs, predictions files of methods run elsewhere
+(:mod:`momakitchen.eval.predictions`) and the dataset it writes, into one directory:
 
 - ``RESULTS.md``: methods x (RMSE, logMSE, PCC, SIM, cIoU, Top-1 / Top-k MSR), MSR per
   robot and per target category, the ablation table, the per-scene table, the loss-weight
@@ -56,6 +57,8 @@ class BenchmarkRequest:
         data: dataset directory (``momakitchen generate``).
         runs: the compared models' run directories (``momakitchen train``), one per model.
         out: output directory.
+        predictions: predictions files of more compared methods (each named by its file's
+            stem), one leaderboard row each, like the runs.
         ablations: runs of ablated models (``navaff-no-*``), compared with the ``navaff`` run
             of ``runs`` on the map metrics.
         sweep: runs that differ only in the loss weight on zero labels (lambda).
@@ -71,6 +74,7 @@ class BenchmarkRequest:
     data: Path
     runs: tuple[Path, ...]
     out: Path
+    predictions: tuple[Path, ...] = ()
     ablations: tuple[Path, ...] = ()
     sweep: tuple[Path, ...] = ()
     msr: tuple[Path, ...] = ()
@@ -80,12 +84,12 @@ class BenchmarkRequest:
     progress: bool = True
 
     def __post_init__(self) -> None:
-        for name in ("runs", "ablations", "sweep", "msr", "seeds"):
+        for name in ("runs", "predictions", "ablations", "sweep", "msr", "seeds"):
             object.__setattr__(self, name, tuple(Path(r) for r in getattr(self, name)))
         object.__setattr__(self, "data", Path(self.data))
         object.__setattr__(self, "out", Path(self.out))
-        if not self.runs:
-            raise MomaError("benchmark needs at least one run (--runs)")
+        if not self.runs and not self.predictions:
+            raise MomaError("benchmark needs at least one run (--runs) or --predictions file")
         if not (Path(self.data) / "manifest.json").is_file():
             raise MomaError(f"{str(self.data)!r} is not a dataset directory (no manifest.json)")
         for run in (*self.runs, *self.ablations, *self.sweep, *self.seeds):
@@ -93,6 +97,8 @@ class BenchmarkRequest:
                 raise MomaError(f"{str(run)!r} is not a run directory (no config.json)")
         for path in (*self.msr, *(Path(r) / "msr.json" for r in self.seeds)):
             existing_file(path, "MSR file")
+        for path in self.predictions:
+            existing_file(path, "predictions file")
         if self.max_configs < 0:
             raise MomaError(f"max_configs must be >= 0, got {self.max_configs}")
         if not 1 <= self.examples <= 12:
@@ -140,8 +146,11 @@ def run_metrics(
 def run_benchmark(req: BenchmarkRequest, log: Callable[[str], None] = print) -> dict[str, Any]:
     """Compute and write the report (see the module docstring). Returns ``benchmark.json``'s
     content."""
+    from momakitchen.data import EpisodeDataset
     from momakitchen.data.manifest import load_manifest, split_checksum
+    from momakitchen.eval.evaluate import evaluate_predictions
     from momakitchen.eval.msr import BASELINES, MsrConfig, check_same_views, merge_msr, run_msr
+    from momakitchen.eval.predictions import load_predictions, method_name
     from momakitchen.train.checkpoint import load_checkpoint
 
     data, out = req.data, req.out
@@ -154,6 +163,15 @@ def run_benchmark(req: BenchmarkRequest, log: Callable[[str], None] = print) -> 
     models = [configs[r].model for r in req.runs]
     if len(set(models)) != len(models):
         raise MomaError(f"--runs need one run per model, got models {models}")
+    # Methods run elsewhere, named by their files; one leaderboard row each, as a run's.
+    stems = [method_name(p) for p in req.predictions]
+    named = dict(zip(stems, req.predictions, strict=True))
+    methods = [*models, *stems]
+    if len(set(methods)) != len(methods) or set(methods) & set(BASELINES):
+        raise MomaError(
+            f"the compared methods need distinct names, none of {list(BASELINES)}: got "
+            f"{methods} (a --predictions file is named by its stem: rename the file)"
+        )
     if req.ablations and "navaff" not in models:
         raise MomaError("the ablation table needs a navaff run among --runs")
     for r in req.seeds:
@@ -166,10 +184,13 @@ def run_benchmark(req: BenchmarkRequest, log: Callable[[str], None] = print) -> 
     msr = None
     if req.msr:  # checked before any map metric is computed: bad files fail at once
         msr = merge_msr([(str(p), read_json_object(p)) for p in req.msr])
-        missing = [m for m in (*models, *BASELINES) if m not in msr["methods"]]
+        missing = [m for m in (*methods, *BASELINES) if m not in msr["methods"]]
         if missing:
             files = ", ".join(repr(str(p)) for p in req.msr)
             raise MomaError(f"MSR files {files} lack methods {missing}")
+    test_data = EpisodeDataset(data, "test")
+    for path in named.values():  # every file read and checked before any work
+        load_predictions(path, _test_episodes(test_data))
     test_shards = split_checksum(load_manifest(data), "test")  # keys reusable test.json
     out.mkdir(parents=True, exist_ok=True)
 
@@ -178,6 +199,17 @@ def run_benchmark(req: BenchmarkRequest, log: Callable[[str], None] = print) -> 
     for r in every:
         log(f"map metrics: {r}")
         metrics[r] = run_metrics(r, data, test_shards, out / "metrics", req.progress)
+    for name, path in named.items():
+        log(f"map metrics: {path}")
+        report = {
+            "data": str(data),
+            "split": "test",
+            **evaluate_predictions(path, test_data, name, progress=req.progress),
+        }
+        (out / "metrics").mkdir(parents=True, exist_ok=True)
+        text = json.dumps(report, indent=1, default=float) + "\n"
+        atomic_write_text(out / "metrics" / f"{name}.json", text)
+        metrics[path] = json.loads(text)
     if msr is None:
         log("MSR: models and baselines in closed loop")
         msr = run_msr(
@@ -186,15 +218,16 @@ def run_benchmark(req: BenchmarkRequest, log: Callable[[str], None] = print) -> 
             list(BASELINES),
             MsrConfig(max_configs=req.max_configs),
             progress=req.progress,
+            predictions=[(p, name) for name, p in named.items()],
         )
         atomic_write_text(out / "msr.json", json.dumps(msr, indent=1) + "\n")
     for r, m in seed_msr.items():
         check_same_views(("MSR", msr), (str(r / "msr.json"), m))
 
-    main_reports = [metrics[r] for r in req.runs]
+    main_reports = [metrics[r] for r in (*req.runs, *named.values())]
     lines = ["## Methods", "", *main_table(main_reports, msr), "", *msr_breakdown(msr)]
     lines += ["", *map_breakdown(main_reports)]
-    lines += ["", f"### {models[0]} against each method", "", *paired_table(msr, models[0])]
+    lines += ["", f"### {methods[0]} against each method", "", *paired_table(msr, methods[0])]
     if len(main_reports) > 1:
         lines += ["", *paired_map_table(main_reports)]
     if req.seeds:
@@ -239,7 +272,8 @@ def run_benchmark(req: BenchmarkRequest, log: Callable[[str], None] = print) -> 
         for name in confident:
             lines += ["", *confidence_table(msr, name)]
     log("qualitative figure")
-    atomic_write_bytes(out / "qualitative.png", qualitative_figure(data, req.runs, req.examples))
+    figure = qualitative_figure(data, req.runs, req.examples, [(n, p) for n, p in named.items()])
+    atomic_write_bytes(out / "qualitative.png", figure)
     lines += [
         "",
         "## Examples",
@@ -255,6 +289,9 @@ def run_benchmark(req: BenchmarkRequest, log: Callable[[str], None] = print) -> 
             str(r): {k: metrics[r][k] for k in ("model", "metrics")}
             for r in (*req.runs, *req.ablations, *req.seeds)
         },
+        "predictions": {
+            str(p): {k: metrics[p][k] for k in ("model", "metrics")} for p in named.values()
+        },
         "sweep": [{"lambda_zero": lam, "metrics": rep["metrics"]} for lam, rep in sweep],
         "msr": {name: {k: s[k] for k in RATE_KEYS} for name, s in msr["methods"].items()},
         "msr_configurations": msr["configurations"],
@@ -262,6 +299,18 @@ def run_benchmark(req: BenchmarkRequest, log: Callable[[str], None] = print) -> 
     }
     atomic_write_text(out / "benchmark.json", json.dumps(result, indent=1, default=float) + "\n")
     return result
+
+
+def _test_episodes(data: Any) -> list[tuple[str, int]]:
+    """(key, floor points) of the episodes of an EpisodeDataset, as predictions files
+    must cover them."""
+    from momakitchen.eval.predictions import episode_key
+
+    shards = data.manifest["shards"]
+    return [
+        (episode_key(sid, c, e), int(shards[str(sid)]["floor_points"][c][e]))
+        for _, sid, c, e, _ in data.index
+    ]
 
 
 def _row(cells: Sequence[str]) -> str:
@@ -687,10 +736,17 @@ def confidence_table(msr: dict, name: str) -> list[str]:
     return out
 
 
-def qualitative_figure(data_dir: Path, runs: Sequence[Path], examples: int) -> bytes:
-    """Ground truth and every run's map on the same test episodes: the last view of the first
-    ``examples`` test configurations that have a successful trial. PNG bytes."""
+def qualitative_figure(
+    data_dir: Path,
+    runs: Sequence[Path],
+    examples: int,
+    predictions: Sequence[tuple[str, Path]] = (),
+) -> bytes:
+    """Ground truth and every run's and predictions file's (``(name, file)``) map on the
+    same test episodes: the last view of the first ``examples`` test configurations that
+    have a successful trial. PNG bytes."""
     from momakitchen.data import EpisodeDataset
+    from momakitchen.eval.predictions import load_predictions
     from momakitchen.models.inference import inference_collator, predict_batch
     from momakitchen.perception.figures import floor_map, png_bytes, pyplot
     from momakitchen.train.checkpoint import load_checkpoint
@@ -709,11 +765,14 @@ def qualitative_figure(data_dir: Path, runs: Sequence[Path], examples: int) -> b
     if not picked:
         raise MomaError(f"no test configuration of {str(data_dir)!r} has a successful trial")
     loaded = [load_checkpoint(r) for r in runs]
+    shown = [(s["scene_id"], s["config_index"], s["episode_index"]) for s in picked]
+    stored = [load_predictions(path, _test_episodes(data), name).maps for name, path in predictions]
+    columns = len(loaded) + len(stored)
     plt = pyplot()
     fig, axes = plt.subplots(
         len(picked),
-        1 + len(loaded),
-        figsize=(3.6 * (1 + len(loaded)), 3.2 * len(picked)),
+        1 + columns,
+        figsize=(3.6 * (1 + columns), 3.2 * len(picked)),
         constrained_layout=True,
         squeeze=False,
     )
@@ -725,14 +784,18 @@ def qualitative_figure(data_dir: Path, runs: Sequence[Path], examples: int) -> b
             sample["floor_label"].numpy(),
             f"ground truth: scene {sample['scene_id']}, {sample['robot_name']}",
         )
-        for col, run in enumerate(loaded, start=1):
+        maps = []
+        for run in loaded:
             batch = inference_collator(run.config)([sample])
-            pred = predict_batch(run.model, batch)[0].numpy()
+            maps.append((run.config.model, predict_batch(run.model, batch)[0].numpy()))
+        key = "/".join(map(str, shown[row]))
+        maps += [(name, m[key]) for (name, _), m in zip(predictions, stored, strict=True)]
+        for col, (name, pred) in enumerate(maps, start=1):
             floor_map(
                 axes[row, col],
                 xyz,
                 pred,
-                f"{run.config.model} (max {pred.max():.2f})",
+                f"{name} (max {pred.max():.2f})",
                 vmax=max(float(pred.max()), 0.05),
             )
     return png_bytes(fig)

@@ -2,9 +2,10 @@
 
 ``build_model(name, ModelConfig(...))`` returns an :class:`AffordanceModel`;
 ``model(batch)`` gives ``{"pred": (B, Nf)}`` (plus ``loss``/``mse`` when labels are present).
+Models defined in other packages plug in by name (:mod:`momakitchen.models.plugins`).
 """
 
-from momakitchen.models.base import AffordanceModel, num_parameters
+from momakitchen.models.base import AffordanceModel, Backbone, num_parameters
 from momakitchen.models.config import ModelConfig
 from momakitchen.models.loss import WeightedMSELoss
 from momakitchen.models.registry import (
@@ -19,6 +20,7 @@ from momakitchen.models.registry import (
 __all__ = [
     "MODELS",
     "AffordanceModel",
+    "Backbone",
     "ModelConfig",
     "ModelEntry",
     "WeightedMSELoss",

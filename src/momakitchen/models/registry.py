@@ -1,10 +1,14 @@
-"""The one registry of models: NavAff, its ablations and the baselines, by name."""
+"""The one registry of models: NavAff, its ablations and the baselines, by name, and
+models defined outside the package (:mod:`momakitchen.models.plugins`), found on first use
+by an entry-point name or a ``package.module:ClassName`` path."""
 
 from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import cast
 
+from momakitchen.errors import MomaError
 from momakitchen.models.base import AffordanceModel, Backbone
 from momakitchen.models.baselines import H3DNetBackbone, PointNet2Backbone, VoteNetBackbone
 from momakitchen.models.config import ModelConfig
@@ -18,13 +22,15 @@ class ModelEntry:
 
     Attributes:
         name: registry key.
-        build_backbone: ``ModelConfig -> Backbone``.
+        build_backbone: ``ModelConfig -> Backbone`` (a plug-in network with ``plugin``).
         head_uses_robot: whether the head is always conditioned on the robot descriptor
             (the baselines; NavAff reads the robot through its attention tokens instead,
             and through its head too with ``ModelConfig.robot_head``).
         description: one line for listings and docs.
         unused_config: ``ModelConfig`` fields the architecture never reads, so a run may
             resume under a preset that has changed them since.
+        plugin: ``build_backbone`` makes a whole network that returns the affordance
+            (B, Nf) itself, wrapped in :class:`~momakitchen.models.plugins.PluginModel`.
     """
 
     name: str
@@ -32,9 +38,13 @@ class ModelEntry:
     head_uses_robot: bool
     description: str
     unused_config: frozenset[str] = frozenset()
+    plugin: bool = False
 
 
 MODELS: Registry[ModelEntry] = Registry("model")
+# Plug-in models already looked up in this process (kept apart from MODELS, whose names
+# are those every installation has).
+PLUGINS: dict[str, ModelEntry] = {}
 
 
 def register_model(entry: ModelEntry, *, replace: bool = False) -> ModelEntry:
@@ -43,13 +53,60 @@ def register_model(entry: ModelEntry, *, replace: bool = False) -> ModelEntry:
 
 
 def model_names() -> tuple[str, ...]:
-    """Registered model names, in registration order."""
+    """Registered model names, in registration order (plug-ins not included: see
+    :func:`momakitchen.models.plugins.plugin_names`)."""
     return MODELS.names()
 
 
 def get_model_entry(name: str) -> ModelEntry:
-    """The entry of model ``name``; MomaError naming it and listing the known models."""
-    return MODELS.get_entry(name)
+    """The entry of model ``name``: a built-in one, else a plug-in found by its
+    ``package.module:ClassName`` path or its entry point (group ``momakitchen.models``),
+    registered on first use. MomaError naming it and listing the known models when there
+    is none, or when the plug-in fails to import, is no model class, or claims a built-in
+    name. A plug-in is imported once per process."""
+    from momakitchen.models import plugins
+
+    if not isinstance(name, str) or not name:
+        raise MomaError(f"model name must be a non-empty string, got {name!r}")
+    entry = MODELS.get(name)
+    if entry is not None:
+        if name in BUILTIN_MODELS:
+            plugins.check_no_clash(name)
+        return entry
+    if name in PLUGINS:
+        return PLUGINS[name]
+    obj = plugins.load_plugin(name)
+    if obj is None:
+        known = [*BUILTIN_MODELS, *plugins.plugin_names()]
+        raise MomaError(
+            f"unknown model {name!r}; known models: {', '.join(known)} (or "
+            "package.module:ClassName, see docs/METHODS.md)"
+        )
+    build, is_backbone, description = plugins.plugin_class(name, obj)
+    # A Backbone gets the built-in head (robot-conditioned, as the baselines'); any other
+    # module is the whole network (plugin=True).
+    # (build_backbone's type names the built-in case; with plugin=True it is any module.)
+    builder = cast(Callable[[ModelConfig], Backbone], build)
+    PLUGINS[name] = ModelEntry(name, builder, is_backbone, description, plugin=not is_backbone)
+    return PLUGINS[name]
+
+
+def is_plugin(name: str) -> bool:
+    """Whether model ``name`` is a plug-in (found outside the package)."""
+    get_model_entry(name)
+    return name in PLUGINS
+
+
+def refresh_plugins() -> None:
+    """Forget the entry points and plug-ins read so far (after installing or removing a
+    distribution in-process)."""
+    import importlib
+
+    from momakitchen.models import plugins
+
+    importlib.invalidate_caches()
+    plugins.entry_points.cache_clear()
+    PLUGINS.clear()
 
 
 def build_model(name: str, config: ModelConfig | None = None) -> AffordanceModel:
@@ -59,6 +116,10 @@ def build_model(name: str, config: ModelConfig | None = None) -> AffordanceModel
     head_robot = entry.head_uses_robot or (
         cfg.robot_head and "robot_head" not in entry.unused_config
     )
+    if entry.plugin:
+        from momakitchen.models.plugins import PluginModel
+
+        return PluginModel(name, cfg, entry.build_backbone(cfg))
     return AffordanceModel(name, cfg, entry.build_backbone(cfg), head_robot)
 
 
@@ -114,3 +175,6 @@ for _entry in (
     ),
 ):
     register_model(_entry)
+
+# The names shipped with the package (a plug-in may not reuse one).
+BUILTIN_MODELS = MODELS.names()

@@ -1,0 +1,1 @@
+"""A model package outside momakitchen (installed by the plug-in tests)."""
