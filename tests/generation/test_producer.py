@@ -139,3 +139,30 @@ def test_look_toward_puts_the_target_on_the_requested_row():
         u, v = project(transform(np.linalg.inv(cam), target[None]), intr)[0]
         assert u == pytest.approx(intr.cx, abs=1e-6)
         assert v == pytest.approx(row * intr.height, abs=1e-6)
+
+
+def test_views_stay_within_a_sensors_working_range(world, scene):
+    """``generate --sensor kinect``: every camera within the range of the target (the views
+    would otherwise reach 3.8 m ahead and 1.5 m aside)."""
+    import dataclasses
+
+    from momakitchen.generation.producer import sample_views
+
+    cfg = scene.configurations[2]
+    base = GenerationConfig()
+    config = dataclasses.replace(
+        base, views=dataclasses.replace(base.views, episodes=4, max_distance=2.5, coverage_radius=0)
+    )
+    views = sample_views(world, scene.layout, cfg, config)
+    assert len(views) == 4
+    anchor = np.asarray(cfg.target.anchor)
+    for v in views:
+        assert np.linalg.norm(v.camera_to_world[:3, 3] - anchor) <= 2.5 + 1e-9
+
+
+def test_view_distance_bounds():
+    from momakitchen.data.config import ViewConfig
+    from momakitchen.errors import MomaError
+
+    with pytest.raises(MomaError, match=r"views\.max_distance must be 0"):
+        ViewConfig(max_distance=0.5)

@@ -26,6 +26,7 @@ from pathlib import Path
 from typing import Any
 
 from momakitchen.cli.common import non_negative_int, positive_int
+from momakitchen.errors import MomaError
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -75,6 +76,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "sections scene, trial, dense, camera, views, cloud; the rest "
         "default); with --synthetic, fields of the synthetic config",
     )
+    parser.add_argument(
+        "--sensor",
+        default=None,
+        metavar="NAME",
+        help="draw every view within this depth sensor's working range of the target "
+        "(views.max_distance; `momakitchen robustness --list` names the sensors)",
+    )
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     parser.set_defaults(func=run)
 
@@ -94,6 +102,8 @@ def run(args: argparse.Namespace) -> int:
     scene_fn: Any
     config: Any
     if args.synthetic:
+        if args.sensor is not None:
+            raise MomaError("--sensor sets where the simulator's views stand: not with --synthetic")
         from momakitchen.data.synthetic_scene import SyntheticSceneConfig, synthetic_scene_records
 
         scene_fn = synthetic_scene_records
@@ -109,6 +119,17 @@ def run(args: argparse.Namespace) -> int:
         config = (
             load_config_file(args.config, GenerationConfig) if args.config else GenerationConfig()
         )
+        if args.sensor is not None:
+            import dataclasses
+
+            from momakitchen.perception.sensors import SENSORS
+
+            if args.sensor not in SENSORS:
+                raise MomaError(f"unknown sensor {args.sensor!r}; sensors: {', '.join(SENSORS)}")
+            far = min(SENSORS[args.sensor].max_range, 20.0)
+            config = dataclasses.replace(
+                config, views=dataclasses.replace(config.views, max_distance=far)
+            )
         from momakitchen.generation.producer import scene_records
 
         scene_fn = scene_records

@@ -35,6 +35,8 @@ class ViewConfig:
         coverage_radius: a view of a configuration with successful trials is kept only
             if its floor cloud comes this close to a successful trial position; while
             views fail this, later attempts stand farther back (0: no check).
+        max_distance: the camera stands at most this far from the target (m; a depth
+            sensor's working range, see ``momakitchen robustness --list``; 0: no limit).
     """
 
     episodes: int = 10
@@ -44,8 +46,13 @@ class ViewConfig:
     max_tries: int = 40
     target_row: float = 0.15
     coverage_radius: float = COVERAGE_RADIUS
+    max_distance: float = 0.0
 
     def __post_init__(self) -> None:
+        if self.max_distance != 0.0 and not 1.0 <= self.max_distance <= 20.0:
+            raise MomaError(
+                f"views.max_distance must be 0 (no limit) or in [1, 20] m, got {self.max_distance}"
+            )
         if not 1 <= self.episodes <= 100:
             raise MomaError(f"episodes per configuration must be in [1, 100], got {self.episodes}")
         for name in ("lateral", "forward"):

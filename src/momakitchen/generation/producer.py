@@ -166,6 +166,11 @@ def sample_views(
                 forward = rng.uniform(forward, views.forward[1])
             # Later attempts come closer: the room may be shallower than the nominal range.
             forward *= 1.0 - 0.5 * attempt / views.max_tries
+            if views.max_distance:  # within the sensor's working range of the target
+                reach2 = views.max_distance**2 - lateral**2 - (height - anchor[2]) ** 2
+                if reach2 < 0.5**2:
+                    continue
+                forward = min(forward, float(np.sqrt(reach2)))
             x, y = anchor[0] + lateral, anchor[1] + forward
             yaw = float(np.arctan2(anchor[1] - y, anchor[0] - x))
             fp = box_corners(x, y, yaw, *spec.footprint)
