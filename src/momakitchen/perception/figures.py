@@ -143,9 +143,14 @@ def prediction_figure(
     intrinsics: Any,
     camera_to_base: np.ndarray | None,
 ) -> bytes:
-    """PNG: the map over the image (when an image is given), top-down map, uncertainty."""
+    """PNG: the map over the image (when an image is given), top-down map, uncertainty;
+    the floor correction applied to the frame and any warning as the title."""
     plt = pyplot()
     with_image = rgb is not None and intrinsics is not None and camera_to_base is not None
+    correction = getattr(pred, "correction", None)
+    if with_image and correction is not None:
+        # the map lives in the corrected frame: project it through the corrected camera
+        camera_to_base = correction.matrix @ np.asarray(camera_to_base, np.float64)
     n = 3 if with_image else 2
     fig, axes = plt.subplots(1, n, figsize=(5.2 * n, 4.6), constrained_layout=True)
     i = 0
@@ -184,4 +189,16 @@ def prediction_figure(
         vmax=vmax,
     )
     fig.colorbar(sc, ax=axes[i + 1], shrink=0.8, label="std")
+    lines = []
+    if correction is not None:
+        c = correction
+        lines.append(
+            f"floor correction: camera {c.height * 100:+.1f} cm, pitch {c.pitch:+.2f} deg, "
+            f"roll {c.roll:+.2f} deg, depth scale {c.scale:.3f} "
+            f"({c.inliers} floor points, residual {c.residual * 1000:.1f} mm); "
+            f"target {float(np.hypot(*pred.target_xyz[:2])):.2f} m away"
+        )
+    lines += [f"warning: {w}" for w in getattr(pred, "warnings", ())]
+    if lines:
+        fig.suptitle("\n".join(lines), fontsize=9)
     return png_bytes(fig)
