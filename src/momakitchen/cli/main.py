@@ -35,6 +35,7 @@ COMMANDS = {
     "audit": "audit",
     "benchmark": "benchmark",
     "predict": "predict",
+    "serve": "serve",
 }
 
 
