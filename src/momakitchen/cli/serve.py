@@ -54,5 +54,8 @@ def run(args: argparse.Namespace) -> int:
               flush=True)  # fmt: skip
 
     defaults = {} if args.mc_samples is None else {"mc_samples": args.mc_samples}
-    serve(args.host, args.port, args.checkpoint, defaults, ready=ready)
+    try:
+        serve(args.host, args.port, args.checkpoint, defaults, ready=ready)
+    except KeyboardInterrupt:  # Ctrl-C is how a server stops: not an error
+        print("stopped", flush=True)
     return 0
