@@ -184,43 +184,73 @@ def write_bag(
         (T0, "head_link", "camera_link", HEAD_LINK),
         (T0, "camera_link", CAMERA, LINK_OPTICAL),
     ]
-    add("/tf_static", "tf2_msgs/msg/TFMessage", T0, b.tf([s for s in static if s[2] not in skip_tf]))
+    add(
+        "/tf_static", "tf2_msgs/msg/TFMessage", T0, b.tf([s for s in static if s[2] not in skip_tf])
+    )
     # odom -> base_link at 30 Hz over the whole recording
     for stamp in range(T0 + 500_000_000, T0 + 2_600_000_000, 33_333_333):
         if "base_link" not in skip_tf:
-            add("/tf", "tf2_msgs/msg/TFMessage", stamp, b.tf([(stamp, "odom", "base_link",
-                                                                odom_base(stamp))]))  # fmt: skip
+            add(
+                "/tf",
+                "tf2_msgs/msg/TFMessage",
+                stamp,
+                b.tf([(stamp, "odom", "base_link", odom_base(stamp))]),
+            )
     img = "sensor_msgs/msg/Image"
     comp = "sensor_msgs/msg/CompressedImage"
     for frame, stamp in zip(frames, FRAME_NS, strict=False):
         # The head holds still while the frame is taken (robot_state_publisher rate).
         for dt in (-20_000_000, 20_000_000):
             if "head_link" not in skip_tf:
-                add("/tf", "tf2_msgs/msg/TFMessage", stamp + dt,
-                    b.tf([(stamp + dt, "base_link", "head_link", head_of(frame.camera_to_base))]))  # fmt: skip
-        add(DEPTH, img, stamp, b.image(stamp, encode_depth(frame.depth, depth_encoding),
-                                       depth_encoding, pad=4))  # fmt: skip
-        add(INFO, "sensor_msgs/msg/CameraInfo", stamp,
-            b.camera_info(stamp, frame.intrinsics, frame.depth.shape))  # fmt: skip
+                add(
+                    "/tf",
+                    "tf2_msgs/msg/TFMessage",
+                    stamp + dt,
+                    b.tf([(stamp + dt, "base_link", "head_link", head_of(frame.camera_to_base))]),
+                )
+        add(
+            DEPTH,
+            img,
+            stamp,
+            b.image(stamp, encode_depth(frame.depth, depth_encoding), depth_encoding, pad=4),
+        )
+        add(
+            INFO,
+            "sensor_msgs/msg/CameraInfo",
+            stamp,
+            b.camera_info(stamp, frame.intrinsics, frame.depth.shape),
+        )
         rs = stamp + RGB_DELAY_NS
         if rgb_encoding in ("png", "jpeg"):
             from PIL import Image
 
             buf = io.BytesIO()
             Image.fromarray(frame.rgb).save(buf, format=rgb_encoding.upper(), quality=95)
-            add(RGB, comp, rs, b.compressed(rs, buf.getvalue(), f"rgb8; {rgb_encoding} compressed bgr8"))  # fmt: skip
+            add(
+                RGB,
+                comp,
+                rs,
+                b.compressed(rs, buf.getvalue(), f"rgb8; {rgb_encoding} compressed bgr8"),
+            )
         else:
             pixels = {
                 "rgb8": frame.rgb,
                 "bgr8": frame.rgb[..., ::-1],
-                "bgra8": np.concatenate([frame.rgb[..., ::-1], np.full_like(frame.rgb[..., :1], 255)], -1),
-            }[rgb_encoding]  # fmt: skip
+                "bgra8": np.concatenate(
+                    [frame.rgb[..., ::-1], np.full_like(frame.rgb[..., :1], 255)], -1
+                ),
+            }[rgb_encoding]
             add(RGB, img, rs, b.image(rs, pixels, rgb_encoding))
         ms = stamp + mask_delay_ns
         for topic, mask in ((MASK, frame.target), (OBSTACLES, frame.obstacle)):
             mono = mask.astype(np.uint8) * 255
             if compressed_masks:
-                add(topic, comp, ms, b.compressed(ms, png_bytes(mono), "mono8; png compressed mono8"))  # fmt: skip
+                add(
+                    topic,
+                    comp,
+                    ms,
+                    b.compressed(ms, png_bytes(mono), "mono8; png compressed mono8"),
+                )
             else:
                 add(topic, img, ms, b.image(ms, mono, "mono8"))
     msgs.sort(key=lambda m: m[0])

@@ -14,7 +14,7 @@ import pytest
 
 pytest.importorskip("rosbags")
 
-from bag_helpers import (  # noqa: E402
+from bag_helpers import (
     DEPTH,
     FRAME_NS,
     INFO,
@@ -29,25 +29,33 @@ from bag_helpers import (  # noqa: E402
     write_bag,
 )
 
-import momakitchen  # noqa: E402
-from momakitchen.cli.main import main  # noqa: E402
-from momakitchen.data.episode import SEMANTIC_CLASSES  # noqa: E402
-from momakitchen.data.shard import SceneShard  # noqa: E402
-from momakitchen.deploy.rosbag import (  # noqa: E402
+import momakitchen
+from momakitchen.cli.main import main
+from momakitchen.data.episode import SEMANTIC_CLASSES
+from momakitchen.data.shard import SceneShard
+from momakitchen.deploy.rosbag import (
     TransformBuffer,
     colour_rgb,
     depth_metres,
     mask_image,
     typestore,
 )
-from momakitchen.errors import MomaError  # noqa: E402
+from momakitchen.errors import MomaError
 
 TARGET = SEMANTIC_CLASSES.index("target")
 OBSTACLE = SEMANTIC_CLASSES.index("obstacle")
 TOPICS = [
-    "--depth-topic", DEPTH, "--camera-info-topic", INFO, "--rgb-topic", RGB,
-    "--target-mask-topic", MASK, "--obstacle-mask-topic", OBSTACLES,
-]  # fmt: skip
+    "--depth-topic",
+    DEPTH,
+    "--camera-info-topic",
+    INFO,
+    "--rgb-topic",
+    RGB,
+    "--target-mask-topic",
+    MASK,
+    "--obstacle-mask-topic",
+    OBSTACLES,
+]
 
 
 @pytest.fixture(scope="module")
@@ -58,8 +66,15 @@ def frames(real_view) -> list[Frame]:
         for i in shard.episode_indices(0):
             ep = shard.episode(0, i)
             out.append(
-                Frame(ep.depth, ep.rgb, ep.semantic == TARGET, ep.semantic == OBSTACLE,
-                      ep.intrinsics, ep.camera_to_base, {"robot": ep.robot})  # fmt: skip
+                Frame(
+                    ep.depth,
+                    ep.rgb,
+                    ep.semantic == TARGET,
+                    ep.semantic == OBSTACLE,
+                    ep.intrinsics,
+                    ep.camera_to_base,
+                    {"robot": ep.robot},
+                )
             )
     assert not np.allclose(out[0].camera_to_base, out[1].camera_to_base)
     return out
@@ -120,11 +135,13 @@ def _read_output(path: Path) -> dict[str, list]:
 
 def _check_output_bag(path: Path, preds: list, stamps: list[int], frame_id: str) -> None:
     msgs = _read_output(path)
-    assert set(msgs) == {f"/momakitchen/{t}" for t in
-                         ("goal", "poses", "affordance", "markers", "prediction")}  # fmt: skip
+    assert set(msgs) == {
+        f"/momakitchen/{t}" for t in ("goal", "poses", "affordance", "markers", "prediction")
+    }
     for topic, items in msgs.items():
         assert [t for _, t, _ in items] == stamps, topic
     for i, (pred, stamp) in enumerate(zip(preds, stamps, strict=True)):
+
         def head(m, stamp=stamp):
             assert m.header.frame_id == frame_id
             assert m.header.stamp.sec * 10**9 + m.header.stamp.nanosec == stamp
@@ -169,8 +186,9 @@ def _check_output_bag(path: Path, preds: list, stamps: list[int], frame_id: str)
         assert texts[0].text == f"1: {pred.pose_scores[0]:.2f}" and texts[0].type == 9
         np.testing.assert_allclose(
             [target.pose.position.x, target.pose.position.y, target.pose.position.z],
-            pred.target_xyz, atol=1e-6,
-        )  # fmt: skip
+            pred.target_xyz,
+            atol=1e-6,
+        )
         assert target.type == 2
         schema, _, string = msgs["/momakitchen/prediction"][i]
         assert schema == "std_msgs/msg/String"
@@ -178,13 +196,16 @@ def _check_output_bag(path: Path, preds: list, stamps: list[int], frame_id: str)
 
 
 def test_db3_bag_16uc1_every_frame_matches_predict(frames, run, tmp_path):
-    bag = write_bag(tmp_path / "rec", frames, storage="sqlite3", depth_encoding="16UC1",
-                    rgb_encoding="bgr8")  # fmt: skip
+    bag = write_bag(
+        tmp_path / "rec", frames, storage="sqlite3", depth_encoding="16UC1", rgb_encoding="bgr8"
+    )
     assert (bag / "rec.db3").is_file()
     out = tmp_path / "out"
     robot = frames[0].extra["robot"]
-    assert _cli("--bag", bag, *TOPICS, "--every", 1, "--robot", robot, "--mc-samples", 0,
-                "--out", out) == 0  # fmt: skip
+    assert (
+        _cli("--bag", bag, *TOPICS, "--every", 1, "--robot", robot, "--mc-samples", 0, "--out", out)
+        == 0
+    )
     summary = json.loads((out / "frames.json").read_text())["frames"]
     assert [f["index"] for f in summary] == [0, 1]
     preds = []
@@ -201,22 +222,43 @@ def test_db3_bag_16uc1_every_frame_matches_predict(frames, run, tmp_path):
 
 
 def test_mcap_bag_32fc1_compressed_images_at_a_time(frames, run, tmp_path):
-    bag = write_bag(tmp_path / "rec", frames, storage="mcap", depth_encoding="32FC1",
-                    rgb_encoding="png", compressed_masks=True)  # fmt: skip
+    bag = write_bag(
+        tmp_path / "rec",
+        frames,
+        storage="mcap",
+        depth_encoding="32FC1",
+        rgb_encoding="png",
+        compressed_masks=True,
+    )
     (single,) = bag.glob("*.mcap")
     robot = frames[1].extra["robot"]
     expected = _expected(frames[1], "32FC1", run)
     # --time picks the depth frame recorded nearest 1.9 s after the bag's start (T0): #1;
     # the bag directory and its .mcap file alone read the same.
     for path, out in ((bag, tmp_path / "a"), (single, tmp_path / "b")):
-        assert _cli("--bag", path, *TOPICS, "--time", 1.9, "--robot", robot,
-                    "--mc-samples", 0, "--out", out) == 0  # fmt: skip
+        assert (
+            _cli(
+                "--bag",
+                path,
+                *TOPICS,
+                "--time",
+                1.9,
+                "--robot",
+                robot,
+                "--mc-samples",
+                0,
+                "--out",
+                out,
+            )
+            == 0
+        )
         doc = json.loads((out / "prediction.json").read_text())  # one frame: at the top
         _same_poses(_poses(doc), expected)
         summary = json.loads((out / "frames.json").read_text())["frames"]
         assert [f["index"] for f in summary] == [1] and summary[0]["base_frame"] == "base_link"
-        np.testing.assert_allclose(summary[0]["camera_to_base"], frames[1].camera_to_base,
-                                   atol=1e-8)  # fmt: skip
+        np.testing.assert_allclose(
+            summary[0]["camera_to_base"], frames[1].camera_to_base, atol=1e-8
+        )
         _check_output_bag(out / "ros", [expected], FRAME_NS[1:], "base_link")
 
 
@@ -227,9 +269,14 @@ def test_target_mask_file_and_no_colour(frames, run, tmp_path):
     out = tmp_path / "out"
     argv = ["--bag", bag, "--depth-topic", DEPTH, "--camera-info-topic", INFO, "--time", 0]
     assert _cli(*argv, "--target-mask", mask, "--robot", "panda", "--out", out) == 0
-    expected = momakitchen.predict(decoded_depth(frames[0].depth, "16UC1"), frames[0].intrinsics,
-                                   frames[0].camera_to_base, frames[0].target, "panda",
-                                   checkpoint=run)  # fmt: skip
+    expected = momakitchen.predict(
+        decoded_depth(frames[0].depth, "16UC1"),
+        frames[0].intrinsics,
+        frames[0].camera_to_base,
+        frames[0].target,
+        "panda",
+        checkpoint=run,
+    )
     _same_poses(_poses(json.loads((out / "prediction.json").read_text())), expected)
 
 
@@ -267,8 +314,9 @@ def test_image_encodings():
     np.testing.assert_array_equal(got, metres)
     b = BagBuilder(store)
     comp = "sensor_msgs/msg/CompressedImage"
-    np.testing.assert_array_equal(colour_rgb(b.compressed(T0, png_bytes(rgb), "png"), comp, "/c"),
-                                  rgb)  # fmt: skip
+    np.testing.assert_array_equal(
+        colour_rgb(b.compressed(T0, png_bytes(rgb), "png"), comp, "/c"), rgb
+    )
     from PIL import Image
 
     red = np.zeros((16, 16, 3), np.uint8) + np.array([200, 30, 60], np.uint8)
@@ -282,11 +330,15 @@ def test_image_encodings():
     mask = np.zeros((5, 7), np.uint8)
     mask[1:3, 2:4] = 255
     np.testing.assert_array_equal(mask_image(_image(store, mask, "mono8"), img, "/m"), mask > 0)
-    np.testing.assert_array_equal(mask_image(b.compressed(T0, png_bytes(mask), "png"), comp, "/m"),
-                                  mask > 0)  # fmt: skip
+    np.testing.assert_array_equal(
+        mask_image(b.compressed(T0, png_bytes(mask), "png"), comp, "/m"), mask > 0
+    )
     bad = {
-        "has encoding 'yuv422'; expected one of rgb8": (_image(store, rgb[..., :2].copy(), "rgb8"), "yuv422",
-                                             colour_rgb),  # fmt: skip
+        "has encoding 'yuv422'; expected one of rgb8": (
+            _image(store, rgb[..., :2].copy(), "rgb8"),
+            "yuv422",
+            colour_rgb,
+        ),
         "expected 16UC1 \\(millimetres": (_image(store, rgb, "rgb8"), None, depth_metres),
         "expected one of rgb8": (_image(store, mm, "16UC1"), None, colour_rgb),
         "expected one of mono8": (_image(store, metres, "32FC1"), None, mask_image),
@@ -327,15 +379,20 @@ def test_transform_buffer_composes_and_interpolates():
     add("base", "cam", 0, mount, True)
     mid = tf.lookup("odom", "base", 250_000_000)
     np.testing.assert_allclose(mid[:3, 3], [0.5, 0, 0], atol=1e-12)
-    np.testing.assert_allclose(Rotation.from_matrix(mid[:3, :3]).as_euler("xyz"), [0, 0, 0.25],
-                               atol=1e-12)  # fmt: skip
+    np.testing.assert_allclose(
+        Rotation.from_matrix(mid[:3, :3]).as_euler("xyz"), [0, 0, 0.25], atol=1e-12
+    )
     np.testing.assert_allclose(tf.lookup("odom", "cam", 10**9), c @ mount, atol=1e-12)
-    np.testing.assert_allclose(tf.lookup("cam", "odom", 10**9), np.linalg.inv(c @ mount),
-                               atol=1e-12)  # fmt: skip
+    np.testing.assert_allclose(
+        tf.lookup("cam", "odom", 10**9), np.linalg.inv(c @ mount), atol=1e-12
+    )
     with pytest.raises(MomaError, match=r"no /tf transform 'odom' -> 'base' at t=2\.000 s"):
         tf.lookup("odom", "cam", 2 * 10**9)
-    with pytest.raises(MomaError, match=r"no TF path from the camera frame 'cam' to 'map'.*"
-                                        r"\['base', 'cam', 'odom'\]"):  # fmt: skip
+    with pytest.raises(
+        MomaError,
+        match=r"no TF path from the camera frame 'cam' to 'map'.*"
+        r"\['base', 'cam', 'odom'\]",
+    ):
         tf.lookup("map", "cam", 0)
 
 
@@ -349,8 +406,17 @@ def _bad(capsys, argv, out) -> str:
 
 
 def test_bad_bags_are_one_line_errors_with_nothing_written(frames, tmp_path, capsys):
-    small = [Frame(f.depth[::4, ::4], f.rgb[::4, ::4], f.target[::4, ::4], f.obstacle[::4, ::4],
-                   np.asarray(f.intrinsics) / 4, f.camera_to_base) for f in frames]  # fmt: skip
+    small = [
+        Frame(
+            f.depth[::4, ::4],
+            f.rgb[::4, ::4],
+            f.target[::4, ::4],
+            f.obstacle[::4, ::4],
+            np.asarray(f.intrinsics) / 4,
+            f.camera_to_base,
+        )
+        for f in frames
+    ]
     out = tmp_path / "out"
     args = ["--every", 1, *TOPICS]
     good = write_bag(tmp_path / "good", small, storage="mcap")
@@ -375,8 +441,22 @@ def test_bad_bags_are_one_line_errors_with_nothing_written(frames, tmp_path, cap
     assert f"no target mask message on {MASK!r} within 0.05 s of the depth frame 0" in err
     assert "nearest is 0.200 s away" in err
     late_ok = tmp_path / "late_ok"
-    assert _cli("--bag", late, *args, "--max-dt", 0.25, "--robot", "panda", "--mc-samples", 0,
-                "--out", late_ok) == 0  # fmt: skip
+    assert (
+        _cli(
+            "--bag",
+            late,
+            *args,
+            "--max-dt",
+            0.25,
+            "--robot",
+            "panda",
+            "--mc-samples",
+            0,
+            "--out",
+            late_ok,
+        )
+        == 0
+    )
     # truncated bags, both storages
     for storage in ("sqlite3", "mcap"):
         bag = write_bag(tmp_path / f"cut_{storage}", small, storage=storage)

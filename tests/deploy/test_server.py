@@ -20,10 +20,10 @@ import pytest
 
 pytest.importorskip("aiohttp")
 
-import momakitchen  # noqa: E402
-from momakitchen.data.episode import SEMANTIC_CLASSES  # noqa: E402
-from momakitchen.data.shard import SceneShard  # noqa: E402
-from momakitchen.version import __version__  # noqa: E402
+import momakitchen
+from momakitchen.data.episode import SEMANTIC_CLASSES
+from momakitchen.data.shard import SceneShard
+from momakitchen.version import __version__
 
 ROOT = Path(__file__).resolve().parents[2]
 TARGET = SEMANTIC_CLASSES.index("target")
@@ -39,8 +39,10 @@ def episodes(real_view):
 @pytest.fixture(scope="module")
 def server():
     """``momakitchen serve`` in its own process on a free port of 127.0.0.1."""
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT / "src"),
-                                                         os.environ.get("PYTHONPATH", "")])}  # fmt: skip
+    env = {
+        **os.environ,
+        "PYTHONPATH": os.pathsep.join([str(ROOT / "src"), os.environ.get("PYTHONPATH", "")]),
+    }
     code = "import sys; from momakitchen.cli.main import main; sys.exit(main())"
     proc = subprocess.Popen(
         [sys.executable, "-c", code, "serve", "--host", "127.0.0.1", "--port", "0"],
@@ -206,9 +208,13 @@ def test_bad_requests_get_a_4xx_and_one_line(server, episodes):
         "depth PNG must be 16-bit": ({**files, "depth": _png(flat.astype(np.uint8))}, fields),
         "not a readable .npy array": ({**files, "depth": b"\x93NUMPY garbage"}, fields),
         "field 'intrinsics' must be 4 finite numbers, got 3": (
-            files, {**fields, "intrinsics": "1 2 3"}),  # fmt: skip
+            files,
+            {**fields, "intrinsics": "1 2 3"},
+        ),
         "field 'camera_to_base' must be 16 numbers": (
-            files, {**fields, "camera_to_base": "a b"}),  # fmt: skip
+            files,
+            {**fields, "camera_to_base": "a b"},
+        ),
         "not a rigid transform": (files, {**fields, "camera_to_base": " ".join(["2"] * 16)}),
         "unknown robot": (files, {**fields, "robot": "r2d2"}),
         "missing field 'robot'": (files, without(fields, "robot")),
@@ -217,7 +223,9 @@ def test_bad_requests_get_a_4xx_and_one_line(server, episodes):
         r"top_k must be in \[1, 50\], got 0": (files, {**fields, "top_k": "0"}),
         "field 'top_k' must be an integer, got 'x'": (files, {**fields, "top_k": "x"}),
         "does not match the depth image": (
-            {**files, "rgb": _png(ep.rgb[:100])}, fields),  # fmt: skip
+            {**files, "rgb": _png(ep.rgb[:100])},
+            fields,
+        ),
         "field 'robot' must be text": ({**files, "robot": b"panda"}, without(fields, "robot")),
     }
     for message, (f, d) in cases.items():
@@ -242,7 +250,9 @@ def test_the_documented_client(server, episodes):
     """The robot-side client of docs/ROBOT_IO.md, run as written."""
     pytest.importorskip("requests")
     doc = (ROOT / "docs" / "ROBOT_IO.md").read_text(encoding="utf-8")
-    (block,) = [b for b in re.findall(r"```python\n(.*?)```", doc, re.S) if "def request_base_pose" in b]
+    (block,) = [
+        b for b in re.findall(r"```python\n(.*?)```", doc, re.S) if "def request_base_pose" in b
+    ]
     namespace: dict = {}
     exec(compile(block, "ROBOT_IO.md", "exec"), namespace)
     ep = episodes[0]
@@ -255,7 +265,12 @@ def test_the_documented_client(server, episodes):
         ep.camera_to_base,
         robot=ep.robot,
     )
-    expected = momakitchen.predict(np.round(ep.depth * 1000) / 1000, ep.intrinsics,
-                                   ep.camera_to_base, ep.semantic == TARGET, ep.robot,
-                                   rgb=ep.rgb)  # fmt: skip
+    expected = momakitchen.predict(
+        np.round(ep.depth * 1000) / 1000,
+        ep.intrinsics,
+        ep.camera_to_base,
+        ep.semantic == TARGET,
+        ep.robot,
+        rgb=ep.rgb,
+    )
     assert poses == expected.to_dict(floor_points=False)["poses"]

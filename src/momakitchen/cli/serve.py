@@ -50,8 +50,10 @@ def run(args: argparse.Namespace) -> int:
         existing_dir(args.checkpoint, "checkpoint directory")
 
     def ready(host: str, port: int) -> None:
-        print(f"serving on http://{host}:{port} (POST /predict, GET /health; Ctrl-C stops)",
-              flush=True)  # fmt: skip
+        print(
+            f"serving on http://{host}:{port} (POST /predict, GET /health; Ctrl-C stops)",
+            flush=True,
+        )
 
     defaults = {} if args.mc_samples is None else {"mc_samples": args.mc_samples}
     try:

@@ -161,8 +161,8 @@ def image_array(msg: Any, topic: str) -> np.ndarray:
             f"{enc} pixels with step {msg.step}"
         )
     rows = np.lib.stride_tricks.as_strided(data, (h, row), (msg.step, 1))
-    order = ">" if msg.is_bigendian else "<"
-    pixels = np.ascontiguousarray(rows).view(np.dtype(dtype).newbyteorder(order))
+    stored = np.dtype(dtype).newbyteorder(">" if msg.is_bigendian else "<")
+    pixels = np.ascontiguousarray(rows).view(stored)
     pixels = pixels.reshape(h, w, channels).astype(dtype)
     return pixels[..., 0] if channels == 1 else pixels
 
@@ -185,7 +185,7 @@ def _compressed_array(msg: Any, topic: str) -> np.ndarray:
             if img.format not in ("JPEG", "PNG"):
                 raise MomaError(f"topic {topic!r}: compressed image is {img.format}, not JPEG/PNG")
             if img.mode in ("RGBA", "P", "LA", "CMYK", "YCbCr"):
-                img = img.convert("RGB")
+                return np.array(img.convert("RGB"))
             return np.array(img)
     except (UnidentifiedImageError, OSError, SyntaxError) as exc:
         raise MomaError(
@@ -246,7 +246,9 @@ def mask_image(msg: Any, msgtype: str, topic: str) -> np.ndarray:
 
 
 # ---------------------------------------------------------------------------- TF
-def transform_matrix(translation: Sequence[float], quaternion_xyzw: Sequence[float]) -> np.ndarray:
+def transform_matrix(
+    translation: Sequence[float] | np.ndarray, quaternion_xyzw: Sequence[float] | np.ndarray
+) -> np.ndarray:
     """(4, 4) from a translation and an ``x, y, z, w`` quaternion (normalised here)."""
     from scipy.spatial.transform import Rotation
 
@@ -348,7 +350,11 @@ class TransformBuffer:
             raise MomaError(
                 f"no TF path from the camera frame {source!r} to {target!r}; the bag's TF "
                 f"frames are {known or 'none'}"
-                + (f" (connected to {source!r}: {sorted(seen - {source})})" if len(seen) > 1 else "")
+                + (
+                    f" (connected to {source!r}: {sorted(seen - {source})})"
+                    if len(seen) > 1
+                    else ""
+                )
             )
         # Walk back from the target: T_target_source = T_target_a @ T_a_b @ ... @ T_z_source.
         m, frame = np.eye(4), target
@@ -396,7 +402,9 @@ def check_bag_path(path: str | Path) -> Path:
     if not p.exists():
         raise MomaError(f"bag {str(p)!r} does not exist")
     if p.is_file() and p.suffix.lower() == ".db3":
-        raise MomaError(f"bag {str(p)!r}: give the bag directory (with metadata.yaml), not the .db3")
+        raise MomaError(
+            f"bag {str(p)!r}: give the bag directory (with metadata.yaml), not the .db3"
+        )
     if p.is_file() and p.suffix.lower() != ".mcap":
         raise MomaError(f"bag {str(p)!r} is neither a ROS 2 bag directory nor a .mcap file")
     return p
@@ -454,8 +462,7 @@ def _read(
         types = expected.get(role, (IMAGE, COMPRESSED))
         if available[topic] not in types:
             raise MomaError(
-                f"{role} topic {topic!r} has type {available[topic]}, expected "
-                f"{' or '.join(types)}"
+                f"{role} topic {topic!r} has type {available[topic]}, expected {' or '.join(types)}"
             )
     tf_topics = [t for t in TF_TOPICS if t in available]
     for t in tf_topics:
@@ -557,10 +564,12 @@ def _read(
                 f"camera info on {topics.camera_info!r} is for {info.width}x{info.height} "
                 f"images but the depth image is {w}x{h}"
             )
-        k = np.asarray(info.k, np.float64)
-        intrinsics = (float(k[0]), float(k[4]), float(k[2]), float(k[5]))
-        if not (k[0] > 0 and k[4] > 0):
-            raise MomaError(f"camera info on {topics.camera_info!r} has no focal length (K={k})")
+        kmat = np.asarray(info.k, np.float64)
+        intrinsics = (float(kmat[0]), float(kmat[4]), float(kmat[2]), float(kmat[5]))
+        if not (kmat[0] > 0 and kmat[4] > 0):
+            raise MomaError(
+                f"camera info on {topics.camera_info!r} has no focal length (K={kmat.tolist()})"
+            )
         camera = (msg.header.frame_id or info.header.frame_id).lstrip("/")
         if not camera:
             raise MomaError(f"depth topic {topics.depth!r}: the image has no header.frame_id")
@@ -621,12 +630,14 @@ def predict_bag(
     )
     out = []
     for f in frames:
+        target = f.target_mask if f.target_mask is not None else mask
+        assert target is not None  # one of the two, checked above
         try:
             pred = predict(
                 f.depth,
                 f.intrinsics,
                 f.camera_to_base,
-                f.target_mask if f.target_mask is not None else mask,
+                target,
                 robot,
                 rgb=f.rgb,
                 obstacle_masks=f.obstacle_masks,

@@ -131,9 +131,7 @@ class _Messages:
             uv_coordinates=[],
             text=text,
             mesh_resource="",
-            mesh_file=t["visualization_msgs/msg/MeshFile"](
-                filename="", data=np.zeros(0, np.uint8)
-            ),
+            mesh_file=t["visualization_msgs/msg/MeshFile"](filename="", data=np.zeros(0, np.uint8)),
             mesh_use_embedded_materials=False,
         )
 
@@ -147,24 +145,43 @@ class _Messages:
             t["sensor_msgs/msg/PointField"](name=name, offset=4 * i, datatype=7, count=1)
             for i, name in enumerate(CLOUD_FIELDS)
         ]
-        markers = [self.marker(header, "", 0, ARROW, self.pose(0, 0, 0), (0, 0, 0), (0,) * 4,
-                               action=DELETEALL)]  # fmt: skip
+        markers = [
+            self.marker(
+                header, "", 0, ARROW, self.pose(0, 0, 0), (0, 0, 0), (0,) * 4, action=DELETEALL
+            )
+        ]
         k = len(poses)
         for rank, (pose, score) in enumerate(zip(poses, p.pose_scores, strict=True)):
             # Best in green, fading to yellow; each arrow 0.3 m long.
             shade = rank / max(k - 1, 1)
             markers.append(
-                self.marker(header, "poses", rank, ARROW, pose, (0.3, 0.05, 0.05),
-                            (shade, 1.0, 0.0, 1.0))  # fmt: skip
+                self.marker(
+                    header, "poses", rank, ARROW, pose, (0.3, 0.05, 0.05), (shade, 1.0, 0.0, 1.0)
+                )
             )
             x, y, _ = p.poses[rank]
             markers.append(
-                self.marker(header, "scores", rank, TEXT, self.pose(x, y, 0.25), (0, 0, 0.08),
-                            (1.0, 1.0, 1.0, 1.0), text=f"{rank + 1}: {float(score):.2f}")  # fmt: skip
+                self.marker(
+                    header,
+                    "scores",
+                    rank,
+                    TEXT,
+                    self.pose(x, y, 0.25),
+                    (0, 0, 0.08),
+                    (1.0, 1.0, 1.0, 1.0),
+                    text=f"{rank + 1}: {float(score):.2f}",
+                )
             )
         markers.append(
-            self.marker(header, "target", 0, SPHERE, self.pose(*p.target_xyz), (0.1, 0.1, 0.1),
-                        (1.0, 0.0, 0.0, 1.0))  # fmt: skip
+            self.marker(
+                header,
+                "target",
+                0,
+                SPHERE,
+                self.pose(*p.target_xyz),
+                (0.1, 0.1, 0.1),
+                (1.0, 0.0, 0.0, 1.0),
+            )
         )
         return {
             POSE_STAMPED: t[POSE_STAMPED](header=header, pose=poses[0]),

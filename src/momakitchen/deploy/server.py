@@ -125,7 +125,9 @@ def predict_arguments(
     kwargs: dict[str, Any] = {
         "depth": load_depth(depth),
         "intrinsics": _numbers(text["intrinsics"], "intrinsics", 4),
-        "camera_to_base": np.reshape(_numbers(text["camera_to_base"], "camera_to_base", 16), (4, 4)),
+        "camera_to_base": np.reshape(
+            _numbers(text["camera_to_base"], "camera_to_base", 16), (4, 4)
+        ),
         "target_mask": decode_array(files["target_mask"][0], "target_mask")[0],
         "obstacle_masks": [
             decode_array(b, f"obstacle_mask {i}")[0]
@@ -183,7 +185,9 @@ class ModelServer:
             "version": __version__,
         }
 
-    def predict(self, files: Mapping[str, list[bytes]], text: Mapping[str, str]) -> tuple[dict, float]:
+    def predict(
+        self, files: Mapping[str, list[bytes]], text: Mapping[str, str]
+    ) -> tuple[dict, float]:
         """The prediction.json document of one request and the model's seconds."""
         from momakitchen.deploy.predict import predict
 
