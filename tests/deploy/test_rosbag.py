@@ -262,6 +262,24 @@ def test_mcap_bag_32fc1_compressed_images_at_a_time(frames, run, tmp_path):
         _check_output_bag(out / "ros", [expected], FRAME_NS[1:], "base_link")
 
 
+def test_the_python_api(frames, run, tmp_path):
+    from momakitchen.deploy.rosbag import BagFrames, BagTopics, predict_bag
+
+    bag = write_bag(tmp_path / "rec", frames, storage="mcap")
+    topics = BagTopics(DEPTH, INFO, rgb=RGB, target_mask=MASK, obstacle_masks=(OBSTACLES,))
+    with BagFrames(bag, topics, every=2) as selected:
+        assert len(selected) == 1  # frames 0, 2, ... of two
+        (frame,) = list(selected)
+    assert frame.index == 0 and frame.stamp_ns == FRAME_NS[0] and frame.rgb.dtype == np.uint8
+    np.testing.assert_array_equal(frame.target_mask, frames[0].target)
+    np.testing.assert_array_equal(frame.depth, decoded_depth(frames[0].depth, "16UC1"))
+    ((bag_frame, pred),) = predict_bag(
+        bag, topics, frames[0].extra["robot"], time=0.0, checkpoint=run, mc_samples=0
+    )
+    assert bag_frame.index == 0
+    _same_poses(pred.poses, _expected(frames[0], "16UC1", run))
+
+
 def test_target_mask_file_and_no_colour(frames, run, tmp_path):
     bag = write_bag(tmp_path / "rec", frames[:1], storage="mcap")
     mask = tmp_path / "mask.png"
@@ -466,4 +484,10 @@ def test_bad_bags_are_one_line_errors_with_nothing_written(frames, tmp_path, cap
         assert f"bag {str(bag)!r} is unreadable (truncated or damaged?)" in err, err
     err = _bad(capsys, ["--bag", tmp_path / "none", *args], out)
     assert "does not exist" in err
+    # the second frame's mask is empty: found only when its turn comes, after the first
+    # frame's outputs were written (into a hidden directory, removed again)
+    blind = [small[0], Frame(**{**vars(small[1]), "target": np.zeros_like(small[1].target)})]
+    err = _bad(capsys, ["--bag", write_bag(tmp_path / "blind", blind), *args], out)
+    assert "depth frame 1 at t=1700000002.000 s: the target mask is empty" in err
+    assert not [p.name for p in tmp_path.iterdir() if p.name.startswith(".")]
     shutil.rmtree(late_ok)

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import argparse
 import json
+import shutil
+import tempfile
 import time
 from pathlib import Path
 from typing import Any
@@ -74,11 +76,38 @@ def add_bag_arguments(p: argparse.ArgumentParser) -> None:
     )
 
 
+def _stage_dir(out: Path) -> Path:
+    """A hidden directory beside ``out`` (in its nearest existing ancestor, which
+    ``planned_output_dir`` found writable) to write the outputs into until they are all
+    there."""
+    ancestor = out.parent
+    while not ancestor.exists():
+        ancestor = ancestor.parent
+    return Path(tempfile.mkdtemp(prefix=f".{out.name}.partial-", dir=ancestor))
+
+
+def _move_into(stage: Path, out: Path) -> None:
+    """Move every entry of ``stage`` into ``out``, replacing what has the same name."""
+    for entry in sorted(stage.iterdir()):
+        target = out / entry.name
+        if target.is_dir() and not target.is_symlink():
+            shutil.rmtree(target)
+        elif target.exists() or target.is_symlink():
+            target.unlink()
+        shutil.move(str(entry), str(target))
+
+
 def run_bag(args: argparse.Namespace, robot: Any, out: Path, options: dict[str, Any]) -> int:
-    """Predict on the bag's selected frames and write their outputs into ``out``."""
+    """Predict on the bag's selected frames and write their outputs into ``out``.
+
+    Every frame is checked before the model runs; the frames are then read, predicted and
+    written one at a time into a hidden directory beside ``out``, whose contents move into
+    ``out`` when all are there (a failure leaves nothing behind).
+    """
     from momakitchen.deploy.predict import write_outputs
-    from momakitchen.deploy.rosbag import BagTopics, check_bag_path, predict_bag, typestore
-    from momakitchen.deploy.rosout import StampedPrediction, write_prediction_bag
+    from momakitchen.deploy.rosbag import BagFrames, BagTopics, check_bag_path, predict_frames
+    from momakitchen.deploy.rosbag import typestore as require_robot_extra
+    from momakitchen.deploy.rosout import PredictionBagWriter, StampedPrediction
     from momakitchen.errors import MomaError
     from momakitchen.fileio import atomic_write_text
 
@@ -93,7 +122,7 @@ def run_bag(args: argparse.Namespace, robot: Any, out: Path, options: dict[str, 
     if (args.target_mask is None) == (args.target_mask_topic is None):
         raise MomaError("--bag needs either --target-mask FILE or --target-mask-topic")
     check_bag_path(args.bag)
-    typestore()  # the robot extra is installed
+    require_robot_extra()
     topics = BagTopics(
         depth=args.depth_topic,
         camera_info=args.camera_info_topic,
@@ -104,40 +133,41 @@ def run_bag(args: argparse.Namespace, robot: Any, out: Path, options: dict[str, 
         max_dt=DEFAULT_MAX_DT if args.max_dt is None else args.max_dt,
     )
     t0 = time.perf_counter()
-    results = predict_bag(
-        args.bag,
-        topics,
-        robot,
-        time=args.time,
-        every=args.every,
-        target_mask=args.target_mask,
-        **options,
-    )
+    with BagFrames(args.bag, topics, time=args.time, every=args.every) as frames:
+        print(f"{len(frames)} frame(s) of {args.bag} checked", flush=True)
+        preds = predict_frames(frames, robot, target_mask=args.target_mask, **options)
+        stage = _stage_dir(out)
+        try:
+            summary = []
+            with PredictionBagWriter(stage / "ros") as bag_out:
+                for frame, pred in preds:
+                    # One frame (--time): the files at the top, as for a frame from files.
+                    name = "." if args.time is not None else f"frame_{frame.index:06d}"
+                    write_outputs(
+                        pred,
+                        stage / name,
+                        frame.rgb,
+                        frame.depth,
+                        frame.intrinsics,
+                        frame.camera_to_base,
+                    )
+                    bag_out.write(StampedPrediction(frame.stamp_ns, frame.base_frame, pred))
+                    poses = pred.to_dict(floor_points=False)["poses"]
+                    summary.append({**frame.summary(), "outputs": name, "poses": poses})
+                    best = poses[0]
+                    print(
+                        f"frame {frame.index} t={frame.stamp:.3f} s: best pose "
+                        f"x={best['x']:.3f} y={best['y']:.3f} yaw={best['yaw']:.3f} "
+                        f"(affordance {best['affordance']:.2f})",
+                        flush=True,
+                    )
+            summary.sort(key=lambda item: item["index"])
+            doc = {"bag": str(Path(args.bag)), "topics": vars(topics), "frames": summary}
+            atomic_write_text(stage / "frames.json", json.dumps(doc, indent=1) + "\n")
+            output_dir(out)  # created only now: a failed run leaves no directory behind
+            _move_into(stage, out)
+        finally:
+            shutil.rmtree(stage, ignore_errors=True)
     seconds = time.perf_counter() - t0
-    output_dir(out)  # created only now: a failed run leaves no directory behind
-    single = len(results) == 1
-    summary = []
-    for frame, pred in results:
-        where = out if single else out / f"frame_{frame.index:06d}"
-        write_outputs(pred, where, frame.rgb, frame.depth, frame.intrinsics, frame.camera_to_base)
-        summary.append(
-            {
-                **frame.summary(),
-                "outputs": str(where.relative_to(out)),
-                "poses": pred.to_dict(floor_points=False)["poses"],
-            }
-        )
-    bag_dir = write_prediction_bag(
-        out / "ros",
-        [StampedPrediction(f.stamp_ns, f.base_frame, p) for f, p in results],
-    )
-    doc = {"bag": str(Path(args.bag)), "frames": summary}
-    atomic_write_text(out / "frames.json", json.dumps(doc, indent=1) + "\n")
-    for item in summary:
-        best = item["poses"][0]
-        print(
-            f"frame {item['index']} t={item['stamp']:.3f} s: best pose x={best['x']:.3f} "
-            f"y={best['y']:.3f} yaw={best['yaw']:.3f} (affordance {best['affordance']:.2f})"
-        )
-    print(f"{len(results)} frame(s) in {seconds:.2f} s -> {out}/frames.json, {bag_dir}/")
+    print(f"{len(summary)} frame(s) in {seconds:.2f} s -> {out / 'frames.json'}, {out / 'ros'}/")
     return 0

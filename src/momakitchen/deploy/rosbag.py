@@ -21,14 +21,17 @@ from __future__ import annotations
 import io
 import struct
 from collections import defaultdict, deque
-from collections.abc import Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from momakitchen.errors import MomaError
+
+if TYPE_CHECKING:
+    from momakitchen.models.inference import Prediction
 
 TF_TOPICS = ("/tf_static", "/tf")
 IMAGE = "sensor_msgs/msg/Image"
@@ -275,6 +278,7 @@ class TransformBuffer:
         self._dynamic: dict[tuple[str, str], list[tuple[int, np.ndarray, np.ndarray]]] = (
             defaultdict(list)
         )
+        self._stamps: dict[tuple[str, str], np.ndarray] = {}
         self._sorted = True
 
     def add(self, parent: str, child: str, stamp_ns: int, transform: Any, static: bool) -> None:
@@ -304,11 +308,11 @@ class TransformBuffer:
         from scipy.spatial.transform import Rotation, Slerp
 
         if not self._sorted:
-            for samples in self._dynamic.values():
+            for key, samples in self._dynamic.items():
                 samples.sort(key=lambda s: s[0])
+                self._stamps[key] = np.array([s[0] for s in samples], np.int64)
             self._sorted = True
-        samples = self._dynamic[edge]
-        stamps = np.array([s[0] for s in samples], np.int64)
+        samples, stamps = self._dynamic[edge], self._stamps[edge]
         tol = int(TF_EDGE_TOLERANCE * 1e9)
         if stamp_ns < stamps[0] - tol or stamp_ns > stamps[-1] + tol:
             raise MomaError(
@@ -368,16 +372,6 @@ class TransformBuffer:
 
 
 # ---------------------------------------------------------------------------- the bag
-def _header_stamp_ns(raw: bytes | memoryview, topic: str) -> int:
-    """``header.stamp`` from a serialised (CDR) stamped message without decoding the rest:
-    every stamped message starts with it, after the 4-byte encapsulation header."""
-    raw = bytes(raw[:12])
-    if len(raw) < 12 or raw[1] not in (0, 1):
-        raise MomaError(f"topic {topic!r}: a message is not CDR-encoded ROS 2 data")
-    sec, nanosec = struct.unpack("<iI" if raw[1] == 1 else ">iI", raw[4:12])
-    return sec * 1_000_000_000 + nanosec
-
-
 class _Stream:
     """A topic's messages: bag times, header stamps and (for the selected ones) payloads."""
 
@@ -385,10 +379,19 @@ class _Stream:
         self.topic, self.msgtype = topic, msgtype
         self.log_ns: list[int] = []
         self.stamp_ns: list[int] = []
+        self._order: np.ndarray | None = None  # by stamp, made on the first nearest()
+        self._sorted = np.zeros(0, np.int64)
 
     def nearest(self, stamp_ns: int) -> int:
-        stamps = np.asarray(self.stamp_ns, np.int64)
-        return int(np.argmin(np.abs(stamps - stamp_ns)))
+        """Index of the message whose header stamp is nearest ``stamp_ns``."""
+        if self._order is None:
+            stamps = np.asarray(self.stamp_ns, np.int64)
+            self._order = np.argsort(stamps, kind="stable")
+            self._sorted = stamps[self._order]
+        i = int(np.searchsorted(self._sorted, stamp_ns))
+        near = [c for c in (i - 1, i) if 0 <= c < len(self._sorted)]
+        best = min(near, key=lambda c: abs(int(self._sorted[c]) - stamp_ns))
+        return int(self._order[best])
 
 
 def _open_error(path: Path, exc: Exception) -> MomaError:
@@ -410,15 +413,41 @@ def check_bag_path(path: str | Path) -> Path:
     return p
 
 
-def read_bag_frames(
-    path: str | Path,
-    topics: BagTopics,
-    *,
-    time: float | None = None,
-    every: int | None = None,
-) -> list[BagFrame]:
-    """The selected depth frames of the bag at ``path``, decoded, paired and with their
-    camera-to-base transforms.
+def _header(raw: bytes | memoryview, topic: str) -> tuple[int, str]:
+    """``header.stamp`` (ns) and ``header.frame_id`` from a serialised (CDR) stamped
+    message without decoding the rest: every stamped message starts with its header, after
+    the 4-byte encapsulation header."""
+    head = bytes(raw[:16])
+    if len(head) < 16 or head[1] not in (0, 1):
+        raise MomaError(f"topic {topic!r}: a message is not CDR-encoded ROS 2 data")
+    order = "<" if head[1] == 1 else ">"
+    sec, nanosec, length = struct.unpack(order + "iII", head[4:16])
+    frame_id = bytes(raw[16 : 16 + max(length - 1, 0)]).decode("utf-8", errors="replace")
+    return sec * 1_000_000_000 + nanosec, frame_id
+
+
+@dataclass
+class _Planned:
+    """A selected depth frame, paired and placed before any image is decoded."""
+
+    index: int
+    stamp_ns: int
+    camera: str
+    intrinsics: tuple[float, float, float, float]
+    camera_to_base: np.ndarray
+    pairs: dict[str, int]  # role -> message index on its topic
+
+
+class BagFrames:
+    """The selected depth frames of a bag, checked on opening and decoded one by one.
+
+    Opening reads the bag once without decoding images: it checks the topics and their
+    types, the first message of every image topic (its encoding), the pairing of every
+    selected frame within ``topics.max_dt``, the camera info and the TF path at every
+    selected frame's stamp, so any error is raised here, before the model runs.
+    Iterating reads the bag again and yields each frame as soon as its messages have been
+    seen, so memory stays bounded however many frames are selected. Use as a context
+    manager (or call :meth:`close`).
 
     Args:
         path: a bag directory (``.db3`` or ``.mcap`` storage) or a single ``.mcap`` file.
@@ -428,56 +457,106 @@ def read_bag_frames(
         every: every ``every``-th depth frame, from the first. Exactly one of ``time`` and
             ``every`` is given.
     """
-    if (time is None) == (every is None):
-        raise MomaError("choose the frames with either a time or every N frames")
-    if every is not None and every < 1:
-        raise MomaError(f"every must be >= 1, got {every}")
-    if time is not None and not (np.isfinite(time) and time >= 0):
-        raise MomaError(f"time must be a number of seconds >= 0, got {time}")
-    bag = check_bag_path(path)
-    store = typestore()
-    from rosbags.rosbag2 import Reader
 
-    try:
-        reader = Reader(bag)
-        reader.open()
-    except Exception as exc:  # the library raises its own, sqlite's and yaml's errors
-        raise _open_error(bag, exc) from None
-    try:
-        return _read(reader, bag, store, topics, time, every)
-    finally:
-        reader.close()
+    def __init__(
+        self,
+        path: str | Path,
+        topics: BagTopics,
+        *,
+        time: float | None = None,
+        every: int | None = None,
+    ) -> None:
+        if (time is None) == (every is None):
+            raise MomaError("choose the frames with either a time or every N frames")
+        if every is not None and every < 1:
+            raise MomaError(f"every must be >= 1, got {every}")
+        if time is not None and not (np.isfinite(time) and time >= 0):
+            raise MomaError(f"time must be a number of seconds >= 0, got {time}")
+        self.path = check_bag_path(path)
+        self.topics = topics
+        self.store = typestore()
+        from rosbags.rosbag2 import Reader
 
+        try:
+            self.reader = Reader(self.path)
+            self.reader.open()
+        except Exception as exc:  # the library raises its own, sqlite's and yaml's errors
+            raise _open_error(self.path, exc) from None
+        try:
+            self.planned = self._plan(time, every)
+        except BaseException:
+            self.close()
+            raise
 
-def _read(
-    reader: Any, bag: Path, store: Any, topics: BagTopics, time: float | None, every: int | None
-) -> list[BagFrame]:
-    available = {c.topic: c.msgtype for c in reader.connections}
-    wanted = {"depth": topics.depth, "camera info": topics.camera_info, **topics.image_topics()}
-    listing = ", ".join(f"{t} ({m})" for t, m in sorted(available.items())) or "none"
-    expected = {"camera info": (CAMERA_INFO,)}
-    for role, topic in wanted.items():
-        if topic not in available:
-            raise MomaError(f"{role} topic {topic!r} is not in the bag; its topics: {listing}")
-        types = expected.get(role, (IMAGE, COMPRESSED))
-        if available[topic] not in types:
-            raise MomaError(
-                f"{role} topic {topic!r} has type {available[topic]}, expected {' or '.join(types)}"
-            )
-    tf_topics = [t for t in TF_TOPICS if t in available]
-    for t in tf_topics:
-        if available[t] != TF_MESSAGE:
-            raise MomaError(f"topic {t!r} has type {available[t]}, expected {TF_MESSAGE}")
+    def __len__(self) -> int:
+        return len(self.planned)
 
-    # Pass 1: stamps of the image streams (headers only), camera info and TF in full.
-    streams = {topic: _Stream(topic, available[topic]) for topic in set(wanted.values())}
-    infos: list[tuple[int, Any]] = []
-    tf = TransformBuffer()
-    conns = [c for c in reader.connections if c.topic in streams or c.topic in tf_topics]
-    try:
-        for conn, log_ns, raw in reader.messages(connections=conns):
+    def close(self) -> None:
+        if self.reader.is_open:
+            self.reader.close()
+
+    def __enter__(self) -> BagFrames:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def _messages(self, topics: set[str]) -> Iterator[tuple[Any, int, Any]]:
+        conns = [c for c in self.reader.connections if c.topic in topics]
+        it = iter(self.reader.messages(connections=conns))
+        while True:
+            try:
+                item = next(it)
+            except StopIteration:
+                return
+            except Exception as exc:
+                raise _open_error(self.path, exc) from None
+            yield item
+
+    def _decode(self, role: str, topic: str, msgtype: str, raw: Any) -> np.ndarray:
+        try:
+            msg = self.store.deserialize_cdr(raw, msgtype)
+        except Exception as exc:
+            raise _open_error(self.path, exc) from None
+        if role == "depth":
+            return depth_metres(msg, msgtype, topic)
+        if role == "rgb":
+            return colour_rgb(msg, msgtype, topic)
+        return mask_image(msg, msgtype, topic)
+
+    def _plan(self, time: float | None, every: int | None) -> list[_Planned]:
+        topics, store = self.topics, self.store
+        available = {c.topic: c.msgtype for c in self.reader.connections}
+        images = {"depth": topics.depth, **topics.image_topics()}
+        wanted = {**images, "camera info": topics.camera_info}
+        listing = ", ".join(f"{t} ({m})" for t, m in sorted(available.items())) or "none"
+        for role, topic in wanted.items():
+            if topic not in available:
+                raise MomaError(f"{role} topic {topic!r} is not in the bag; its topics: {listing}")
+            types = (CAMERA_INFO,) if role == "camera info" else (IMAGE, COMPRESSED)
+            if available[topic] not in types:
+                raise MomaError(
+                    f"{role} topic {topic!r} has type {available[topic]}, expected "
+                    f"{' or '.join(types)}"
+                )
+        tf_topics = [t for t in TF_TOPICS if t in available]
+        for t in tf_topics:
+            if available[t] != TF_MESSAGE:
+                raise MomaError(f"topic {t!r} has type {available[t]}, expected {TF_MESSAGE}")
+
+        # One pass: image headers only (and each image topic's first message, decoded to
+        # check its encoding), camera info and TF in full.
+        self.streams = streams = {t: _Stream(t, available[t]) for t in images.values()}
+        frame_ids: list[str] = []
+        first: dict[str, Any] = {}
+        infos: list[tuple[int, Any]] = []
+        tf = TransformBuffer()
+        for conn, log_ns, raw in self._messages({*streams, topics.camera_info, *tf_topics}):
             if conn.topic in tf_topics:
-                msg = store.deserialize_cdr(raw, TF_MESSAGE)
+                try:
+                    msg = store.deserialize_cdr(raw, TF_MESSAGE)
+                except Exception as exc:
+                    raise _open_error(self.path, exc) from None
                 for ts in msg.transforms:
                     tf.add(
                         ts.header.frame_id,
@@ -487,116 +566,200 @@ def _read(
                         static=conn.topic == "/tf_static",
                     )
             if conn.topic == topics.camera_info:
-                info = store.deserialize_cdr(raw, CAMERA_INFO)
+                try:
+                    info = store.deserialize_cdr(raw, CAMERA_INFO)
+                except Exception as exc:
+                    raise _open_error(self.path, exc) from None
                 infos.append((_stamp_ns(info.header.stamp), info))
-            if conn.topic in streams and conn.topic != topics.camera_info:
+            if conn.topic in streams:
                 stream = streams[conn.topic]
+                stamp, frame_id = _header(raw, conn.topic)
                 stream.log_ns.append(log_ns)
-                stream.stamp_ns.append(_header_stamp_ns(raw, conn.topic))
-    except MomaError:
-        raise
-    except Exception as exc:
-        raise _open_error(bag, exc) from None
+                stream.stamp_ns.append(stamp)
+                if conn.topic == topics.depth:
+                    frame_ids.append(frame_id)
+                first.setdefault(conn.topic, raw)
 
-    depth = streams[topics.depth]
-    if not depth.stamp_ns:
-        raise MomaError(f"depth topic {topics.depth!r} has no message in the bag")
-    if not infos:
-        raise MomaError(f"camera info topic {topics.camera_info!r} has no message in the bag")
-    for role, topic in topics.image_topics().items():
-        if not streams[topic].stamp_ns:
-            raise MomaError(f"{role} topic {topic!r} has no message in the bag")
-    if time is not None:
-        start = int(reader.start_time)
-        offsets = (np.asarray(depth.log_ns, np.int64) - start) * 1e-9
-        duration = (int(reader.end_time) - start) * 1e-9
-        if time > duration + 1.0:
-            raise MomaError(f"time {time:g} s is past the end of the bag ({duration:.3f} s long)")
-        selected = [int(np.argmin(np.abs(offsets - time)))]
-    else:
-        assert every is not None
-        selected = list(range(0, len(depth.stamp_ns), every))
-
-    # Pair every selected frame before decoding anything: a gap is an error up front.
-    pairs: dict[int, dict[str, int]] = {}
-    for index in selected:
-        stamp = depth.stamp_ns[index]
-        pairs[index] = {}
-        for role, topic in topics.image_topics().items():
-            j = streams[topic].nearest(stamp)
-            dt = (streams[topic].stamp_ns[j] - stamp) * 1e-9
-            if abs(dt) > topics.max_dt:
+        for role, topic in images.items():
+            if not streams[topic].stamp_ns:
+                raise MomaError(f"{role} topic {topic!r} has no message in the bag")
+        if not infos:
+            raise MomaError(f"camera info topic {topics.camera_info!r} has no message in the bag")
+        shapes = {
+            role: self._decode(role, topic, streams[topic].msgtype, first[topic]).shape[:2]
+            for role, topic in images.items()
+        }
+        depth = streams[topics.depth]
+        if time is not None:
+            start = int(self.reader.start_time)
+            offsets = (np.asarray(depth.log_ns, np.int64) - start) * 1e-9
+            duration = (int(self.reader.end_time) - start) * 1e-9
+            if time > duration + 1.0:
                 raise MomaError(
-                    f"no {role} message on {topic!r} within {topics.max_dt:g} s of the depth "
-                    f"frame {index} at t={stamp * 1e-9:.3f} s (the nearest is {abs(dt):.3f} s "
-                    "away); raise --max-dt or record the topics together"
+                    f"time {time:g} s is past the end of the bag ({duration:.3f} s long)"
                 )
-            pairs[index][role] = j
+            selected = [int(np.argmin(np.abs(offsets - time)))]
+        else:
+            assert every is not None
+            selected = list(range(0, len(depth.stamp_ns), every))
 
-    # Pass 2: decode the selected messages.
-    need: dict[str, set[int]] = defaultdict(set)
-    for index, roles in pairs.items():
-        need[topics.depth].add(index)
-        for role, j in roles.items():
-            need[wanted[role]].add(j)
-    raw_of: dict[tuple[str, int], Any] = {}
-    counters: dict[str, int] = defaultdict(int)
-    img_conns = [c for c in reader.connections if c.topic in need]
-    try:
-        for conn, _, raw in reader.messages(connections=img_conns):
-            k = counters[conn.topic]
+        h, w = shapes["depth"]
+        info_stamps = np.asarray([s for s, _ in infos], np.int64)
+        planned = []
+        for index in selected:
+            stamp = depth.stamp_ns[index]
+            pairs = {}
+            for role, topic in topics.image_topics().items():
+                j = streams[topic].nearest(stamp)
+                dt = (streams[topic].stamp_ns[j] - stamp) * 1e-9
+                if abs(dt) > topics.max_dt:
+                    raise MomaError(
+                        f"no {role} message on {topic!r} within {topics.max_dt:g} s of the "
+                        f"depth frame {index} at t={stamp * 1e-9:.3f} s (the nearest is "
+                        f"{abs(dt):.3f} s away); raise --max-dt or record the topics together"
+                    )
+                pairs[role] = j
+            info = infos[int(np.argmin(np.abs(info_stamps - stamp)))][1]
+            if (int(info.height), int(info.width)) not in ((h, w), (0, 0)):
+                raise MomaError(
+                    f"camera info on {topics.camera_info!r} is for {info.width}x{info.height} "
+                    f"images but the depth image is {w}x{h}"
+                )
+            k = np.asarray(info.k, np.float64)
+            if not (k.shape == (9,) and k[0] > 0 and k[4] > 0):
+                raise MomaError(
+                    f"camera info on {topics.camera_info!r} has no focal length (K={k.tolist()})"
+                )
+            camera = (frame_ids[index] or info.header.frame_id).lstrip("/")
+            if not camera:
+                raise MomaError(f"depth topic {topics.depth!r}: the image has no header.frame_id")
+            planned.append(
+                _Planned(
+                    index=index,
+                    stamp_ns=stamp,
+                    camera=camera,
+                    intrinsics=(float(k[0]), float(k[4]), float(k[2]), float(k[5])),
+                    camera_to_base=tf.lookup(topics.base_frame, camera, stamp),
+                    pairs=pairs,
+                )
+            )
+        return planned
+
+    def __iter__(self) -> Iterator[BagFrame]:
+        """The planned frames, each yielded once all its messages have been read."""
+        topics = self.topics
+        roles = {"depth": topics.depth, **topics.image_topics()}
+        users: dict[tuple[str, int], list[tuple[_Planned, str]]] = defaultdict(list)
+        for plan in self.planned:
+            users[(topics.depth, plan.index)].append((plan, "depth"))
+            for role, j in plan.pairs.items():
+                users[(roles[role], j)].append((plan, role))
+        parts: dict[int, dict[str, np.ndarray]] = defaultdict(dict)
+        counters: dict[str, int] = defaultdict(int)
+        for conn, _, raw in self._messages({key[0] for key in users}):
+            j = counters[conn.topic]
             counters[conn.topic] += 1
-            if k in need[conn.topic]:
-                raw_of[(conn.topic, k)] = store.deserialize_cdr(raw, conn.msgtype)
-    except Exception as exc:
-        raise _open_error(bag, exc) from None
+            decoded: dict[str, np.ndarray] = {}
+            for plan, role in users.pop((conn.topic, j), []):
+                kind = role if role in ("depth", "rgb") else "mask"
+                if kind not in decoded:
+                    decoded[kind] = self._decode(role, conn.topic, conn.msgtype, raw)
+                parts[plan.index][role] = decoded[kind]
+                if len(parts[plan.index]) == len(plan.pairs) + 1:
+                    yield self._frame(plan, parts.pop(plan.index))
 
-    frames = []
-    info_stamps = np.asarray([s for s, _ in infos], np.int64)
-    for index, roles in pairs.items():
-        msg = raw_of[(topics.depth, index)]
-        d = depth_metres(msg, depth.msgtype, topics.depth)
-        stamp = depth.stamp_ns[index]
-        info = infos[int(np.argmin(np.abs(info_stamps - stamp)))][1]
-        h, w = d.shape
-        if (int(info.height), int(info.width)) not in ((h, w), (0, 0)):
-            raise MomaError(
-                f"camera info on {topics.camera_info!r} is for {info.width}x{info.height} "
-                f"images but the depth image is {w}x{h}"
-            )
-        kmat = np.asarray(info.k, np.float64)
-        intrinsics = (float(kmat[0]), float(kmat[4]), float(kmat[2]), float(kmat[5]))
-        if not (kmat[0] > 0 and kmat[4] > 0):
-            raise MomaError(
-                f"camera info on {topics.camera_info!r} has no focal length (K={kmat.tolist()})"
-            )
-        camera = (msg.header.frame_id or info.header.frame_id).lstrip("/")
-        if not camera:
-            raise MomaError(f"depth topic {topics.depth!r}: the image has no header.frame_id")
-        frame = BagFrame(
-            index=index,
-            stamp_ns=stamp,
-            camera_frame=camera,
-            base_frame=topics.base_frame,
-            depth=d,
-            intrinsics=intrinsics,
-            camera_to_base=tf.lookup(topics.base_frame, camera, stamp),
+    def _frame(self, plan: _Planned, parts: dict[str, np.ndarray]) -> BagFrame:
+        depth = parts["depth"]
+        for role, array in parts.items():
+            if array.shape[:2] != depth.shape:
+                raise MomaError(
+                    f"depth frame {plan.index}: the {role} image is "
+                    f"{array.shape[1]}x{array.shape[0]}, the depth image "
+                    f"{depth.shape[1]}x{depth.shape[0]}"
+                )
+        return BagFrame(
+            index=plan.index,
+            stamp_ns=plan.stamp_ns,
+            camera_frame=plan.camera,
+            base_frame=self.topics.base_frame,
+            depth=depth,
+            intrinsics=plan.intrinsics,
+            camera_to_base=plan.camera_to_base,
+            rgb=parts.get("rgb"),
+            target_mask=parts.get("target mask"),
+            obstacle_masks=[
+                parts[f"obstacle mask {i}"] for i in range(len(self.topics.obstacle_masks))
+            ],
+            paired_ns={
+                role: self.streams[self.topics.image_topics()[role]].stamp_ns[j]
+                for role, j in plan.pairs.items()
+            },
         )
-        for role, j in roles.items():
-            topic = wanted[role]
-            m = raw_of[(topic, j)]
-            frame.paired_ns[role] = streams[topic].stamp_ns[j]
-            if role == "rgb":
-                frame.rgb = colour_rgb(m, streams[topic].msgtype, topic)
-            elif role == "target mask":
-                frame.target_mask = mask_image(m, streams[topic].msgtype, topic)
-            else:
-                frame.obstacle_masks.append(mask_image(m, streams[topic].msgtype, topic))
-        frames.append(frame)
-    return frames
+
+
+def read_bag_frames(
+    path: str | Path,
+    topics: BagTopics,
+    *,
+    time: float | None = None,
+    every: int | None = None,
+) -> list[BagFrame]:
+    """All the selected frames of a bag at once (see :class:`BagFrames`, which yields
+    them one by one)."""
+    with BagFrames(path, topics, time=time, every=every) as frames:
+        return list(frames)
 
 
 # ---------------------------------------------------------------------------- predict
+def predict_frames(
+    frames: Iterable[BagFrame],
+    robot: Any = "panda",
+    *,
+    target_mask: Any = None,
+    checkpoint: Any = None,
+    **predict_options: Any,
+) -> Iterator[tuple[BagFrame, Prediction]]:
+    """:func:`momakitchen.predict` on each frame, as the frames come.
+
+    ``target_mask`` (one (H, W) mask or mask file) serves every frame that has no mask
+    topic's; ``checkpoint`` and the mask are loaded here, once, before the first frame is
+    read; ``predict_options`` (``top_k``, ``mc_samples``, ...) go to
+    :func:`momakitchen.predict` unchanged.
+    """
+    from momakitchen.deploy.predict import load_mask, predict
+    from momakitchen.train.checkpoint import LoadedRun, default_checkpoint, load_checkpoint
+
+    mask = load_mask(target_mask, "target mask") if target_mask is not None else None
+    run = (
+        checkpoint
+        if isinstance(checkpoint, LoadedRun)
+        else load_checkpoint(Path(checkpoint) if checkpoint is not None else default_checkpoint())
+    )
+
+    def each() -> Iterator[tuple[BagFrame, Prediction]]:
+        for f in frames:
+            target = f.target_mask if f.target_mask is not None else mask
+            if target is None:
+                raise MomaError(f"depth frame {f.index} has no target mask")
+            try:
+                pred = predict(
+                    f.depth,
+                    f.intrinsics,
+                    f.camera_to_base,
+                    target,
+                    robot,
+                    rgb=f.rgb,
+                    obstacle_masks=f.obstacle_masks,
+                    checkpoint=run,
+                    **predict_options,
+                )
+            except MomaError as exc:
+                raise MomaError(f"depth frame {f.index} at t={f.stamp:.3f} s: {exc}") from None
+            yield f, pred
+
+    return each()
+
+
 def predict_bag(
     path: str | Path,
     topics: BagTopics,
@@ -607,44 +770,18 @@ def predict_bag(
     target_mask: Any = None,
     checkpoint: Any = None,
     **predict_options: Any,
-) -> list[tuple[BagFrame, Any]]:
-    """:func:`momakitchen.predict` on the selected depth frames of a bag.
+) -> list[tuple[BagFrame, Prediction]]:
+    """:func:`momakitchen.predict` on the selected depth frames of a bag: ``(frame,
+    prediction)`` pairs in the bag's order.
 
     The target mask comes from ``topics.target_mask`` (a segmenter's image topic, paired
     by time) or ``target_mask`` (one (H, W) mask or mask file for every frame), not both.
-    ``checkpoint`` is loaded once for all frames; ``predict_options`` (``top_k``,
-    ``mc_samples``, ...) go to :func:`momakitchen.predict` unchanged. Returns
-    ``(frame, prediction)`` pairs in the bag's order.
+    Other arguments as for :class:`BagFrames` and :func:`predict_frames`.
     """
-    from momakitchen.deploy.predict import load_mask, predict
-    from momakitchen.train.checkpoint import LoadedRun, default_checkpoint, load_checkpoint
-
     if (topics.target_mask is None) == (target_mask is None):
         raise MomaError("give the target mask either as a mask topic or as a mask, not both")
-    mask = load_mask(target_mask, "target mask") if target_mask is not None else None
-    frames = read_bag_frames(path, topics, time=time, every=every)
-    run = (
-        checkpoint
-        if isinstance(checkpoint, LoadedRun)
-        else load_checkpoint(Path(checkpoint) if checkpoint is not None else default_checkpoint())
-    )
-    out = []
-    for f in frames:
-        target = f.target_mask if f.target_mask is not None else mask
-        assert target is not None  # one of the two, checked above
-        try:
-            pred = predict(
-                f.depth,
-                f.intrinsics,
-                f.camera_to_base,
-                target,
-                robot,
-                rgb=f.rgb,
-                obstacle_masks=f.obstacle_masks,
-                checkpoint=run,
-                **predict_options,
-            )
-        except MomaError as exc:
-            raise MomaError(f"depth frame {f.index} at t={f.stamp:.3f} s: {exc}") from None
-        out.append((f, pred))
-    return out
+    with BagFrames(path, topics, time=time, every=every) as frames:
+        preds = predict_frames(
+            frames, robot, target_mask=target_mask, checkpoint=checkpoint, **predict_options
+        )
+        return sorted(preds, key=lambda fp: fp[0].index)

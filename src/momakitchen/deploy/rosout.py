@@ -202,6 +202,42 @@ class _Messages:
         }
 
 
+class PredictionBagWriter:
+    """Writes predictions, one frame at a time, into a new ROS 2 bag directory at ``path``
+    (MCAP storage; the directory must not exist). A context manager: the bag is complete
+    when it closes."""
+
+    def __init__(self, path: str | os.PathLike, prefix: str = "/momakitchen") -> None:
+        if not prefix.startswith("/") or prefix.endswith("/"):
+            raise MomaError(
+                f"topic prefix must start with '/' and not end with one, got {prefix!r}"
+            )
+        self.path, self.prefix = Path(path), prefix
+        self.store = typestore()
+        self.count = 0
+
+    def __enter__(self) -> PredictionBagWriter:
+        from rosbags.rosbag2 import StoragePlugin, Writer
+
+        self._build = _Messages(self.store)
+        self._writer = Writer(self.path, version=9, storage_plugin=StoragePlugin.MCAP)
+        self._writer.open()
+        self._conns = {
+            msgtype: self._writer.add_connection(topic, msgtype, typestore=self.store)
+            for topic, msgtype in topics(self.prefix).items()
+        }
+        return self
+
+    def write(self, sp: StampedPrediction) -> None:
+        for msgtype, msg in self._build.frame(sp).items():
+            data = self.store.serialize_cdr(msg, msgtype)
+            self._writer.write(self._conns[msgtype], sp.stamp_ns, data)
+        self.count += 1
+
+    def __exit__(self, *exc: object) -> None:
+        self._writer.close()
+
+
 def write_prediction_bag(
     path: str | os.PathLike,
     predictions: Sequence[StampedPrediction],
@@ -212,14 +248,8 @@ def write_prediction_bag(
     The bag is written beside ``path`` and renamed onto it when complete, so a failure
     leaves no partial bag; an existing bag at ``path`` is replaced.
     """
-    from rosbags.rosbag2 import StoragePlugin, Writer
-
     if not predictions:
         raise MomaError("no prediction to write")
-    if not prefix.startswith("/") or prefix.endswith("/"):
-        raise MomaError(f"topic prefix must start with '/' and not end with one, got {prefix!r}")
-    store = typestore()
-    build = _Messages(store)
     out = Path(path)
     tmp = out.with_name(f".{out.name}.{os.getpid()}.tmp")
     shutil.rmtree(tmp, ignore_errors=True)
@@ -227,14 +257,9 @@ def write_prediction_bag(
         # rosbags names the storage file after the directory: give it the final name.
         tmp.mkdir(parents=True)
         inner = tmp / out.name
-        with Writer(inner, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
-            conns = {
-                msgtype: writer.add_connection(topic, msgtype, typestore=store)
-                for topic, msgtype in topics(prefix).items()
-            }
+        with PredictionBagWriter(inner, prefix) as writer:
             for sp in sorted(predictions, key=lambda s: s.stamp_ns):
-                for msgtype, msg in build.frame(sp).items():
-                    writer.write(conns[msgtype], sp.stamp_ns, store.serialize_cdr(msg, msgtype))
+                writer.write(sp)
         if out.is_dir():
             shutil.rmtree(out)
         os.replace(inner, out)
