@@ -43,11 +43,13 @@ def _error(capsys) -> str:
         (["--bag", "NOTES", *BAG, "--every", "1"], "is neither a ROS 2 bag directory nor a .mcap"),
         (["--bag", "DB3", *BAG, "--every", "1"], "give the bag directory (with metadata.yaml)"),
         (["--bag", "MISSING", *BAG, "--every", "1"], "bag 'MISSING' does not exist"),
+        (["--bag", "EMPTY", *BAG, "--every", "1"], "bag directory 'EMPTY' has no metadata.yaml"),
     ],
 )
 def test_predict_bag_option_rules(argv, message, tmp_path, capsys, monkeypatch):
     monkeypatch.chdir(tmp_path)
     (tmp_path / "BAG").mkdir()
+    (tmp_path / "EMPTY").mkdir()
     (tmp_path / "NOTES").write_text("x")
     (tmp_path / "DB3.db3").write_text("x")
     argv = [{"DB3": "DB3.db3"}.get(a, a) for a in argv]

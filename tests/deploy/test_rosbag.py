@@ -446,6 +446,8 @@ def test_bad_bags_are_one_line_errors_with_nothing_written(frames, tmp_path, cap
     err = _bad(capsys, ["--bag", good, *args, "--base-frame", "map"], out)
     assert "no TF path from the camera frame 'camera_color_optical_frame' to 'map'" in err
     assert "'base_link', 'camera_color_optical_frame', 'camera_link', 'head_link', 'odom'" in err
+    err = _bad(capsys, ["--bag", good, *TOPICS, "--time", 99], out)
+    assert "time 99 s is past the end of the bag (" in err
     err = _bad(capsys, ["--bag", good, *args, "--depth-topic", RGB], out)
     assert f"depth topic {RGB!r} has encoding 'bgr8'; expected 16UC1" in err
     # the camera's mount missing from /tf_static: the tree splits in two

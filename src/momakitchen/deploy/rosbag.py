@@ -190,7 +190,7 @@ def _compressed_array(msg: Any, topic: str) -> np.ndarray:
             if img.mode in ("RGBA", "P", "LA", "CMYK", "YCbCr"):
                 return np.array(img.convert("RGB"))
             return np.array(img)
-    except (UnidentifiedImageError, OSError, SyntaxError) as exc:
+    except (UnidentifiedImageError, Image.DecompressionBombError, OSError, SyntaxError) as exc:
         raise MomaError(
             f"topic {topic!r}: cannot decode compressed image (format {fmt!r}): {exc}"
         ) from None
@@ -410,6 +410,11 @@ def check_bag_path(path: str | Path) -> Path:
         )
     if p.is_file() and p.suffix.lower() != ".mcap":
         raise MomaError(f"bag {str(p)!r} is neither a ROS 2 bag directory nor a .mcap file")
+    if p.is_dir() and not (p / "metadata.yaml").is_file():
+        raise MomaError(
+            f"bag directory {str(p)!r} has no metadata.yaml: not a ROS 2 bag (give a lone "
+            ".mcap file itself, or rebuild the metadata with `ros2 bag reindex`)"
+        )
     return p
 
 

@@ -80,7 +80,7 @@ def decode_array(data: bytes, name: str) -> tuple[np.ndarray, str]:
         try:
             with Image.open(io.BytesIO(data)) as img:
                 return np.array(img), "image"
-        except (UnidentifiedImageError, OSError, SyntaxError) as exc:
+        except (UnidentifiedImageError, Image.DecompressionBombError, OSError, SyntaxError) as exc:
             raise MomaError(f"field {name!r} is not a readable image ({exc})") from None
     raise MomaError(f"field {name!r} must be a PNG, JPEG or .npy file")
 
