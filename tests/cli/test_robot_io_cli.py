@@ -80,3 +80,24 @@ def test_serve_names_a_missing_checkpoint(tmp_path, capsys):
     pytest.importorskip("aiohttp")
     assert main(["serve", "--checkpoint", str(tmp_path / "nope")]) == 2
     assert "checkpoint directory" in _error(capsys)
+
+
+def test_the_documented_commands_parse():
+    """Every `momakitchen ...` command of docs/ROBOT_IO.md is accepted by the parser."""
+    import re
+    import shlex
+    from pathlib import Path
+
+    from momakitchen.cli.main import build_parser
+
+    doc = (Path(__file__).resolve().parents[2] / "docs" / "ROBOT_IO.md").read_text("utf-8")
+    commands = []
+    for block in re.findall(r"```bash\n(.*?)```", doc, re.S):
+        for line in block.replace("\\\n", " ").splitlines():
+            line = re.sub(r"\[[^\]]*\]", "", line.split("#")[0]).strip()
+            if line.startswith("momakitchen "):
+                commands.append(shlex.split(line)[1:])
+    assert {argv[0] for argv in commands} == {"predict", "serve"}
+    for argv in commands:
+        args = build_parser(argv[0]).parse_args(argv)
+        assert args.func is not None
