@@ -37,6 +37,7 @@ COMMANDS = {
     "audit": "audit",
     "benchmark": "benchmark",
     "predict": "predict",
+    "serve": "serve",
 }
 
 

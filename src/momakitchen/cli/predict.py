@@ -6,6 +6,12 @@ target mask from your own segmenter (PNG or .npy, non-zero = target), optional o
 masks and RGB, and the robot (a name, or --reach and --mount-height). Writes
 ``prediction.json`` (Top-k base poses x, y, yaw in the base frame, and every floor point
 with its affordance and uncertainty) and ``prediction.png``.
+
+Or, from a recorded ROS 2 bag: --bag PATH with --depth-topic and --camera-info-topic (the
+camera-to-base transform comes from the bag's TF tree), --time SEC or --every N, and the
+target mask as --target-mask FILE or --target-mask-topic; this also writes ``ros/``, a
+ROS 2 bag (MCAP) of the poses, the map and RViz markers, and ``frames.json`` (needs the
+robot extra: pip install -e '.[robot]').
 """
 
 from __future__ import annotations
@@ -22,6 +28,7 @@ from momakitchen.cli.common import (
     planned_output_dir,
     positive_int,
 )
+from momakitchen.cli.predict_bag import BAG_ONLY, add_bag_arguments, run_bag
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -30,19 +37,19 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="affordance map and base poses from a robot's RGB-D frame",
         description=__doc__,
     )
-    p.add_argument("--depth", required=True, help="depth: 16-bit PNG (mm) or .npy (m)")
+    p.add_argument("--depth", default=None, help="depth: 16-bit PNG (mm) or .npy (m)")
     p.add_argument(
         "--intrinsics",
-        required=True,
+        default=None,
         nargs=4,
         type=float,
         metavar=("FX", "FY", "CX", "CY"),
         help="pinhole intrinsics in pixels",
     )
     p.add_argument(
-        "--extrinsics", required=True, help="camera-to-base 4x4 transform (.npy or whitespace text)"
+        "--extrinsics", default=None, help="camera-to-base 4x4 transform (.npy or whitespace text)"
     )
-    p.add_argument("--target-mask", required=True, help="target mask (PNG or .npy)")
+    p.add_argument("--target-mask", default=None, help="target mask (PNG or .npy)")
     p.add_argument(
         "--obstacle-mask", action="append", default=[], help="obstacle mask (repeatable)"
     )
@@ -68,6 +75,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="MC-dropout passes for the uncertainty (0: none)",
     )
     p.add_argument("--out", required=True, help="output directory")
+    add_bag_arguments(p)
     p.set_defaults(func=run)
 
 
@@ -90,6 +98,21 @@ def run(args: argparse.Namespace) -> int:
         existing_dir(args.checkpoint, "checkpoint directory")
     robot = args.robot or {"reach": args.reach, "mount_height": args.mount_height}
     out = planned_output_dir(args.out)
+    # The model's options, the same for a frame from files and for a bag's frames.
+    options = dict(
+        checkpoint=args.checkpoint,
+        top_k=args.top_k,
+        mc_samples=args.mc_samples,
+        **({} if args.pick_radius is None else {"pick_radius": args.pick_radius}),
+    )
+    if args.bag is not None:
+        return run_bag(args, robot, out, options)
+    for flag, value in BAG_ONLY.items():
+        if getattr(args, value) not in (None, [], False):
+            raise MomaError(f"{flag} needs --bag")
+    for flag in ("depth", "intrinsics", "extrinsics", "target_mask"):
+        if getattr(args, flag) is None:
+            raise MomaError(f"--{flag.replace('_', '-')} is required (or read a frame with --bag)")
     depth = load_depth(args.depth)
     rgb = load_rgb(args.rgb) if args.rgb else None
     extrinsics = load_extrinsics(args.extrinsics)
@@ -102,10 +125,7 @@ def run(args: argparse.Namespace) -> int:
         robot,
         rgb=rgb,
         obstacle_masks=args.obstacle_mask,
-        checkpoint=args.checkpoint,
-        top_k=args.top_k,
-        mc_samples=args.mc_samples,
-        **({} if args.pick_radius is None else {"pick_radius": args.pick_radius}),
+        **options,
     )
     seconds = time.perf_counter() - t0
     output_dir(out)  # created only now: a failed prediction leaves no empty directory

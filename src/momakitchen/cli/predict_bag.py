@@ -1,0 +1,173 @@
+"""``momakitchen predict --bag``: the frames of a recorded ROS 2 bag.
+
+The options here join ``momakitchen predict``'s; the bag's frames are read, paired and
+checked (topics, encodings, TF) before the model runs, and the output directory is created
+only when every frame has a prediction.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+from momakitchen.cli.common import non_negative_float, output_dir, positive_float, positive_int
+
+# Bag-only option -> its attribute (checked to be unset without --bag).
+BAG_ONLY = {
+    "--depth-topic": "depth_topic",
+    "--camera-info-topic": "camera_info_topic",
+    "--rgb-topic": "rgb_topic",
+    "--target-mask-topic": "target_mask_topic",
+    "--obstacle-mask-topic": "obstacle_mask_topic",
+    "--base-frame": "base_frame",
+    "--time": "time",
+    "--every": "every",
+    "--max-dt": "max_dt",
+}
+# Options of the frame-from-files form that a bag replaces.
+FILE_ONLY = {
+    "--depth": "depth",
+    "--intrinsics": "intrinsics",
+    "--extrinsics": "extrinsics",
+    "--rgb": "rgb",
+    "--obstacle-mask": "obstacle_mask",
+}
+DEFAULT_MAX_DT = 0.05
+
+
+def add_bag_arguments(p: argparse.ArgumentParser) -> None:
+    g = p.add_argument_group(
+        "from a ROS 2 bag (pip install -e '.[robot]')",
+        "a bag directory (.db3 or .mcap storage) or a .mcap file; the camera-to-base "
+        "transform is composed from /tf_static and /tf at each depth frame's stamp",
+    )
+    g.add_argument("--bag", default=None, help="ROS 2 bag directory or .mcap file")
+    g.add_argument("--depth-topic", default=None, help="depth image topic (16UC1 mm or 32FC1 m)")
+    g.add_argument("--camera-info-topic", default=None, help="the depth image's CameraInfo topic")
+    g.add_argument("--rgb-topic", default=None, help="colour topic (Image or CompressedImage)")
+    g.add_argument("--target-mask-topic", default=None, help="target mask topic (mono8 image)")
+    g.add_argument(
+        "--obstacle-mask-topic", action="append", default=None, help="obstacle mask topic"
+    )
+    g.add_argument(
+        "--base-frame", default=None, help="the robot's base frame (default base_link; z=0 floor)"
+    )
+    g.add_argument(
+        "--time",
+        type=non_negative_float,
+        default=None,
+        metavar="SEC",
+        help="the depth frame nearest SEC seconds after the bag's start",
+    )
+    g.add_argument(
+        "--every", type=positive_int, default=None, metavar="N", help="every Nth depth frame"
+    )
+    g.add_argument(
+        "--max-dt",
+        type=positive_float,
+        default=None,
+        metavar="SEC",
+        help=f"pair colour and masks within SEC of the depth stamp (default {DEFAULT_MAX_DT})",
+    )
+
+
+def _stage_dir(out: Path) -> Path:
+    """A hidden directory beside ``out`` (in its nearest existing ancestor, which
+    ``planned_output_dir`` found writable) to write the outputs into until they are all
+    there."""
+    ancestor = out.parent
+    while not ancestor.exists():
+        ancestor = ancestor.parent
+    return Path(tempfile.mkdtemp(prefix=f".{out.name}.partial-", dir=ancestor))
+
+
+def _move_into(stage: Path, out: Path) -> None:
+    """Move every entry of ``stage`` into ``out``, replacing what has the same name."""
+    for entry in sorted(stage.iterdir()):
+        target = out / entry.name
+        if target.is_dir() and not target.is_symlink():
+            shutil.rmtree(target)
+        elif target.exists() or target.is_symlink():
+            target.unlink()
+        shutil.move(str(entry), str(target))
+
+
+def run_bag(args: argparse.Namespace, robot: Any, out: Path, options: dict[str, Any]) -> int:
+    """Predict on the bag's selected frames and write their outputs into ``out``.
+
+    Every frame is checked before the model runs; the frames are then read, predicted and
+    written one at a time into a hidden directory beside ``out``, whose contents move into
+    ``out`` when all are there (a failure leaves nothing behind).
+    """
+    from momakitchen.deploy.predict import write_outputs
+    from momakitchen.deploy.rosbag import BagFrames, BagTopics, check_bag_path, predict_frames
+    from momakitchen.deploy.rosbag import typestore as require_robot_extra
+    from momakitchen.deploy.rosout import PredictionBagWriter, StampedPrediction
+    from momakitchen.errors import MomaError
+    from momakitchen.fileio import atomic_write_text
+
+    for flag, value in FILE_ONLY.items():
+        if getattr(args, value) not in (None, []):
+            raise MomaError(f"{flag} cannot be used with --bag (the bag's topics give it)")
+    for flag in ("--depth-topic", "--camera-info-topic"):
+        if getattr(args, BAG_ONLY[flag]) is None:
+            raise MomaError(f"--bag needs {flag}")
+    if (args.time is None) == (args.every is None):
+        raise MomaError("--bag needs either --time SEC or --every N to choose its frames")
+    if (args.target_mask is None) == (args.target_mask_topic is None):
+        raise MomaError("--bag needs either --target-mask FILE or --target-mask-topic")
+    check_bag_path(args.bag)
+    require_robot_extra()
+    topics = BagTopics(
+        depth=args.depth_topic,
+        camera_info=args.camera_info_topic,
+        rgb=args.rgb_topic,
+        target_mask=args.target_mask_topic,
+        obstacle_masks=tuple(args.obstacle_mask_topic or ()),
+        base_frame=args.base_frame or "base_link",
+        max_dt=DEFAULT_MAX_DT if args.max_dt is None else args.max_dt,
+    )
+    t0 = time.perf_counter()
+    with BagFrames(args.bag, topics, time=args.time, every=args.every) as frames:
+        print(f"{len(frames)} frame(s) of {args.bag} checked", flush=True)
+        preds = predict_frames(frames, robot, target_mask=args.target_mask, **options)
+        stage = _stage_dir(out)
+        try:
+            summary = []
+            with PredictionBagWriter(stage / "ros") as bag_out:
+                for frame, pred in preds:
+                    # One frame (--time): the files at the top, as for a frame from files.
+                    name = "." if args.time is not None else f"frame_{frame.index:06d}"
+                    write_outputs(
+                        pred,
+                        stage / name,
+                        frame.rgb,
+                        frame.depth,
+                        frame.intrinsics,
+                        frame.camera_to_base,
+                    )
+                    bag_out.write(StampedPrediction(frame.stamp_ns, frame.base_frame, pred))
+                    poses = pred.to_dict(floor_points=False)["poses"]
+                    summary.append({**frame.summary(), "outputs": name, "poses": poses})
+                    best = poses[0]
+                    print(
+                        f"frame {frame.index} t={frame.stamp:.3f} s: best pose "
+                        f"x={best['x']:.3f} y={best['y']:.3f} yaw={best['yaw']:.3f} "
+                        f"(affordance {best['affordance']:.2f})",
+                        flush=True,
+                    )
+            summary.sort(key=lambda item: item["index"])
+            doc = {"bag": str(Path(args.bag)), "topics": vars(topics), "frames": summary}
+            atomic_write_text(stage / "frames.json", json.dumps(doc, indent=1) + "\n")
+            output_dir(out)  # created only now: a failed run leaves no directory behind
+            _move_into(stage, out)
+        finally:
+            shutil.rmtree(stage, ignore_errors=True)
+    seconds = time.perf_counter() - t0
+    print(f"{len(summary)} frame(s) in {seconds:.2f} s -> {out / 'frames.json'}, {out / 'ros'}/")
+    return 0

@@ -1,0 +1,276 @@
+"""momakitchen serve: the real server on a free localhost port, real HTTP requests (good,
+concurrent and bad), answers equal to momakitchen.predict on the same inputs."""
+
+from __future__ import annotations
+
+import io
+import json
+import os
+import re
+import subprocess
+import sys
+import threading
+import urllib.error
+import urllib.request
+import uuid
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("aiohttp")
+
+import momakitchen
+from momakitchen.data.episode import SEMANTIC_CLASSES
+from momakitchen.data.shard import SceneShard
+from momakitchen.version import __version__
+
+ROOT = Path(__file__).resolve().parents[2]
+TARGET = SEMANTIC_CLASSES.index("target")
+OBSTACLE = SEMANTIC_CLASSES.index("obstacle")
+
+
+@pytest.fixture(scope="module")
+def episodes(real_view):
+    with SceneShard(real_view / "scenes" / "scene_000003.h5") as shard:
+        return [shard.episode(0, i) for i in shard.episode_indices(0)]
+
+
+@pytest.fixture(scope="module")
+def server():
+    """``momakitchen serve`` in its own process on a free port of 127.0.0.1."""
+    env = {
+        **os.environ,
+        "PYTHONPATH": os.pathsep.join([str(ROOT / "src"), os.environ.get("PYTHONPATH", "")]),
+    }
+    code = "import sys; from momakitchen.cli.main import main; sys.exit(main())"
+    proc = subprocess.Popen(
+        [sys.executable, "-c", code, "serve", "--host", "127.0.0.1", "--port", "0"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=env,
+    )
+    line: list[str] = []
+    reader = threading.Thread(target=lambda: line.append(proc.stdout.readline()), daemon=True)
+    reader.start()
+    reader.join(60)
+    match = re.search(r"http://127\.0\.0\.1:(\d+)", line[0] if line else "")
+    if not match:
+        proc.kill()
+        pytest.fail(f"the server did not start: {line} {proc.stderr.read()}")
+    yield f"http://127.0.0.1:{match.group(1)}"
+    proc.terminate()
+    proc.wait(10)
+
+
+def _png(array: np.ndarray) -> bytes:
+    from PIL import Image
+
+    buf = io.BytesIO()
+    Image.fromarray(array).save(buf, format="PNG")
+    return buf.getvalue()
+
+
+def _npy(array: np.ndarray) -> bytes:
+    buf = io.BytesIO()
+    np.save(buf, array)
+    return buf.getvalue()
+
+
+def _post(url: str, files: dict, fields: dict, content_type: str | None = None):
+    """POST a multipart form (stdlib only); returns (status, JSON or text)."""
+    boundary = uuid.uuid4().hex
+    body = io.BytesIO()
+    parts = [(k, v, None) for k, v in fields.items()]
+    for name, value in files.items():
+        for i, data in enumerate(value if isinstance(value, list) else [value]):
+            parts.append((name, data, f"{name}{i}.bin"))
+    for name, value, filename in parts:
+        body.write(f"--{boundary}\r\n".encode())
+        disp = f'form-data; name="{name}"' + (f'; filename="{filename}"' if filename else "")
+        body.write(f"Content-Disposition: {disp}\r\n\r\n".encode())
+        body.write(value if isinstance(value, bytes) else str(value).encode())
+        body.write(b"\r\n")
+    body.write(f"--{boundary}--\r\n".encode())
+    req = urllib.request.Request(
+        f"{url}/predict",
+        data=body.getvalue(),
+        headers={"Content-Type": content_type or f"multipart/form-data; boundary={boundary}"},
+    )
+    try:
+        with urllib.request.urlopen(req, timeout=60) as r:
+            return r.status, json.loads(r.read()), dict(r.headers)
+    except urllib.error.HTTPError as e:
+        text = e.read().decode()
+        try:
+            return e.code, json.loads(text), dict(e.headers)
+        except json.JSONDecodeError:
+            return e.code, text, dict(e.headers)
+
+
+def _request(ep, **extra):
+    files = {
+        "depth": _png(np.round(ep.depth * 1000).astype(np.uint16)),
+        "rgb": _png(ep.rgb),
+        "target_mask": _png((ep.semantic == TARGET).astype(np.uint8) * 255),
+        "obstacle_mask": [_png((ep.semantic == OBSTACLE).astype(np.uint8) * 255)],
+    }
+    fields = {
+        "intrinsics": " ".join(repr(float(v)) for v in ep.intrinsics),
+        "camera_to_base": ",".join(repr(float(v)) for v in ep.camera_to_base.ravel()),
+        "robot": ep.robot,
+        "mc_samples": "0",
+    }
+    for k, v in extra.items():
+        (files if isinstance(v, (bytes, list)) else fields)[k] = v
+    return files, fields
+
+
+def _expected(ep, top_k=5, depth=None):
+    return momakitchen.predict(
+        np.round(ep.depth * 1000) / 1000 if depth is None else depth,
+        ep.intrinsics,
+        ep.camera_to_base,
+        ep.semantic == TARGET,
+        ep.robot,
+        rgb=ep.rgb,
+        obstacle_masks=[ep.semantic == OBSTACLE],
+        top_k=top_k,
+        mc_samples=0,
+    )
+
+
+def _check(doc, pred, floor_points=True):
+    got = np.array([[p["x"], p["y"], p["yaw"]] for p in doc["poses"]])
+    np.testing.assert_allclose(got, pred.poses, rtol=0, atol=1e-3)
+    ref = pred.to_dict(floor_points=floor_points)
+    assert doc["poses"] == ref["poses"] and doc["target_xyz"] == ref["target_xyz"]
+    assert ("floor_points" in doc) == floor_points
+    if floor_points:
+        assert len(doc["floor_points"]["rows"]) == len(pred.floor_xyz)
+
+
+def test_health_and_a_640x480_frame(server, episodes):
+    with urllib.request.urlopen(f"{server}/health", timeout=10) as r:
+        health = json.loads(r.read())
+    assert health["status"] == "ok" and health["model"] == "navaff"
+    assert health["version"] == __version__ and health["checkpoint"].endswith("navaff")
+    ep = episodes[0]
+    assert ep.depth.shape == (480, 640)
+    status, doc, headers = _post(server, *_request(ep))
+    assert status == 200, doc
+    _check(doc, _expected(ep))
+    assert float(headers["X-Predict-Seconds"]) > 0
+    # depth as .npy in metres, without the floor points
+    files, fields = _request(ep, floor_points="0", top_k="3")
+    files["depth"] = _npy(ep.depth)
+    status, doc, _ = _post(server, files, fields)
+    assert status == 200, doc
+    _check(doc, _expected(ep, top_k=3, depth=ep.depth), floor_points=False)
+
+
+def test_concurrent_requests_get_their_own_answers(server, episodes):
+    jobs = [(episodes[i % 2], k) for i, k in enumerate((1, 2, 3, 4, 5, 2))]
+    answers: dict[int, tuple] = {}
+
+    def send(i, ep, k):
+        answers[i] = _post(server, *_request(ep, top_k=str(k), floor_points="0"))
+
+    threads = [threading.Thread(target=send, args=(i, ep, k)) for i, (ep, k) in enumerate(jobs)]
+    for t in threads:
+        t.start()
+    # the server answers /health while the frames are predicted
+    with urllib.request.urlopen(f"{server}/health", timeout=10) as r:
+        assert r.status == 200
+    for t in threads:
+        t.join(120)
+    expected = {(id(ep), k): _expected(ep, top_k=k) for ep, k in jobs}
+    for i, (ep, k) in enumerate(jobs):
+        status, doc, _ = answers[i]
+        assert status == 200, doc
+        assert len(doc["poses"]) == k
+        _check(doc, expected[(id(ep), k)], floor_points=False)
+
+
+def test_bad_requests_get_a_4xx_and_one_line(server, episodes):
+    ep = episodes[1]
+    files, fields = _request(ep)
+
+    def without(d, key):
+        return {k: v for k, v in d.items() if k != key}
+
+    flat = np.zeros((480, 640), np.uint16)
+    cases = {
+        "missing field 'depth'": (without(files, "depth"), fields),
+        "unknown field 'colour'": (files, {**fields, "colour": "1"}),
+        "field 'depth' must be a PNG, JPEG or .npy file": ({**files, "depth": b"GIF89a"}, fields),
+        "depth PNG must be 16-bit": ({**files, "depth": _png(flat.astype(np.uint8))}, fields),
+        "not a readable .npy array": ({**files, "depth": b"\x93NUMPY garbage"}, fields),
+        "field 'intrinsics' must be 4 finite numbers, got 3": (
+            files,
+            {**fields, "intrinsics": "1 2 3"},
+        ),
+        "field 'camera_to_base' must be 16 numbers": (
+            files,
+            {**fields, "camera_to_base": "a b"},
+        ),
+        "not a rigid transform": (files, {**fields, "camera_to_base": " ".join(["2"] * 16)}),
+        "unknown robot": (files, {**fields, "robot": "r2d2"}),
+        "missing field 'robot'": (files, without(fields, "robot")),
+        "target mask is empty": ({**files, "target_mask": _png(flat.astype(np.uint8))}, fields),
+        "no valid pixel": ({**files, "depth": _png(flat)}, fields),
+        r"top_k must be in \[1, 50\], got 0": (files, {**fields, "top_k": "0"}),
+        "field 'top_k' must be an integer, got 'x'": (files, {**fields, "top_k": "x"}),
+        "does not match the depth image": (
+            {**files, "rgb": _png(ep.rgb[:100])},
+            fields,
+        ),
+        "field 'robot' must be text": ({**files, "robot": b"panda"}, without(fields, "robot")),
+    }
+    for message, (f, d) in cases.items():
+        status, doc, _ = _post(server, f, d)
+        assert status == 400, (message, doc)
+        assert set(doc) == {"error"} and "\n" not in doc["error"], doc
+        assert re.search(message, doc["error"]), (message, doc["error"])
+    status, doc, _ = _post(server, {**files, "depth": bytes(65 * 2**20)}, fields)
+    assert status == 413 and "larger than 64 MB" in doc["error"]
+    status, doc, _ = _post(server, files, fields, content_type="application/json")
+    assert status == 415 and "multipart/form-data" in doc["error"]
+    try:
+        urllib.request.urlopen(f"{server}/predict", timeout=10)
+    except urllib.error.HTTPError as e:
+        assert e.code == 405
+    # the server is still well after all that
+    status, doc, _ = _post(server, *_request(ep, floor_points="0"))
+    assert status == 200
+
+
+def test_the_documented_client(server, episodes):
+    """The robot-side client of docs/ROBOT_IO.md, run as written."""
+    pytest.importorskip("requests")
+    doc = (ROOT / "docs" / "ROBOT_IO.md").read_text(encoding="utf-8")
+    (block,) = [
+        b for b in re.findall(r"```python\n(.*?)```", doc, re.S) if "def request_base_pose" in b
+    ]
+    namespace: dict = {}
+    exec(compile(block, "ROBOT_IO.md", "exec"), namespace)
+    ep = episodes[0]
+    poses = namespace["request_base_pose"](
+        server,
+        np.round(ep.depth * 1000).astype(np.uint16),
+        ep.rgb,
+        ep.semantic == TARGET,
+        ep.intrinsics,
+        ep.camera_to_base,
+        robot=ep.robot,
+    )
+    expected = momakitchen.predict(
+        np.round(ep.depth * 1000) / 1000,
+        ep.intrinsics,
+        ep.camera_to_base,
+        ep.semantic == TARGET,
+        ep.robot,
+        rgb=ep.rgb,
+    )
+    assert poses == expected.to_dict(floor_points=False)["poses"]
