@@ -66,6 +66,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "msr.json: each model's mean and spread over its runs, and a test pooled over them",
     )
     p.add_argument(
+        "--robustness",
+        nargs="+",
+        default=[],
+        metavar="JSON",
+        help="`momakitchen robustness` results: a robustness table, and McNemar's test of "
+        "the models under each combined corruption",
+    )
+    p.add_argument(
         "--max-configs",
         type=non_negative_int,
         default=0,
@@ -91,6 +99,7 @@ def run(args: argparse.Namespace) -> int:
         ablations=tuple(map(Path, args.ablations)),
         sweep=tuple(map(Path, args.sweep)),
         msr=tuple(map(Path, args.msr)),
+        robustness=tuple(map(Path, args.robustness)),
         seeds=tuple(map(Path, args.seeds)),
         max_configs=args.max_configs,
         examples=args.examples,

@@ -66,6 +66,8 @@ class BenchmarkRequest:
             (merged with :func:`momakitchen.eval.msr.merge_msr`); empty: run MSR.
         seeds: more runs of models in ``runs``, trained with other seeds, each with its
             ``msr.json`` (``momakitchen msr`` on the same configurations).
+        robustness: ``momakitchen robustness`` JSONs (one or more models each): the
+            robustness table and McNemar's test of the models under each combination.
         max_configs: MSR on only the first N test configurations (0: all).
         examples: rows of the qualitative figure.
         progress: progress bars.
@@ -79,12 +81,13 @@ class BenchmarkRequest:
     sweep: tuple[Path, ...] = ()
     msr: tuple[Path, ...] = ()
     seeds: tuple[Path, ...] = ()
+    robustness: tuple[Path, ...] = ()
     max_configs: int = 0
     examples: int = 4
     progress: bool = True
 
     def __post_init__(self) -> None:
-        for name in ("runs", "predictions", "ablations", "sweep", "msr", "seeds"):
+        for name in ("runs", "predictions", "ablations", "sweep", "msr", "seeds", "robustness"):
             object.__setattr__(self, name, tuple(Path(r) for r in getattr(self, name)))
         object.__setattr__(self, "data", Path(self.data))
         object.__setattr__(self, "out", Path(self.out))
@@ -97,6 +100,8 @@ class BenchmarkRequest:
                 raise MomaError(f"{str(run)!r} is not a run directory (no config.json)")
         for path in (*self.msr, *(Path(r) / "msr.json" for r in self.seeds)):
             existing_file(path, "MSR file")
+        for path in self.robustness:
+            existing_file(path, "robustness file")
         for path in self.predictions:
             existing_file(path, "predictions file")
         if self.max_configs < 0:
@@ -151,6 +156,7 @@ def run_benchmark(req: BenchmarkRequest, log: Callable[[str], None] = print) -> 
     from momakitchen.eval.evaluate import evaluate_predictions
     from momakitchen.eval.msr import BASELINES, MsrConfig, check_same_views, merge_msr, run_msr
     from momakitchen.eval.predictions import load_predictions, method_name
+    from momakitchen.eval.robustness import robustness_markdown
     from momakitchen.train.checkpoint import load_checkpoint
 
     data, out = req.data, req.out
@@ -188,6 +194,10 @@ def run_benchmark(req: BenchmarkRequest, log: Callable[[str], None] = print) -> 
         if missing:
             files = ", ".join(repr(str(p)) for p in req.msr)
             raise MomaError(f"MSR files {files} lack methods {missing}")
+    robustness = [read_json_object(p) for p in req.robustness]
+    for path, res in zip(req.robustness, robustness, strict=True):
+        if not isinstance(res.get("models"), dict) or "records" not in res:
+            raise MomaError(f"{str(path)!r} is not a `momakitchen robustness` result")
     test_data = EpisodeDataset(data, "test")
     for path in named.values():  # every file read and checked before any work
         load_predictions(path, _test_episodes(test_data))
@@ -226,6 +236,8 @@ def run_benchmark(req: BenchmarkRequest, log: Callable[[str], None] = print) -> 
 
     main_reports = [metrics[r] for r in (*req.runs, *named.values())]
     lines = ["## Methods", "", *main_table(main_reports, msr), "", *msr_breakdown(msr)]
+    if robustness:
+        lines += ["", "## Robustness to real sensors", "", *robustness_markdown(robustness)]
     lines += ["", *map_breakdown(main_reports)]
     lines += ["", f"### {methods[0]} against each method", "", *paired_table(msr, methods[0])]
     if len(main_reports) > 1:

@@ -405,3 +405,68 @@ def robustness_figure(view_maps: dict[str, Any], title: str) -> bytes:
         fig.colorbar(scatter, ax=axes, shrink=0.6, label="predicted affordance")
     fig.suptitle(title, fontsize=10)
     return png_bytes(fig)
+
+
+def top1_by_view(result: dict[str, Any], model: str, corruption: str) -> dict[tuple, int]:
+    """Each counted view's Top-1 outcome (errors: 0; views beyond range left out), keyed
+    by (scene, configuration, episode)."""
+    out = {}
+    for r in result["records"]:
+        v = r["views"].get(model, {}).get(corruption)
+        if v is None or v["status"] == "beyond_range":
+            continue
+        key = (r["scene_id"], r["config_index"], r["episode_index"])
+        out[key] = int(v["outcomes"][0]) if v["status"] == "ok" else 0
+    return out
+
+
+def robustness_markdown(results: Sequence[dict[str, Any]]) -> list[str]:
+    """Markdown lines: one table row per model and corruption (``robustness`` results,
+    merged), with the change from ``clean``, and McNemar's test of every pair of models
+    under each combined corruption (Top-1 per view, the views both counted)."""
+    from momakitchen.eval.report import mcnemar
+
+    models: dict[str, tuple[dict[str, Any], dict[str, Any]]] = {}
+    for res in results:
+        for model, rows in res["models"].items():
+            if model in models:
+                raise MomaError(f"robustness results name model {model!r} twice")
+            models[model] = (rows, res)
+    lines = [
+        "| model | corruption | views | beyond range | errors | Top-1 | vs clean | PCC | vs clean "
+        "| SIM |",
+        "| --- | --- | ---: | ---: | --- | ---: | ---: | ---: | ---: | ---: |",
+    ]
+    for model, (rows, _) in models.items():
+        ref = rows.get("clean")
+        for name, s in rows.items():
+            errors = ", ".join(f"{k} {v}" for k, v in s["errors"].items()) or "0"
+            d1 = f"{(s['top1'] - ref['top1']) * 100:+.1f}" if ref and name != "clean" else ""
+            dp = f"{s['pcc'] - ref['pcc']:+.3f}" if ref and name != "clean" else ""
+            lines.append(
+                f"| {model} | {name} | {s['views']} | {s['beyond_range']} | {errors} | "
+                f"{s['top1'] * 100:.1f} | {d1} | {s['pcc']:.3f} | {dp} | {s['sim']:.3f} |"
+            )
+    names = list(models)
+    pairs = [(a, b) for i, a in enumerate(names) for b in names[i + 1 :]]
+    tests = []
+    for a, b in pairs:
+        (ra, res_a), (rb, res_b) = models[a], models[b]
+        for corruption in [c for c in ra if c in rb and (c == "clean" or "combined" in c)]:
+            oa = top1_by_view(res_a, a, corruption)
+            ob = top1_by_view(res_b, b, corruption)
+            common = sorted(set(oa) & set(ob))
+            if not common:
+                continue
+            only_a, only_b, p = mcnemar([oa[k] for k in common], [ob[k] for k in common])
+            tests.append(
+                f"| {a} vs {b} | {corruption} | {len(common)} | {only_a} | {only_b} | {p:.3g} |"
+            )
+    if tests:
+        lines += [
+            "",
+            "| McNemar (Top-1 per view) | corruption | views | only first | only second | p |",
+            "| --- | --- | ---: | ---: | ---: | ---: |",
+            *tests,
+        ]
+    return lines
