@@ -74,6 +74,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         default=8,
         help="MC-dropout passes for the uncertainty (0: none)",
     )
+    p.add_argument(
+        "--relative-depth",
+        action="store_true",
+        help="the depth is known only up to scale (a monocular depth network): the "
+        "calibrated camera height fixes the scale, read from the floor",
+    )
     p.add_argument("--out", required=True, help="output directory")
     add_bag_arguments(p)
     p.set_defaults(func=run)
@@ -103,6 +109,7 @@ def run(args: argparse.Namespace) -> int:
         checkpoint=args.checkpoint,
         top_k=args.top_k,
         mc_samples=args.mc_samples,
+        metric_depth=not args.relative_depth,
         **({} if args.pick_radius is None else {"pick_radius": args.pick_radius}),
     )
     if args.bag is not None:
@@ -131,11 +138,20 @@ def run(args: argparse.Namespace) -> int:
     output_dir(out)  # created only now: a failed prediction leaves no empty directory
     paths = write_outputs(pred, out, rgb, depth, args.intrinsics, extrinsics)
     best = pred.to_dict(floor_points=False)["poses"]
+    doc = pred.to_dict(floor_points=False)
     print(
         json.dumps(
-            {"poses": best, "floor_points": len(pred.floor_xyz), "seconds": round(seconds, 3)},
+            {
+                "poses": best,
+                "floor_points": len(pred.floor_xyz),
+                "floor_correction": doc["floor_correction"],
+                "target_distance_m": doc["target_distance_m"],
+                "seconds": round(seconds, 3),
+            },
             indent=1,
         )
     )
+    for warning in pred.warnings:
+        print(f"warning: {warning}")
     print(f"-> {paths['json']}, {paths['png']}")
     return 0
