@@ -165,6 +165,7 @@ def fit_floor(
     camera: np.ndarray,
     config: FloorFitConfig | None = None,
     metric: bool = True,
+    ranges: np.ndarray | None = None,
 ) -> FloorCorrection:
     """Find the floor in a frame's points and the correction that puts it at z = 0.
 
@@ -173,6 +174,8 @@ def fit_floor(
         camera: (3,) the calibrated camera position in that frame.
         metric: depth is metric (the camera height is corrected); False: depth is known
             only up to scale (monocular), and the calibrated height fixes the scale.
+        ranges: (N,) each point's range for the noise-scaled tolerance (a pixel's depth);
+            None: its distance from the camera.
 
     Raises MomaError naming what was found when no plane near the calibrated floor has
     enough support (wrong extrinsics, a frame without floor).
@@ -184,6 +187,8 @@ def fit_floor(
     # Relative depth can put the floor anywhere along the rays: search a band that grows
     # with the scale error it allows (+-30 % of the camera height).
     band = cfg.band if metric else max(cfg.band, 0.3 * height)
+    if ranges is None:
+        ranges = np.linalg.norm(pts - cam, axis=1)
     idx = np.flatnonzero(np.abs(pts[:, 2]) < band)
     if len(idx) < cfg.min_inliers:
         raise MomaError(
@@ -194,9 +199,10 @@ def fit_floor(
     # A fixed-size sample of the candidates is plenty for three parameters, and fast.
     if len(idx) > REFINE_POINTS:
         idx = np.sort(idx[rng.choice(len(idx), REFINE_POINTS, replace=False)])
-    cand = pts[idx]
-    sub = cand[rng.choice(len(cand), min(cfg.sample, len(cand)), replace=False)]
-    tol_sub = _tolerance(np.linalg.norm(sub - cam, axis=1), cfg)
+    cand, cand_r = pts[idx], np.asarray(ranges, np.float64)[idx]
+    pick = rng.choice(len(cand), min(cfg.sample, len(cand)), replace=False)
+    sub = cand[pick]
+    tol_sub = _tolerance(cand_r[pick], cfg)
     normals, offsets = _plane(sub[rng.integers(0, len(sub), (cfg.iterations, 3))])
     tilt_ok = normals[:, 2] >= math.cos(math.radians(cfg.max_tilt))
     cam_h = normals @ cam + offsets  # camera height above each plane
@@ -215,7 +221,7 @@ def fit_floor(
     score = (dist <= tol_sub[:, None]).sum(0)
     best = int(np.flatnonzero(ok)[int(np.argmax(score))])
     n, d = normals[best], float(offsets[best])
-    shape = _tolerance(np.linalg.norm(cand - cam, axis=1), cfg)  # the expected noise shape
+    shape = _tolerance(cand_r, cfg)  # the expected noise shape
     tol = shape
     previous = None
     for _ in range(8):
@@ -269,29 +275,30 @@ def fit_floor(
 
 
 def floor_tolerance(
-    points: np.ndarray,
-    camera: np.ndarray,
+    heights: np.ndarray,
+    ranges: np.ndarray,
     base: float,
     bin_width: float = 0.5,
     most: float = 0.08,
 ) -> np.ndarray:
-    """How far from z = 0 each (corrected) point may be and still count as floor: three
-    times the floor's measured noise at the point's range, never less than ``base`` nor
-    more than ``most`` (m). The noise is measured below the plane only (a robust spread
-    of the depths of the points under it, per range bin): objects add points above the
-    floor, never below, so what lies under the plane is floor noise alone.
+    """How far from z = 0 each point (of corrected ``heights`` z, at ``ranges``: depths)
+    may be and still count as floor: three times the floor's measured noise at its range,
+    never less than ``base`` nor more than ``most`` (m). The noise is measured below the
+    plane only (a robust spread of the depths of the points under it, per range bin):
+    objects add points above the floor, never below, so what lies under the plane is
+    floor noise alone.
 
-    Shapes: ``points`` (N, 3), ``camera`` (3,) -> (N,) metres.
+    Shapes: ``heights`` (N,), ``ranges`` (N,) -> (N,) metres.
     """
-    pts = np.asarray(points, np.float64)
-    ranges = np.linalg.norm(pts - np.asarray(camera, np.float64), axis=1)
-    bins = np.floor(ranges / bin_width).astype(np.int64)
-    below = pts[:, 2] < 0
-    sigma = np.zeros(int(bins.max()) + 1 if len(bins) else 1)
-    for b in np.unique(bins[below]):
-        z = pts[below & (bins == b), 2]
-        if len(z) >= 20:
-            sigma[b] = 1.4826 * float(np.median(-z))
+    z = np.asarray(heights, np.float64)
+    if len(z) == 0:
+        return np.zeros(0)
+    bins = np.floor(np.asarray(ranges, np.float64) / bin_width).astype(np.int64)
+    below = z < 0
+    sigma = np.zeros(int(bins.max()) + 1)
+    counts = np.bincount(bins[below], minlength=len(sigma))
+    for b in np.flatnonzero(counts >= 20):
+        sigma[b] = 1.4826 * float(np.median(-z[below & (bins == b)]))
     # A bin without enough floor takes the noise of the nearest measured range below it.
     sigma = np.maximum.accumulate(sigma)
     return np.clip(3.0 * sigma[bins], base, max(base, most))
