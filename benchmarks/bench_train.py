@@ -4,6 +4,7 @@ Usage::
 
     python benchmarks/bench_train.py --data DIR --model navaff --threads 1 --workers 0
     python benchmarks/bench_train.py --data DIR --threads 2 --workers 1 --runs 3 --steps 60
+    python benchmarks/bench_train.py --data DIR --threads 1 --workers 1 --sensor-noise
 
 Each run trains the ``cpu`` preset from scratch for ``--steps`` optimiser steps on the
 train split of a generated dataset (HDF5 reading, collation, the model's geometry, forward,
@@ -37,6 +38,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--workers", type=int, default=0, help="DataLoader worker processes")
     ap.add_argument("--steps", type=int, default=60, help="optimiser steps per run")
     ap.add_argument("--runs", type=int, default=3)
+    ap.add_argument(
+        "--sensor-noise",
+        action="store_true",
+        help="every sample rebuilt through a random real sensor (train --sensor-noise)",
+    )
     args = ap.parse_args(argv)
     data = EpisodeDataset(args.data, "train")
     config = preset_config("cpu", args.model).replace(
@@ -46,6 +52,7 @@ def main(argv: list[str] | None = None) -> int:
         epochs=1,
         progress=False,
         log_every=10_000,
+        sensor_noise=args.sensor_noise,
     )
     rates = []
     load0 = os.getloadavg()[0]
@@ -60,7 +67,7 @@ def main(argv: list[str] | None = None) -> int:
     load1 = os.getloadavg()[0]
     runs = " / ".join(f"{r:.2f}" for r in rates)
     print(
-        f"| {args.model} | {args.threads} | {args.workers} | {config.batch_size} | {args.steps} "
+        f"| {args.model}{' (sensor noise)' if args.sensor_noise else ''} | {args.threads} | {args.workers} | {config.batch_size} | {args.steps} "
         f"| {statistics.median(rates):.2f} | {runs} | {load0:.1f} / {load1:.1f} |"
     )
     return 0
