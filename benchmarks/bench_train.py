@@ -67,7 +67,8 @@ def main(argv: list[str] | None = None) -> int:
     load1 = os.getloadavg()[0]
     runs = " / ".join(f"{r:.2f}" for r in rates)
     print(
-        f"| {args.model}{' (sensor noise)' if args.sensor_noise else ''} | {args.threads} | {args.workers} | {config.batch_size} | {args.steps} "
+        f"| {args.model}{' (sensor noise)' if args.sensor_noise else ''} | {args.threads} "
+        f"| {args.workers} | {config.batch_size} | {args.steps} "
         f"| {statistics.median(rates):.2f} | {runs} | {load0:.1f} / {load1:.1f} |"
     )
     return 0
