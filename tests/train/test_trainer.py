@@ -252,3 +252,32 @@ def test_resume_across_a_changed_preset(tmp_path, tiny_sets, make_config):
     train(navaff, train_set, None, tmp_path / "navaff")
     with pytest.raises(MomaError, match=r"floor_npoints 32 vs 64\)"):
         train(navaff.replace(model_config=wider), train_set, None, tmp_path / "navaff", resume=True)
+
+
+def test_fine_tuning_starts_from_the_given_weights(tmp_path, tiny_sets, make_config):
+    train_set, _ = tiny_sets
+    first = train(make_config(), train_set, None, tmp_path / "first")
+    tiny_lr = make_config(init=str(tmp_path / "first"), lr=1e-9, epochs=1)
+    tuned = train(tiny_lr, train_set, None, tmp_path / "tuned")
+    for name, value in first.model.state_dict().items():  # a 1e-9 step moves nothing much
+        assert torch.allclose(value, tuned.model.state_dict()[name], atol=1e-6), name
+    scratch = train(make_config(lr=1e-9, epochs=1), train_set, None, tmp_path / "scratch")
+    assert any(
+        not torch.allclose(v, scratch.model.state_dict()[k], atol=1e-3)
+        for k, v in first.model.state_dict().items()
+    )
+
+
+def test_fine_tuning_and_sensor_noise_refuse_bad_input_before_writing(
+    tmp_path, tiny_sets, make_config
+):
+    train_set, _ = tiny_sets
+    with pytest.raises(MomaError, match="does not exist"):
+        train(make_config(init=str(tmp_path / "none")), train_set, None, tmp_path / "a")
+    with pytest.raises(MomaError, match="'pointnet2' model of other sizes"):
+        other = make_config(model="pointnet2")
+        train(other, train_set, None, tmp_path / "p")
+        train(make_config(init=str(tmp_path / "p")), train_set, None, tmp_path / "b")
+    with pytest.raises(MomaError, match="sensor_noise needs a generated dataset"):
+        train(make_config(sensor_noise=True), train_set, None, tmp_path / "c")
+    assert not any((tmp_path / n).exists() for n in ("a", "b", "c"))

@@ -208,10 +208,10 @@ class EpisodeDataset(Dataset):
         episode)`` (:meth:`set_epoch`). The stored data stay clean."""
         from momakitchen.data.config import GenerationConfig, Preprocessing
 
-        if "config" not in self.manifest:
+        if self.manifest.get("producer") != mf.KITCHEN or "config" not in self.manifest:
             raise MomaError(
-                f"{self.root}: sensor noise needs the stored RGB-D frames of a dataset made "
-                "by `momakitchen generate`"
+                f"{self.root}: sensor noise needs the RGB-D frames of a simulator-made "
+                f"dataset (this one was made by {self.manifest.get('producer')!r})"
             )
         gen = GenerationConfig.from_dict(self.manifest["config"])
         self.preprocessing = Preprocessing(gen.cloud, gen.camera.max_depth)

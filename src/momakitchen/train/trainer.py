@@ -217,9 +217,9 @@ def validate(
     }
 
 
-def _initial_weights(config: TrainConfig, model: torch.nn.Module) -> None:
-    """Load ``config.init``'s weights into ``model`` (fine-tuning); MomaError when that run
-    is another model or another size."""
+def _initial_run(config: TrainConfig) -> Path:
+    """The run directory whose weights start a fine-tuning (``config.init``); MomaError
+    when it is missing or holds another model or another size."""
     from momakitchen.train.checkpoint import default_checkpoint, read_run_config
 
     src = default_checkpoint() if config.init == "bundled" else Path(config.init)
@@ -229,7 +229,7 @@ def _initial_weights(config: TrainConfig, model: torch.nn.Module) -> None:
             f"TrainConfig.init {config.init!r} holds a {other.model!r} model of other sizes "
             f"than this {config.model!r} run's; fine-tuning needs the same model and sizes"
         )
-    load_weights(src / WEIGHTS_FILE, model)
+    return src
 
 
 def train(
@@ -276,6 +276,14 @@ def _train(
     resuming = resumed is not None
     if resumed is not None:
         config = resumed
+    # Checked before the run directory is written: a bad option leaves nothing behind.
+    if config.sensor_noise:
+        from momakitchen.perception.sensors import SensorAugmentation
+
+        if not hasattr(train_set, "use_sensor_noise"):
+            raise MomaError("sensor_noise needs a generated dataset (its stored RGB-D frames)")
+        cast(Any, train_set).use_sensor_noise(SensorAugmentation())
+    init = _initial_run(config) if config.init and not resuming else None
     if rank == 0:
         run_dir.mkdir(parents=True, exist_ok=True)
         if not resuming:
@@ -292,17 +300,11 @@ def _train(
     if resuming:
         load_weights(run_dir / WEIGHTS_FILE, model)
         progress = load_trainer_state(run_dir, optimizer)
-    elif config.init:
-        _initial_weights(config, model)
+    elif init is not None:
+        load_weights(init / WEIGHTS_FILE, model)
     if world > 1 or not resuming:
         torch.manual_seed(config.seed * 7919 + 1 + rank + 131 * progress["epoch"])
 
-    if config.sensor_noise:
-        from momakitchen.perception.sensors import SensorAugmentation
-
-        if not hasattr(train_set, "use_sensor_noise"):
-            raise MomaError("sensor_noise needs a generated dataset (its stored RGB-D frames)")
-        cast(Any, train_set).use_sensor_noise(SensorAugmentation())
     collate = PlanningCollator(
         EpisodeCollator(config.num_global, config.num_floor, config.seed), model.backbone
     )
