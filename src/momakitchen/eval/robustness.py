@@ -40,6 +40,10 @@ ERROR_CAUSES = {
 }
 
 
+# Causes that leave no target to act on: the corrupted mask has no pixel of valid depth.
+NO_TARGET = ("empty_mask", "no_target_depth")
+
+
 def error_cause(message: str) -> str:
     """The cause of a prediction error, from its message (``other`` if unknown)."""
     for needle, cause in ERROR_CAUSES.items():
@@ -181,7 +185,9 @@ def run_robustness(
 
     Returns ``{"config", "configurations", "models": {model: {corruption: summary}},
     "records": [...]}``; a summary has ``views``, ``beyond_range``, ``errors`` (by cause),
-    ``top1`` (views beyond range left out; errors count as failures), ``top1_feasible``,
+    ``top1`` (views beyond range left out; errors count as failures), ``top1_usable``
+    (also leaving out the views whose mask kept no target pixel of valid depth),
+    ``top1_feasible``,
     ``topk``, ``pcc``, ``sim`` (over the views predicted)."""
     from tqdm.auto import tqdm
 
@@ -332,11 +338,14 @@ def summarize(records: Sequence[dict[str, Any]], model: str, name: str) -> dict[
         return round(float(np.mean(vals)), 4) if vals else 0.0
 
     feasible = [(r, v) for r, v in counted if r["feasible"]]
+    # views left with a target pixel of valid depth: what any method could act on
+    usable = [(r, v) for r, v in counted if v.get("cause") not in NO_TARGET]
     return {
         "views": len(views),
         "beyond_range": sum(v["status"] == "beyond_range" for _, v in views),
         "errors": dict(Counter(v["cause"] for _, v in counted if v["status"] == "error")),
         "top1": rate(counted, False),
+        "top1_usable": rate(usable, False),
         "top1_feasible": rate(feasible, False),
         "topk": rate(counted, True),
         "pcc": round(float(np.mean([v["pcc"] for v in ok])), 4) if ok else 0.0,
@@ -345,11 +354,12 @@ def summarize(records: Sequence[dict[str, Any]], model: str, name: str) -> dict[
 
 
 def format_robustness_table(result: dict[str, Any]) -> str:
-    """A text table: one row per model and corruption, with the change from ``clean``."""
+    """A text table: one row per model and corruption, with the change from ``clean``
+    (``usable``: Top-1 over the views whose mask kept a target pixel of valid depth)."""
     k = result["config"]["top_k"]
     head = (
         f"{'model':<12} {'corruption':<14} {'views':>5} {'range':>5} {'errors':>6} "
-        f"{'Top-1':>6} {'dTop-1':>7} {'feas.':>6}"
+        f"{'Top-1':>6} {'dTop-1':>7} {'usable':>6} {'feas.':>6}"
         + (f" {f'Top-{k}':>6}" if k > 1 else "")
         + f" {'PCC':>6} {'dPCC':>6} {'SIM':>6}"
     )
@@ -362,7 +372,7 @@ def format_robustness_table(result: dict[str, Any]) -> str:
             lines.append(
                 f"{model:<12} {name:<14} {s['views']:>5} {s['beyond_range']:>5} "
                 f"{sum(s['errors'].values()):>6} {s['top1'] * 100:>6.1f} {d1:>7} "
-                f"{s['top1_feasible'] * 100:>6.1f}"
+                f"{s.get('top1_usable', s['top1']) * 100:>6.1f} {s['top1_feasible'] * 100:>6.1f}"
                 + (f" {s['topk'] * 100:>6.1f}" if k > 1 else "")
                 + f" {s['pcc']:>6.3f} {dp:>6} {s['sim']:>6.3f}"
             )
@@ -428,14 +438,16 @@ def robustness_markdown(results: Sequence[dict[str, Any]]) -> list[str]:
 
     models: dict[str, tuple[dict[str, Any], dict[str, Any]]] = {}
     for res in results:
-        for model, rows in res["models"].items():
+        for model in res["models"]:
             if model in models:
                 raise MomaError(f"robustness results name model {model!r} twice")
+            names = res["config"]["corruptions"]
+            rows = {name: summarize(res["records"], model, name) for name in names}
             models[model] = (rows, res)
     lines = [
-        "| model | corruption | views | beyond range | errors | Top-1 | vs clean | PCC | vs clean "
-        "| SIM |",
-        "| --- | --- | ---: | ---: | --- | ---: | ---: | ---: | ---: | ---: |",
+        "| model | corruption | views | beyond range | errors | Top-1 | vs clean "
+        "| Top-1, usable masks | PCC | vs clean | SIM |",
+        "| --- | --- | ---: | ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: |",
     ]
     for model, (rows, _) in models.items():
         ref = rows.get("clean")
@@ -445,7 +457,8 @@ def robustness_markdown(results: Sequence[dict[str, Any]]) -> list[str]:
             dp = f"{s['pcc'] - ref['pcc']:+.3f}" if ref and name != "clean" else ""
             lines.append(
                 f"| {model} | {name} | {s['views']} | {s['beyond_range']} | {errors} | "
-                f"{s['top1'] * 100:.1f} | {d1} | {s['pcc']:.3f} | {dp} | {s['sim']:.3f} |"
+                f"{s['top1'] * 100:.1f} | {d1} | {s['top1_usable'] * 100:.1f} | "
+                f"{s['pcc']:.3f} | {dp} | {s['sim']:.3f} |"
             )
     names = list(models)
     pairs = [(a, b) for i, a in enumerate(names) for b in names[i + 1 :]]
