@@ -198,6 +198,10 @@ def run_train(args: argparse.Namespace) -> int:
     from momakitchen.train import train
 
     planned_output_dir(args.out)  # a file or an impossible place fails before any work
+    if args.resume:
+        from momakitchen.train.checkpoint import require_checkpoint
+
+        require_checkpoint(args.out)
     config = train_config(args)
     data = _dataset(args.data, "train")
     result = train(config, data, None, Path(args.out), resume=args.resume)

@@ -293,6 +293,18 @@ def has_checkpoint(run_dir: Path) -> bool:
     return (run_dir / WEIGHTS_FILE).is_file() and (run_dir / STATE_JSON).is_file()
 
 
+def require_checkpoint(run_dir: str | Path) -> None:
+    """MomaError unless ``run_dir`` holds a finished epoch to resume from: asked to resume
+    a run that has none, training from scratch would be a silent surprise of hours."""
+    run_dir = Path(run_dir)
+    if not has_checkpoint(run_dir):
+        where = "does not exist" if not run_dir.exists() else "holds no finished epoch"
+        raise MomaError(
+            f"nothing to resume: run directory {str(run_dir)!r} {where} (no {WEIGHTS_FILE} "
+            f"and {STATE_JSON}); start the run without --resume"
+        )
+
+
 @dataclass
 class LoadedRun:
     """A model loaded from a run directory (in eval mode) with its training config and the

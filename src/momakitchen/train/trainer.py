@@ -39,6 +39,7 @@ from momakitchen.train.checkpoint import (
     load_trainer_state,
     load_weights,
     read_run_config,
+    require_checkpoint,
     run_preprocessing,
     save_trainer_state,
     save_weights,
@@ -107,14 +108,17 @@ def _check_resume(
     config: TrainConfig, run_dir: Path, resume: bool, preprocessing: Preprocessing
 ) -> TrainConfig | None:
     """The config to resume with (``config`` with the run's model sizes), or None to start
-    afresh; raises MomaError on a mismatching or unexpected checkpoint."""
-    if not has_checkpoint(run_dir):
-        return None
-    if not resume:
+    afresh; raises MomaError on a mismatching or unexpected checkpoint, or when asked to
+    resume a run that has none."""
+    if resume:
+        require_checkpoint(run_dir)
+    elif has_checkpoint(run_dir):
         raise MomaError(
-            f"run directory {str(run_dir)!r} already holds a checkpoint; pass resume=True "
-            "to continue it or choose another directory"
+            f"run directory {str(run_dir)!r} already holds a checkpoint; pass --resume "
+            "(resume=True in Python) to continue it or choose another directory"
         )
+    else:
+        return None
     saved, info = read_run_config(run_dir)
     if saved.model != config.model:
         raise MomaError(
@@ -229,7 +233,8 @@ def train(
     Writes ``config.json``, ``model.safetensors``, the trainer state, ``log.csv`` and
     ``loss_curve.png`` into ``out_dir`` after every epoch. With ``resume=True`` a run
     directory that holds a checkpoint continues after its last finished epoch (same model
-    and sizes required); without it, such a directory is refused.
+    and sizes required; one without a checkpoint is refused); without it, a directory
+    that holds one is refused.
     """
     if len(cast(Sized, train_set)) == 0:  # map-style datasets have a length
         raise MomaError("the training set is empty")
