@@ -122,14 +122,17 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def _dataset(root: str, split: str):
     """The episodes of ``split``, once every shard they come from has passed the quick
-    check (so a missing or damaged shard is found before any training or evaluation)."""
+    check and its checksum (so a missing or damaged shard is found before any training or
+    evaluation: both read every byte of these shards anyway)."""
     from momakitchen.data import EpisodeDataset
     from momakitchen.data.integrity import check_shard_files
 
     data = EpisodeDataset(existing_dir(root, "dataset directory"), split)
     if len(data) == 0:
         raise MomaError(_no_episodes(root, split, data.manifest))
-    check_shard_files(root, data.manifest, {sid for _, sid, _, _, _ in data.index})
+    check_shard_files(
+        root, data.manifest, {sid for _, sid, _, _, _ in data.index}, verify_hash=True
+    )
     return data
 
 
