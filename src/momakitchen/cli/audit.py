@@ -24,6 +24,7 @@ from typing import Any
 
 from momakitchen.cli.common import non_negative_int, positive_int
 from momakitchen.errors import MomaError
+from momakitchen.scene.ids import scene_range_problem
 
 _RANGE = re.compile(r"^(\d+)(?:-(\d+))?$")
 
@@ -37,6 +38,9 @@ def scene_range(text: str) -> tuple[int, int]:
     last = int(m.group(2)) if m.group(2) is not None else first
     if last < first:
         raise argparse.ArgumentTypeError(f"scene range {text!r} ends before it starts")
+    problem = scene_range_problem(first, last - first + 1)
+    if problem:
+        raise argparse.ArgumentTypeError(f"scene range {text!r}: {problem}")
     return first, last - first + 1
 
 

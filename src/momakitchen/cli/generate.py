@@ -25,7 +25,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from momakitchen.cli.common import non_negative_int, positive_int
+from momakitchen.cli.common import positive_int, scene_id
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -40,7 +40,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="number of scenes (2 or more from scene 0 for both a train and a test split)",
     )
     parser.add_argument(
-        "--first-scene-id", type=non_negative_int, default=0, help="first scene id (default 0)"
+        "--first-scene-id",
+        type=scene_id,
+        default=0,
+        help="first scene id (default 0; ids run to 2147483647)",
     )
     parser.add_argument(
         "--split",

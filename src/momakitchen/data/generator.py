@@ -53,6 +53,7 @@ from momakitchen.data.shard import (
 )
 from momakitchen.errors import MomaError
 from momakitchen.registry import Registry
+from momakitchen.scene.ids import check_scene_range
 from momakitchen.version import __version__
 
 BACKENDS = ("local", "ray")
@@ -134,6 +135,7 @@ class GenerateRequest:
             raise MomaError(f"number of scenes must be >= 1, got {self.num_scenes!r}")
         if not isinstance(self.first_scene_id, int) or self.first_scene_id < 0:
             raise MomaError(f"first scene id must be >= 0, got {self.first_scene_id!r}")
+        check_scene_range(self.first_scene_id, self.num_scenes)
         if not isinstance(self.workers, int) or not 1 <= self.workers <= 1024:
             raise MomaError(f"workers must be in [1, 1024], got {self.workers!r}")
         if self.backend not in BACKENDS:
