@@ -28,7 +28,6 @@ import os
 import queue
 import signal
 import sys
-import tempfile
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -45,9 +44,10 @@ from momakitchen.data.shard import (
     SceneRecords,
     SceneShard,
     file_sha256,
+    file_summary,
     list_shards,
     remove_temporaries,
-    shard_name,
+    shard_bytes,
     write_shard,
     write_shard_bytes,
 )
@@ -308,10 +308,9 @@ def _worker_init(parent_pid: int, progress_queue: Any = None) -> None:
 
 def _scene_bytes_task(scene_fn: SceneFn, config: Any, scene_id: int) -> tuple[dict, bytes]:
     """Worker body (Ray backend): compute one scene, return the shard summary and bytes."""
-    with tempfile.TemporaryDirectory(prefix="momakitchen-shard-") as tmp:
-        summary = write_shard(tmp, scene_id, scene_fn(scene_id, config))
-        data = (Path(tmp) / shard_name(scene_id)).read_bytes()
-    return summary, data
+    records = scene_fn(scene_id, config)
+    data = shard_bytes(scene_id, records)
+    return file_summary(scene_id, records, data), data
 
 
 def generate_dataset(

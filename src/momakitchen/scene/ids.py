@@ -20,7 +20,7 @@ def scene_id_problem(scene_id: object) -> str | None:
     """Why ``scene_id`` is not a valid scene id (None if it is)."""
     if isinstance(scene_id, bool) or not hasattr(scene_id, "__index__"):
         return f"a scene id must be an integer in [0, {MAX_SCENE_ID}], got {scene_id!r}"
-    value = scene_id.__index__()  # type: ignore[attr-defined]
+    value = scene_id.__index__()
     if not 0 <= value <= MAX_SCENE_ID:
         return f"a scene id must be in [0, {MAX_SCENE_ID}], got {value}"
     return None
