@@ -34,13 +34,14 @@ def check_scene_id(scene_id: object) -> int:
     return int(scene_id)  # type: ignore[call-overload]
 
 
-def scene_range_problem(first: int, count: int) -> str | None:
-    """Why ``count`` scenes from ``first`` are not a valid request (None if they are)."""
+def scene_range_problem(first: int, count: int, limit: int = MAX_SCENES) -> str | None:
+    """Why ``count`` scenes from ``first`` are not a valid request of at most ``limit``
+    scenes (None if they are)."""
     problem = scene_id_problem(first)
     if problem:
         return problem
-    if not 1 <= count <= MAX_SCENES:
-        return f"the number of scenes must be in [1, {MAX_SCENES:,}], got {count:,}"
+    if not 1 <= count <= limit:
+        return f"the number of scenes must be in [1, {limit:,}], got {count:,}"
     if first + count - 1 > MAX_SCENE_ID:
         return f"scenes {first}..{first + count - 1} end past the last scene id {MAX_SCENE_ID}"
     return None
