@@ -11,7 +11,7 @@ training pipelines); the manifest records the producer.
 ``scene``, ``trial``, ``dense``, ``camera``, ``views`` and ``cloud`` and of their fields;
 the rest keep their defaults. With ``--synthetic`` the file sets the fields of the
 synthetic producer's config (``configs_per_scene``, ``episodes_per_config``, ...) instead.
-Example::
+Example:
 
     views:
       episodes: 4
@@ -30,7 +30,11 @@ from momakitchen.cli.common import positive_int, scene_id
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     parser = sub.add_parser(
-        "generate", help="generate the dataset (resumable, parallel)", description=__doc__
+        "generate",
+        help="generate the dataset (resumable, parallel)",
+        description=__doc__,
+        # Keep the docstring's line breaks: its YAML example is unreadable on one line.
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("--out", required=True, help="dataset directory")
     parser.add_argument(

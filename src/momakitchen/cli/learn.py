@@ -35,6 +35,13 @@ MODEL_NAMES = (
 )
 PRESET_NAMES = ("paper", "cpu")
 
+EVALUATE_DESCRIPTION = (
+    "Map metrics of a trained model (a run directory written by `momakitchen train`) on a "
+    "split of a dataset, the test split by default: RMSE, logMSE, PCC, SIM, MAE, cosine and "
+    "cIoU, printed as a table like the paper's Table 2 and written with per-robot and "
+    "per-scene breakdowns as JSON. Every shard read is checked first."
+)
+
 TRAIN_CONFIG_HELP = """\
 training options come from, highest precedence first:
   1. command-line options given explicitly (--model, --epochs, --lambda-zero, ...);
@@ -106,7 +113,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     tr.set_defaults(func=run_train)
 
     ev = sub.add_parser(
-        "evaluate", help="map metrics of a trained model on the test split", description=__doc__
+        "evaluate",
+        help="map metrics of a trained model on the test split",
+        description=EVALUATE_DESCRIPTION,
     )
     ev.add_argument("--data", required=True, help="dataset directory")
     ev.add_argument("--checkpoint", required=True, help="run directory written by train")
