@@ -164,8 +164,10 @@ def plot_loss_curve(rows: list[dict[str, Any]], path: Path, title: str = "") -> 
     """Training loss per logged step and validation loss per epoch, log scale, as PNG."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
+    from matplotlib.ticker import FormatStrFormatter, NullFormatter
 
-    fig = Figure(figsize=(6, 4), dpi=100)
+    # Constrained layout keeps the tick labels and the axis label inside the picture.
+    fig = Figure(figsize=(6, 4), dpi=100, layout="constrained")
     FigureCanvasAgg(fig)
     ax = fig.add_subplot(1, 1, 1)
     tr = [(int(r["step"]), float(r["loss"])) for r in rows if r["kind"] == "train"]
@@ -185,6 +187,12 @@ def plot_loss_curve(rows: list[dict[str, Any]], path: Path, title: str = "") -> 
     ax.set_ylabel("loss")
     if tr or va:
         ax.set_yscale("log")
+        # Plain decimals; within one decade a log axis labels only its minor ticks (as
+        # wide "4 x 10^-2" labels): label them then, and only then.
+        ax.yaxis.set_major_formatter(FormatStrFormatter("%.3g"))
+        low, high = ax.get_ylim()
+        minor = FormatStrFormatter("%.3g") if high / low < 10 else NullFormatter()
+        ax.yaxis.set_minor_formatter(minor)
         ax.legend()
     ax.set_title(title)
     ax.grid(True, alpha=0.3)
