@@ -220,6 +220,8 @@ def test_a_run_killed_before_its_first_manifest_is_continued(tmp_path):
     assert m["complete"] and sorted(p.name for p in (root / "scenes").iterdir()) == [
         "scene_000000.h5"
     ]
+    # The lock file is the run's own: a finished dataset holds none.
+    assert not (root / ".generate.lock").exists()
 
 
 def test_a_dataset_of_an_older_schema_is_recognised_as_old(tmp_path):
@@ -296,3 +298,17 @@ def test_a_bad_split_request_is_one_line_exit_2(tmp_path, capsys, args, message)
     err = capsys.readouterr().err.strip().splitlines()
     assert message in err[-1]
     assert not (tmp_path / "ds").exists()
+
+
+def test_a_second_run_on_a_locked_dataset_is_refused(tmp_path):
+    """While one run holds the lock another is refused; the lock goes when the run ends."""
+    from momakitchen.data.generator import _locked
+
+    root = tmp_path / "ds"
+    root.mkdir()
+    with _locked(root):
+        assert (root / ".generate.lock").exists()
+        with pytest.raises(MomaError, match="another 'momakitchen generate' is writing"):
+            make_dataset(root, scenes=1)
+    assert not (root / ".generate.lock").exists()
+    assert make_dataset(root, scenes=1)["complete"]

@@ -198,14 +198,24 @@ def prepare_root(root: Path, producer: str, config: dict[str, Any], cls: str) ->
 
 @contextmanager
 def _locked(root: Path) -> Iterator[None]:
-    """Exclusive lock on the dataset root; released by the kernel even on SIGKILL."""
-    fh = open(root / LOCK_NAME, "a")
+    """Exclusive lock on the dataset root; released by the kernel even on SIGKILL. The
+    lock file is removed when the run ends, so a finished dataset holds none (one killed
+    mid-run keeps it; the next run takes it over)."""
+    path = root / LOCK_NAME
+    fh = open(path, "a")
     try:
         try:
             fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:
             raise MomaError(f"another 'momakitchen generate' is writing to {root}") from None
-        yield
+        # A run that ended just now may have removed the file we opened: the lock must be
+        # on the file at ``path``, or a later run would lock another one beside us.
+        if not path.exists() or os.stat(path).st_ino != os.fstat(fh.fileno()).st_ino:
+            raise MomaError(f"another 'momakitchen generate' is writing to {root}")
+        try:
+            yield
+        finally:
+            path.unlink(missing_ok=True)  # while still holding the lock
     finally:
         fh.close()
 
