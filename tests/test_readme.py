@@ -62,3 +62,16 @@ def test_the_tour_is_one_path_on_a_dataset_with_both_splits():
         if argv[1] in ("evaluate", "msr"):
             runs = [argv[i + 1] for i, a in enumerate(argv) if a == "--checkpoint"]
             assert runs and set(runs) <= trained, argv
+
+
+def test_the_tour_writes_nothing_into_the_working_directory_itself():
+    """Every --out of the tour is a path under a folder (out/, data/, runs/, ...), not a
+    file dropped beside the repository's own files."""
+    for argv in _commands(_section("## A tour of the commands")):
+        out = _option(argv, "--out")
+        assert out is None or "/" in out.rstrip("/"), argv
+
+
+def test_the_index_url_is_explained_to_users_in_two_sentences():
+    paragraph = next(p for p in _section("## Set-up").split("\n\n") if "Why the index URL" in p)
+    assert len(re.findall(r"[.!?](?:\s|$)", paragraph.strip())) == 2, paragraph
