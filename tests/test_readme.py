@@ -75,3 +75,11 @@ def test_the_tour_writes_nothing_into_the_working_directory_itself():
 def test_the_index_url_is_explained_to_users_in_two_sentences():
     paragraph = next(p for p in _section("## Set-up").split("\n\n") if "Why the index URL" in p)
     assert len(re.findall(r"[.!?](?:\s|$)", paragraph.strip())) == 2, paragraph
+
+
+def test_the_msr_section_keeps_its_table_and_one_paragraph():
+    """The statistics live in docs/RESULTS.md; after its table the README says one thing."""
+    section = _section("## A tour of the commands")
+    msr = section[section.index("### `momakitchen msr`") : section.index("### `momakitchen audit`")]
+    after = msr[msr.rindex("\n|") :].split("\n", 2)[2].strip()
+    assert len(after.split("\n\n")) == 1 and "docs/RESULTS.md" in after, after
