@@ -614,7 +614,7 @@ def qualitative_figure(data_dir: Path, runs: Sequence[Path], examples: int) -> b
     ``examples`` test configurations that have a successful trial. PNG bytes."""
     from momakitchen.data import EpisodeDataset
     from momakitchen.models.inference import inference_collator, predict_batch
-    from momakitchen.perception.figures import floor_map, png_bytes, pyplot
+    from momakitchen.perception.figures import png_bytes
     from momakitchen.train.checkpoint import load_checkpoint
 
     data = EpisodeDataset(data_dir, "test")
@@ -631,30 +631,40 @@ def qualitative_figure(data_dir: Path, runs: Sequence[Path], examples: int) -> b
     if not picked:
         raise MomaError(f"no test configuration of {str(data_dir)!r} has a successful trial")
     loaded = [load_checkpoint(r) for r in runs]
+    rows = []
+    for sample in picked:
+        maps = []
+        for run in loaded:
+            batch = inference_collator(run.config)([sample])
+            maps.append((run.config.model, predict_batch(run.model, batch)[0].numpy()))
+        title = f"ground truth: scene {sample['scene_id']}, {sample['robot_name']}"
+        rows.append((title, sample["floor_xyz"].numpy(), sample["floor_label"].numpy(), maps))
+    fig = qualitative_grid(rows)
+    return png_bytes(fig)
+
+
+def qualitative_grid(
+    rows: Sequence[tuple[str, np.ndarray, np.ndarray, Sequence[tuple[str, np.ndarray]]]],
+) -> Any:
+    """The figure of :func:`qualitative_figure`: per row (title, floor points (N, 3), the
+    ground truth (N,), [(model name, its map (N,))]) the ground truth and every map, all on
+    one 0-1 colour scale with one colour bar, so that a model whose map peaks at
+    0.06 looks as unsure as it is (each map's maximum is in its title)."""
+    from momakitchen.perception.figures import floor_map, pyplot
+
     plt = pyplot()
+    columns = 1 + max(len(maps) for *_, maps in rows)
     fig, axes = plt.subplots(
-        len(picked),
-        1 + len(loaded),
-        figsize=(3.6 * (1 + len(loaded)), 3.2 * len(picked)),
+        len(rows),
+        columns,
+        figsize=(3.6 * columns + 0.8, 3.2 * len(rows)),
         constrained_layout=True,
         squeeze=False,
     )
-    for row, sample in enumerate(picked):
-        xyz = sample["floor_xyz"].numpy()
-        floor_map(
-            axes[row, 0],
-            xyz,
-            sample["floor_label"].numpy(),
-            f"ground truth: scene {sample['scene_id']}, {sample['robot_name']}",
-        )
-        for col, run in enumerate(loaded, start=1):
-            batch = inference_collator(run.config)([sample])
-            pred = predict_batch(run.model, batch)[0].numpy()
-            floor_map(
-                axes[row, col],
-                xyz,
-                pred,
-                f"{run.config.model} (max {pred.max():.2f})",
-                vmax=max(float(pred.max()), 0.05),
-            )
-    return png_bytes(fig)
+    scatter = None
+    for row, (title, xyz, label, maps) in enumerate(rows):
+        scatter = floor_map(axes[row, 0], xyz, label, title, vmax=1.0)
+        for col, (name, pred) in enumerate(maps, start=1):
+            floor_map(axes[row, col], xyz, pred, f"{name} (max {pred.max():.2f})", vmax=1.0)
+    fig.colorbar(scatter, ax=axes.ravel().tolist(), shrink=0.6, label="affordance (0–1)")
+    return fig
