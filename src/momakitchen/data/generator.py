@@ -486,7 +486,23 @@ def _run_local(
         except BaseException:
             for fut in pending:
                 fut.cancel()
+            _stop_workers(pool)
             raise
+
+
+def _stop_workers(pool: ProcessPoolExecutor) -> None:
+    """End the pool's workers now. Leaving the ``with`` block would wait for each to finish
+    its scene (a minute or more) when only this process was interrupted (``kill -INT``, an
+    IDE's stop button: Ctrl-C in a terminal reaches the workers too); their temporary
+    shards are removed by the next run."""
+    # The executor has no public way to end running tasks: its worker processes (taken
+    # before shutdown, which forgets them).
+    processes = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for process in processes:
+        process.terminate()
+    for process in processes:
+        process.join(timeout=5)
 
 
 def _ray_submitter(workers: int) -> tuple[Any, bool]:
