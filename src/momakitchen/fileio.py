@@ -40,6 +40,9 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
     full disk is a MomaError naming ``path``.
     """
     path = Path(path)
+    if path.exists() and not path.is_file() and not path.is_dir():
+        # A device or a pipe (/dev/full, a FIFO): the rename would replace it with a file.
+        raise MomaError(f"cannot write {str(path)!r}: it is not a regular file")
     tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp{path.suffix}")
     try:
         yield tmp

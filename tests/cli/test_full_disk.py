@@ -61,3 +61,14 @@ def test_a_full_disk_in_any_writer_is_one_line(tmp_path, monkeypatch, capsys):
     assert main(["scene", "--scene-id", "7", "--no-render", "--out", str(out)]) == 2
     assert "scene.json" in _one_line(capsys)
     assert not out.exists()
+
+
+def test_a_device_or_pipe_as_output_is_refused_not_replaced(tmp_path, capsys):
+    """`--out /dev/full` used to replace the device with a regular file (the atomic
+    rename); a FIFO stands in for it here."""
+    fifo = tmp_path / "pipe.urdf"
+    os.mkfifo(fifo)
+    assert main(["robots", "export-urdf", "panda", "--out", str(fifo)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "not a regular file" in err, err
+    assert fifo.is_fifo()

@@ -138,5 +138,8 @@ def output_file(path: str | os.PathLike) -> Path:
     out = Path(path)
     if out.is_dir():
         raise MomaError(f"cannot write {str(out)!r}: it is a directory")
+    if out.exists() and not out.is_file():
+        # A device or a pipe (/dev/full, /dev/stdout): the atomic rename would replace it.
+        raise MomaError(f"cannot write {str(out)!r}: it is not a regular file")
     planned_output_dir(out.parent)
     return out
