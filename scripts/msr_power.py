@@ -22,12 +22,12 @@ from script_cli import run_main
 
 from momakitchen.errors import MomaError
 from momakitchen.eval.msr import merge_msr
-from momakitchen.eval.report import (
+from momakitchen.eval.report import top1_outcomes
+from momakitchen.eval.stats import (
     configurations_needed,
     detectable_lead,
     mcnemar,
     mcnemar_power,
-    top1_outcomes,
 )
 from momakitchen.fileio import read_json_object
 

@@ -146,8 +146,11 @@ run_one() {  # name, then train options: train (or restore), evaluate, MSR (MSR_
     return 0
   else
     stamp "train $name"
+    # Resume a run cut short after a finished epoch; train refuses --resume without one.
+    local resume=()
+    [[ -f "$RUNS/$name/trainer_state.json" ]] && resume=(--resume)
     # shellcheck disable=SC2086  # the options are words
-    momakitchen train --data "$DATA" --out "$RUNS/$name" --resume --quiet "$@" $TRAIN_OPTS
+    momakitchen train --data "$DATA" --out "$RUNS/$name" "${resume[@]}" --quiet "$@" $TRAIN_OPTS
     archive_results "$RUNS/$name" "$ARCHIVE/$name" config.json model.safetensors
   fi
   if stale "$RUNS/$name/test.json" "$RUNS/$name/model.safetensors"; then

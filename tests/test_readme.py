@@ -62,3 +62,24 @@ def test_the_tour_is_one_path_on_a_dataset_with_both_splits():
         if argv[1] in ("evaluate", "msr"):
             runs = [argv[i + 1] for i, a in enumerate(argv) if a == "--checkpoint"]
             assert runs and set(runs) <= trained, argv
+
+
+def test_the_tour_writes_nothing_into_the_working_directory_itself():
+    """Every --out of the tour is a path under a folder (out/, data/, runs/, ...), not a
+    file dropped beside the repository's own files."""
+    for argv in _commands(_section("## A tour of the commands")):
+        out = _option(argv, "--out")
+        assert out is None or "/" in out.rstrip("/"), argv
+
+
+def test_the_index_url_is_explained_to_users_in_two_sentences():
+    paragraph = next(p for p in _section("## Set-up").split("\n\n") if "Why the index URL" in p)
+    assert len(re.findall(r"[.!?](?:\s|$)", paragraph.strip())) == 2, paragraph
+
+
+def test_the_msr_section_keeps_its_table_and_one_paragraph():
+    """The statistics live in docs/RESULTS.md; after its table the README says one thing."""
+    section = _section("## A tour of the commands")
+    msr = section[section.index("### `momakitchen msr`") : section.index("### `momakitchen audit`")]
+    after = msr[msr.rindex("\n|") :].split("\n", 2)[2].strip()
+    assert len(after.split("\n\n")) == 1 and "docs/RESULTS.md" in after, after

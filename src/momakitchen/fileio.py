@@ -3,6 +3,7 @@ directories and files that commands read, and reading a JSON object with a clear
 
 from __future__ import annotations
 
+import errno
 import io
 import json
 import os
@@ -18,18 +19,38 @@ if TYPE_CHECKING:
     import numpy as np
 
 
+# The errors of a full disk (or of a full quota): a user's problem, reported as one line.
+DISK_FULL = frozenset({errno.ENOSPC, errno.EDQUOT})
+
+
+def disk_full_message(path: str | os.PathLike, exc: OSError) -> str:
+    """The one-line error for a write to ``path`` that failed with a full disk."""
+    return (
+        f"cannot write {str(path)!r}: {os.strerror(exc.errno or errno.ENOSPC)}; "
+        "free some space or write elsewhere"
+    )
+
+
 @contextmanager
 def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
     """Yield a temporary path beside ``path``; on success it is renamed onto ``path``.
 
     The temporary name keeps the suffix, so writers that infer a format from it (e.g.
-    ``savefig``) work. On error the temporary file is removed and ``path`` is untouched.
+    ``savefig``) work. On error the temporary file is removed and ``path`` is untouched; a
+    full disk is a MomaError naming ``path``.
     """
     path = Path(path)
+    if path.exists() and not path.is_file() and not path.is_dir():
+        # A device or a pipe (/dev/full, a FIFO): the rename would replace it with a file.
+        raise MomaError(f"cannot write {str(path)!r}: it is not a regular file")
     tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp{path.suffix}")
     try:
         yield tmp
         os.replace(tmp, path)
+    except OSError as exc:
+        if exc.errno in DISK_FULL:
+            raise MomaError(disk_full_message(path, exc)) from None
+        raise
     finally:
         tmp.unlink(missing_ok=True)
 

@@ -1,6 +1,6 @@
 """A damaged checkpoint (truncated weights, tensors of other names or shapes than its
-config.json describes): one line naming the file, exit 2, on every command that loads
-one."""
+config.json describes, one flipped byte, a NaN weight): one line naming the file, exit 2,
+on every command that loads one."""
 
 from __future__ import annotations
 
@@ -10,6 +10,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import torch
+from safetensors.torch import load_file
 
 from momakitchen import codec
 from momakitchen.cli.main import main
@@ -17,19 +19,34 @@ from momakitchen.data.config import GenerationConfig
 from momakitchen.errors import MomaError
 from momakitchen.train import load_checkpoint
 
+KINDS = ("truncated", "shapes", "names", "flipped", "nan")
+
 
 @pytest.fixture(scope="module")
 def damaged(tiny_run: Path, tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
-    """Copies of the tiny run: truncated weights, a wider model, another model's name."""
+    """Copies of the tiny run: truncated weights, a wider model, another model's name, one
+    flipped byte in the tensor data, one NaN weight (saved with a matching checksum)."""
+    from momakitchen.train.checkpoint import safetensors_bytes
+
     root = tmp_path_factory.mktemp("damaged")
     runs = {}
-    for kind in ("truncated", "shapes", "names"):
+    for kind in KINDS:
         run = root / kind
         shutil.copytree(tiny_run, run)
         config = json.loads((run / "config.json").read_text())
         if kind == "truncated":
             with open(run / "model.safetensors", "r+b") as fh:
                 fh.truncate(1000)
+        elif kind == "flipped":
+            raw = bytearray((run / "model.safetensors").read_bytes())
+            raw[-7] ^= 0x01  # the last tensor's data: still parses, checksum differs
+            (run / "model.safetensors").write_bytes(bytes(raw))
+        elif kind == "nan":
+            state = load_file(run / "model.safetensors")
+            name = sorted(k for k, v in state.items() if v.is_floating_point())[0]
+            state[name].view(-1)[0] = torch.nan
+            data = safetensors_bytes(state, {"format": "momakitchen-checkpoint"})
+            (run / "model.safetensors").write_bytes(data)
         elif kind == "shapes":
             config["train_config"]["model_config"]["embed_dim"] *= 2
         else:
@@ -58,6 +75,8 @@ def kitchen_manifest(tmp_path_factory: pytest.TempPathFactory) -> Path:
         ("truncated", "unreadable"),
         ("shapes", "has shape"),
         ("names", "is missing"),
+        ("flipped", "does not match the SHA-256"),
+        ("nan", "NaN or infinite"),
     ],
 )
 def test_load_checkpoint_names_the_file(damaged, kind, needle):
@@ -68,7 +87,7 @@ def test_load_checkpoint_names_the_file(damaged, kind, needle):
 
 
 @pytest.mark.parametrize("command", ["evaluate", "predict", "demo", "msr"])
-@pytest.mark.parametrize("kind", ["truncated", "shapes", "names"])
+@pytest.mark.parametrize("kind", KINDS)
 def test_every_command_reports_a_damaged_checkpoint(
     command, kind, damaged, kitchen_manifest, tmp_path, capsys
 ):
@@ -95,3 +114,21 @@ def test_every_command_reports_a_damaged_checkpoint(
     assert len(err.splitlines()) == 1, err
     assert f"{run}/model.safetensors" in err and "Traceback" not in err
     assert not out.exists()
+
+
+def test_written_weights_carry_a_checksum(tiny_run):
+    """Weights and trainer state record the SHA-256 of their data in their own metadata."""
+    from safetensors import safe_open
+
+    for name in ("model.safetensors", "trainer_state.safetensors"):
+        with safe_open(str(tiny_run / name), "pt") as fh:
+            assert len(fh.metadata()["sha256"]) == 64
+
+
+def test_bundled_weights_carry_a_checksum():
+    from safetensors import safe_open
+
+    from momakitchen.train.checkpoint import default_checkpoint
+
+    with safe_open(str(default_checkpoint() / "model.safetensors"), "pt") as fh:
+        assert len(fh.metadata()["sha256"]) == 64

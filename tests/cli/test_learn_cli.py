@@ -90,6 +90,15 @@ def test_train_then_evaluate(run, dataset, tmp_path, capsys):
             ["evaluate", "--data", "DATA", "--checkpoint", "OUT/none", "--json", "OUT/e.json"],
             "none",
         ),
+        # Nothing to resume: refused at once, not trained from scratch.
+        (
+            ["train", "--data", "DATA", "--model", "navaff", "--out", "OUT/new", "--resume"],
+            "nothing to resume",
+        ),
+        (
+            ["train", "--data", "DATA", "--model", "navaff", "--out", "RUN"],
+            "already holds a checkpoint; pass --resume",
+        ),
     ],
 )
 def test_bad_input(argv, needle, dataset, run, tmp_path, capsys):
@@ -98,6 +107,7 @@ def test_bad_input(argv, needle, dataset, run, tmp_path, capsys):
     assert main(argv) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and needle in err
+    assert not (tmp_path / "out").exists()
 
 
 def test_a_one_scene_dataset_says_how_to_get_a_train_split(tmp_path, capsys):

@@ -25,3 +25,13 @@ def make_dataset(
         progress=False,
         write_card=card,
     )
+
+
+def slow_scene_records(scene_id: int, config: SyntheticSceneConfig):
+    """Synthetic records, a minute late for every scene but the first: a worker busy with a
+    long scene."""
+    import time
+
+    if scene_id > 0:
+        time.sleep(60)
+    return synthetic_scene_records(scene_id, config)

@@ -220,6 +220,8 @@ def test_a_run_killed_before_its_first_manifest_is_continued(tmp_path):
     assert m["complete"] and sorted(p.name for p in (root / "scenes").iterdir()) == [
         "scene_000000.h5"
     ]
+    # The lock file is the run's own: a finished dataset holds none.
+    assert not (root / ".generate.lock").exists()
 
 
 def test_a_dataset_of_an_older_schema_is_recognised_as_old(tmp_path):
@@ -296,3 +298,45 @@ def test_a_bad_split_request_is_one_line_exit_2(tmp_path, capsys, args, message)
     err = capsys.readouterr().err.strip().splitlines()
     assert message in err[-1]
     assert not (tmp_path / "ds").exists()
+
+
+def test_a_second_run_on_a_locked_dataset_is_refused(tmp_path):
+    """While one run holds the lock another is refused; the lock goes when the run ends."""
+    from momakitchen.data.generator import _locked
+
+    root = tmp_path / "ds"
+    root.mkdir()
+    with _locked(root):
+        assert (root / ".generate.lock").exists()
+        with pytest.raises(MomaError, match="another 'momakitchen generate' is writing"):
+            make_dataset(root, scenes=1)
+    assert not (root / ".generate.lock").exists()
+    assert make_dataset(root, scenes=1)["complete"]
+
+
+@pytest.mark.slow  # two spawned workers: about 15 s
+def test_an_interrupted_run_does_not_wait_for_its_workers(tmp_path):
+    """Interrupted while a worker is busy with a long scene (as `kill -INT` on the
+    generating process alone does), generate stops at once: it does not wait for the
+    worker to finish its scene, and leaves no temporary shard."""
+    import time
+
+    from dataset_helpers import slow_scene_records
+
+    from momakitchen.data.generator import GenerateRequest, generate_dataset
+
+    def interrupt(*_args):
+        raise KeyboardInterrupt
+
+    request = GenerateRequest(out=tmp_path / "ds", num_scenes=2, workers=2)
+    mp = pytest.MonkeyPatch()
+    # The driver is interrupted as soon as the fast scene is written.
+    mp.setattr("momakitchen.data.generator.mf.add_shard", interrupt)
+    start = time.perf_counter()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            generate_dataset(request, slow_scene_records, SMALL, progress=False, write_card=False)
+    finally:
+        mp.undo()
+    assert time.perf_counter() - start < 30
+    assert not [p for p in (tmp_path / "ds" / "scenes").iterdir() if p.name.startswith(".")]

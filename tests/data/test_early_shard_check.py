@@ -1,5 +1,6 @@
 """`evaluate` and `train` check every shard they will read before any work: a missing,
-truncated or foreign shard is one line naming it (no HDF5 text), and no model runs."""
+truncated, foreign or (by its checksum) damaged shard is one line naming it (no HDF5
+text), and no model runs."""
 
 from __future__ import annotations
 
@@ -30,6 +31,10 @@ def _damage(root: Path, how: str) -> None:
         m = json.loads((root / "manifest.json").read_text())
         m["shards"]["4"]["bytes"] = shard.stat().st_size
         (root / "manifest.json").write_text(json.dumps(m))
+    elif how == "flipped":  # one byte in the middle: it still opens, its checksum differs
+        raw = bytearray(shard.read_bytes())
+        raw[len(raw) // 2] ^= 0x01
+        shard.write_bytes(bytes(raw))
     else:  # the same size, but not HDF5 any more
         shard.write_bytes(b"\0" * shard.stat().st_size)
 
@@ -52,7 +57,7 @@ def test_check_shard_files_names_the_bad_shard(dataset, how):
     check_shard_files(dataset, load_manifest(dataset), [0])
 
 
-@pytest.mark.parametrize("how", ["missing", "truncated", "zeroed"])
+@pytest.mark.parametrize("how", ["missing", "truncated", "zeroed", "flipped"])
 def test_evaluate_and_train_check_before_any_work(dataset, tiny_run, how, tmp_path, capsys):
     import momakitchen.eval.evaluate as evaluate_module
     import momakitchen.train as train_module
@@ -78,3 +83,11 @@ def test_evaluate_and_train_check_before_any_work(dataset, tiny_run, how, tmp_pa
     finally:
         mp.undo()
     assert not (tmp_path / "e.json").exists() and not (tmp_path / "run").exists()
+
+
+def test_a_flipped_byte_is_found_by_the_checksum_only(dataset):
+    """The quick check alone passes a shard with one flipped byte; the checksum finds it."""
+    _damage(dataset, "flipped")
+    check_shard_files(dataset, load_manifest(dataset))
+    with pytest.raises(MomaError, match=r"scene_000004\.h5: checksum differs"):
+        check_shard_files(dataset, load_manifest(dataset), verify_hash=True)

@@ -104,6 +104,18 @@ def test_summary_figures_add_up():
     assert au.audit_figure(s, au.AuditConfig())[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+def test_the_dominant_failure_of_infeasible_configurations_is_a_failure():
+    """Where the grid's only failures are geometric (the base does not fit, out of
+    reach), the table names that stage, never "success" (a stage with zero trials)."""
+    record = _record("panda", "bottle", False, [0, 0], [False], miss="infeasible", stab=())
+    record["grid"]["stages"]["execution_failed"] = 0
+    record["grid"]["stages"]["out_of_reach"] = 4
+    s = au.summarize([record], au.AuditConfig())
+    assert s["overall"]["infeasible_stage"] == "base_collision"
+    assert "success" not in s["overall"]["infeasible_stages"]
+    assert "success" not in au.format_audit_table(s, au.AuditConfig())
+
+
 @pytest.mark.parametrize(
     "kwargs",
     [{"offsets": ()}, {"offsets": (0.0,)}, {"yaw_offset_deg": -1.0}, {"max_stability_points": -1}],

@@ -55,7 +55,7 @@ def power_main(monkeypatch):
 
 
 def test_reports_power_and_configurations_needed(tmp_path):
-    from momakitchen.eval.report import configurations_needed, detectable_lead, mcnemar_power
+    from momakitchen.eval.stats import configurations_needed, detectable_lead, mcnemar_power
 
     # 200 configurations: 12 only a, 4 only b (discordant 8 %, lead 4 points), 184 agree.
     a = [1] * 12 + [0] * 4 + [1] * 150 + [0] * 34

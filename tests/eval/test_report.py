@@ -14,15 +14,17 @@ from momakitchen.cli.main import main
 from momakitchen.errors import MomaError
 from momakitchen.eval.report import (
     BenchmarkRequest,
-    configurations_needed,
-    detectable_lead,
-    mcnemar,
-    mcnemar_power,
     paired_map_table,
     paired_table,
     pooled_paired_table,
     run_benchmark,
     seed_table,
+)
+from momakitchen.eval.stats import (
+    configurations_needed,
+    detectable_lead,
+    mcnemar,
+    mcnemar_power,
 )
 
 

@@ -95,6 +95,9 @@ def _check_report_figure(fig, result):
         assert lo[0] <= x0 < x1 <= hi[0] and lo[1] <= y0 < y1 <= hi[1]
         assert not [t for t in ax.texts if t.get_bbox_patch() is not None]  # no badge
     assert ("success" if result["trial"]["success"] else "failure") in maps[1].get_title()
+    # The marks are explained: the target star has a legend entry.
+    legend = maps[0].get_legend()
+    assert legend is not None and "target" in [t.get_text() for t in legend.get_texts()]
 
 
 def test_demo_bad_input(tmp_path, capsys):

@@ -106,8 +106,12 @@ def test_checkpoint_errors(tmp_path, tiny_sets, make_config):
         load_checkpoint(run, model="navaff")
     with pytest.raises(MomaError, match="does not exist"):
         load_checkpoint(tmp_path / "nowhere")
-    with pytest.raises(MomaError, match="already holds a checkpoint"):
+    with pytest.raises(MomaError, match="already holds a checkpoint; pass --resume"):
         train(make_config(epochs=1, model="pointnet2"), train_set, None, run)
+    with pytest.raises(MomaError, match=r"nothing to resume.*holds no finished epoch"):
+        (tmp_path / "empty").mkdir()
+        train(make_config(epochs=1), train_set, None, tmp_path / "empty", resume=True)
+    assert not any((tmp_path / "empty").iterdir())
     with pytest.raises(MomaError, match=r"holds model 'pointnet2'.*'navaff'"):
         train(make_config(epochs=1), train_set, None, run, resume=True)
     info = json.loads((run / "config.json").read_text())

@@ -57,6 +57,22 @@ def positive_float(text: str) -> float:
     return _number(text, allow_zero=False)
 
 
+def scene_id(text: str) -> int:
+    """argparse type: a scene id, in [0, MAX_SCENE_ID] (:mod:`momakitchen.scene.ids`)."""
+    from momakitchen.scene.ids import MAX_SCENE_ID, scene_id_problem
+
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected a scene id (an integer in [0, {MAX_SCENE_ID}]), got {text!r}"
+        ) from None
+    problem = scene_id_problem(value)
+    if problem:
+        raise argparse.ArgumentTypeError(problem)
+    return value
+
+
 def add_robot_yaml(parser: argparse.ArgumentParser) -> None:
     """``--robot-yaml FILE`` (repeatable) on a command that takes a robot; the entry point
     registers the files' robots before the command runs (as MOMAKITCHEN_ROBOT_YAML does)."""
@@ -122,5 +138,8 @@ def output_file(path: str | os.PathLike) -> Path:
     out = Path(path)
     if out.is_dir():
         raise MomaError(f"cannot write {str(out)!r}: it is a directory")
+    if out.exists() and not out.is_file():
+        # A device or a pipe (/dev/full, /dev/stdout): the atomic rename would replace it.
+        raise MomaError(f"cannot write {str(out)!r}: it is not a regular file")
     planned_output_dir(out.parent)
     return out

@@ -115,10 +115,11 @@ def run_stats(args: argparse.Namespace) -> int:
                 f"{'-' if rate is None else f'{rate:.3f}':>9}"
             )
     pts = s["points_per_episode"]
+    shape = s["image_shape"]
+    image = f"{shape[1]}x{shape[0]}" if shape else "-"
     print(
-        f"bytes: {s['bytes']:,} ({s['bytes_per_episode']:,.0f} per episode); image "
-        f"{s['image_shape']}; points per episode: global {pts['global']}, floor "
-        f"{pts['floor']}"
+        f"bytes: {s['bytes']:,} ({s['bytes_per_episode']:,.0f} per episode); image {image}; "
+        f"points per episode: global {_spread(pts['global'])}, floor {_spread(pts['floor'])}"
     )
     coverage = s["view_coverage"]
     print(
@@ -133,6 +134,13 @@ def run_stats(args: argparse.Namespace) -> int:
             f"{s['episodes_with_empty_cloud']}"
         )
     return 0
+
+
+def _spread(summary: dict[str, float] | None) -> str:
+    """``{"mean", "min", "max"}`` as ``mean 12,345 (min 1,000, max 20,000)``."""
+    if summary is None:
+        return "-"
+    return f"mean {summary['mean']:,.0f} (min {summary['min']:,.0f}, max {summary['max']:,.0f})"
 
 
 def run_export(args: argparse.Namespace) -> int:

@@ -16,6 +16,7 @@ from momakitchen.cli.common import (
     check_config_index,
     non_negative_int,
     planned_output_dir,
+    scene_id,
 )
 
 # momakitchen.generation.demo's default, spelled out so that building the parser
@@ -30,7 +31,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", required=True, help="output directory")
     p.add_argument(
         "--scene-id",
-        type=non_negative_int,
+        type=scene_id,
         default=DEFAULT_SCENE_ID,
         help=f"kitchen to build (default {DEFAULT_SCENE_ID}, unseen in training)",
     )

@@ -11,7 +11,7 @@ training pipelines); the manifest records the producer.
 ``scene``, ``trial``, ``dense``, ``camera``, ``views`` and ``cloud`` and of their fields;
 the rest keep their defaults. With ``--synthetic`` the file sets the fields of the
 synthetic producer's config (``configs_per_scene``, ``episodes_per_config``, ...) instead.
-Example::
+Example:
 
     views:
       episodes: 4
@@ -25,13 +25,17 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from momakitchen.cli.common import non_negative_int, positive_int
+from momakitchen.cli.common import positive_int, scene_id
 from momakitchen.errors import MomaError
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     parser = sub.add_parser(
-        "generate", help="generate the dataset (resumable, parallel)", description=__doc__
+        "generate",
+        help="generate the dataset (resumable, parallel)",
+        description=__doc__,
+        # Keep the docstring's line breaks: its YAML example is unreadable on one line.
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("--out", required=True, help="dataset directory")
     parser.add_argument(
@@ -41,7 +45,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="number of scenes (2 or more from scene 0 for both a train and a test split)",
     )
     parser.add_argument(
-        "--first-scene-id", type=non_negative_int, default=0, help="first scene id (default 0)"
+        "--first-scene-id",
+        type=scene_id,
+        default=0,
+        help="first scene id (default 0; ids run to 2147483647)",
     )
     parser.add_argument(
         "--split",

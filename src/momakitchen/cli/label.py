@@ -19,6 +19,7 @@ from momakitchen.cli.common import (
     output_dir,
     planned_output_dir,
     positive_float,
+    scene_id,
 )
 from momakitchen.fileio import atomic_path, atomic_write_bytes, atomic_write_text, npz_bytes
 from momakitchen.version import __version__
@@ -28,7 +29,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     parser = sub.add_parser(
         "label", help="run the trials of a configuration: labels + PNG", description=__doc__
     )
-    parser.add_argument("--scene-id", type=non_negative_int, required=True)
+    parser.add_argument("--scene-id", type=scene_id, required=True)
     parser.add_argument(
         "--robot", default=None, help="robot to label with (default: the configuration's own robot)"
     )

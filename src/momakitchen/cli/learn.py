@@ -35,6 +35,13 @@ MODEL_NAMES = (
 )
 PRESET_NAMES = ("paper", "cpu")
 
+EVALUATE_DESCRIPTION = (
+    "Map metrics of a trained model (a run directory written by `momakitchen train`) on a "
+    "split of a dataset, the test split by default: RMSE, logMSE, PCC, SIM, MAE, cosine and "
+    "cIoU, printed as a table like the paper's Table 2 and written with per-robot and "
+    "per-scene breakdowns as JSON. Every shard read is checked first."
+)
+
 TRAIN_CONFIG_HELP = """\
 training options come from, highest precedence first:
   1. command-line options given explicitly (--model, --epochs, --lambda-zero, ...);
@@ -120,7 +127,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     tr.set_defaults(func=run_train)
 
     ev = sub.add_parser(
-        "evaluate", help="map metrics of a trained model on the test split", description=__doc__
+        "evaluate",
+        help="map metrics of a trained model on the test split",
+        description=EVALUATE_DESCRIPTION,
     )
     ev.add_argument("--data", required=True, help="dataset directory")
     which = ev.add_mutually_exclusive_group(required=True)
@@ -145,14 +154,17 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def _dataset(root: str, split: str):
     """The episodes of ``split``, once every shard they come from has passed the quick
-    check (so a missing or damaged shard is found before any training or evaluation)."""
+    check and its checksum (so a missing or damaged shard is found before any training or
+    evaluation: both read every byte of these shards anyway)."""
     from momakitchen.data import EpisodeDataset
     from momakitchen.data.integrity import check_shard_files
 
     data = EpisodeDataset(existing_dir(root, "dataset directory"), split)
     if len(data) == 0:
         raise MomaError(_no_episodes(root, split, data.manifest))
-    check_shard_files(root, data.manifest, {sid for _, sid, _, _, _ in data.index})
+    check_shard_files(
+        root, data.manifest, {sid for _, sid, _, _, _ in data.index}, verify_hash=True
+    )
     return data
 
 
@@ -223,6 +235,10 @@ def run_train(args: argparse.Namespace) -> int:
     from momakitchen.train import train
 
     planned_output_dir(args.out)  # a file or an impossible place fails before any work
+    if args.resume:
+        from momakitchen.train.checkpoint import require_checkpoint
+
+        require_checkpoint(args.out)
     config = train_config(args)
     data = _dataset(args.data, "train")
     _probe_plugin(config, data)

@@ -86,20 +86,53 @@ def main(argv: list[str] | None = None) -> int:
     if getattr(args, "func", None) is None:
         parser.print_help()
         return 2
+    out = getattr(args, "out", None)
+    fresh_out = out if isinstance(out, str) and not os.path.lexists(out) else None
+    status = _run(args)
+    if status != 0 and fresh_out is not None:
+        _remove_if_empty(fresh_out)
+    return status
+
+
+def _run(args: argparse.Namespace) -> int:
+    """Run the parsed command; user errors become one line and a status."""
+    from momakitchen.fileio import DISK_FULL
+
     try:
         register_user_robots(args)
         return int(args.func(args) or 0)
     except MomaError as exc:
         print(f"momakitchen {args.command}: error: {exc}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print(f"momakitchen {args.command}: interrupted", file=sys.stderr)
-        return 130
     except BrokenPipeError:
         # The reader went away (`momakitchen stats DIR | head -1`): stop quietly, as other
         # tools do; stdout goes to /dev/null so that the exit's flush cannot fail again.
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 141  # 128 + SIGPIPE, the status a shell shows for such a tool
+    except OSError as exc:
+        # A full disk in a writer that does not report it itself (a figure, a library):
+        # the user's problem too, not a traceback.
+        if exc.errno not in DISK_FULL:
+            raise
+        where = f" writing {exc.filename!r}" if exc.filename else ""
+        print(
+            f"momakitchen {args.command}: error: {os.strerror(exc.errno)}{where}; "
+            "free some space or write elsewhere",
+            file=sys.stderr,
+        )
+        return 2
+    except KeyboardInterrupt:
+        print(f"momakitchen {args.command}: interrupted", file=sys.stderr)
+        return 130
+
+
+def _remove_if_empty(path: str) -> None:
+    """Remove ``path`` (an --out this failed run created) if nothing is left in it: a
+    failed run leaves no empty directory, whichever step failed."""
+    try:
+        os.rmdir(path)  # only ever removes an empty directory
+    except OSError:
+        pass
 
 
 if __name__ == "__main__":

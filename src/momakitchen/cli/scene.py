@@ -14,6 +14,7 @@ from momakitchen.cli.common import (
     output_dir,
     planned_output_dir,
     positive_int,
+    scene_id,
 )
 from momakitchen.fileio import atomic_path, atomic_write_text
 from momakitchen.version import __version__
@@ -28,9 +29,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     parser.add_argument(
         "--scene-id",
-        type=non_negative_int,
+        type=scene_id,
         required=True,
-        help="scene id (an integer >= 0); everything derives from it",
+        help="scene id (an integer in [0, 2147483647]); everything derives from it",
     )
     parser.add_argument("--out", required=True, help="output directory")
     parser.add_argument(

@@ -26,6 +26,7 @@ def save_episode_figure(ep: Episode, path: str | os.PathLike) -> None:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import FuncFormatter
 
     fig, ax = plt.subplots(1, 4, figsize=(17, 4.2))
     if ep.rgb.size:  # imported reference data may have no images
@@ -47,17 +48,21 @@ def save_episode_figure(ep: Episode, path: str | os.PathLike) -> None:
         ep.floor_xyz[:, 0],
         s=2,
         c=ep.floor_label,
-        cmap="magma",
+        cmap="viridis",  # the colour map of every other affordance figure
         vmin=0,
         vmax=1,
         linewidths=0,
     )
     fig.colorbar(sc, ax=ax[3], fraction=0.04, label="affordance")
     ax[3].set_title("floor map")
+    # As in every top-down view of the base frame: forward up, left to the left, the axis
+    # labelled with y itself (the points are drawn at -y).
+    left = FuncFormatter(lambda v, _pos: f"{-v + 0.0:g}")
     for a in ax[2:]:
         a.set_aspect("equal")
-        a.set_xlabel("-y (m, right)")
-        a.set_ylabel("x (m, forward)")
+        a.xaxis.set_major_formatter(left)
+        a.set_xlabel("y (m), positive to the left")
+        a.set_ylabel("x, forward (m)")
     fig.suptitle(
         f"scene {ep.scene_id}, configuration {ep.config_index}, episode "
         f"{ep.episode_index}, robot {ep.robot}"

@@ -28,7 +28,6 @@ import os
 import queue
 import signal
 import sys
-import tempfile
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -45,14 +44,16 @@ from momakitchen.data.shard import (
     SceneRecords,
     SceneShard,
     file_sha256,
+    file_summary,
     list_shards,
     remove_temporaries,
-    shard_name,
+    shard_bytes,
     write_shard,
     write_shard_bytes,
 )
 from momakitchen.errors import MomaError
 from momakitchen.registry import Registry
+from momakitchen.scene.ids import check_scene_range
 from momakitchen.version import __version__
 
 BACKENDS = ("local", "ray")
@@ -134,6 +135,7 @@ class GenerateRequest:
             raise MomaError(f"number of scenes must be >= 1, got {self.num_scenes!r}")
         if not isinstance(self.first_scene_id, int) or self.first_scene_id < 0:
             raise MomaError(f"first scene id must be >= 0, got {self.first_scene_id!r}")
+        check_scene_range(self.first_scene_id, self.num_scenes)
         if not isinstance(self.workers, int) or not 1 <= self.workers <= 1024:
             raise MomaError(f"workers must be in [1, 1024], got {self.workers!r}")
         if self.backend not in BACKENDS:
@@ -196,14 +198,24 @@ def prepare_root(root: Path, producer: str, config: dict[str, Any], cls: str) ->
 
 @contextmanager
 def _locked(root: Path) -> Iterator[None]:
-    """Exclusive lock on the dataset root; released by the kernel even on SIGKILL."""
-    fh = open(root / LOCK_NAME, "a")
+    """Exclusive lock on the dataset root; released by the kernel even on SIGKILL. The
+    lock file is removed when the run ends, so a finished dataset holds none (one killed
+    mid-run keeps it; the next run takes it over)."""
+    path = root / LOCK_NAME
+    fh = open(path, "a")
     try:
         try:
             fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:
             raise MomaError(f"another 'momakitchen generate' is writing to {root}") from None
-        yield
+        # A run that ended just now may have removed the file we opened: the lock must be
+        # on the file at ``path``, or a later run would lock another one beside us.
+        if not path.exists() or os.stat(path).st_ino != os.fstat(fh.fileno()).st_ino:
+            raise MomaError(f"another 'momakitchen generate' is writing to {root}")
+        try:
+            yield
+        finally:
+            path.unlink(missing_ok=True)  # while still holding the lock
     finally:
         fh.close()
 
@@ -306,10 +318,9 @@ def _worker_init(parent_pid: int, progress_queue: Any = None) -> None:
 
 def _scene_bytes_task(scene_fn: SceneFn, config: Any, scene_id: int) -> tuple[dict, bytes]:
     """Worker body (Ray backend): compute one scene, return the shard summary and bytes."""
-    with tempfile.TemporaryDirectory(prefix="momakitchen-shard-") as tmp:
-        summary = write_shard(tmp, scene_id, scene_fn(scene_id, config))
-        data = (Path(tmp) / shard_name(scene_id)).read_bytes()
-    return summary, data
+    records = scene_fn(scene_id, config)
+    data = shard_bytes(scene_id, records)
+    return file_summary(scene_id, records, data), data
 
 
 def generate_dataset(
@@ -475,7 +486,23 @@ def _run_local(
         except BaseException:
             for fut in pending:
                 fut.cancel()
+            _stop_workers(pool)
             raise
+
+
+def _stop_workers(pool: ProcessPoolExecutor) -> None:
+    """End the pool's workers now. Leaving the ``with`` block would wait for each to finish
+    its scene (a minute or more) when only this process was interrupted (``kill -INT``, an
+    IDE's stop button: Ctrl-C in a terminal reaches the workers too); their temporary
+    shards are removed by the next run."""
+    # The executor has no public way to end running tasks: its worker processes (taken
+    # before shutdown, which forgets them).
+    processes = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for process in processes:
+        process.terminate()
+    for process in processes:
+        process.join(timeout=5)
 
 
 def _ray_submitter(workers: int) -> tuple[Any, bool]:

@@ -131,19 +131,23 @@ def _open_checked(
 
 
 def check_shard_files(
-    root: str | os.PathLike, manifest: dict[str, Any], scene_ids: Iterable[int] | None = None
+    root: str | os.PathLike,
+    manifest: dict[str, Any],
+    scene_ids: Iterable[int] | None = None,
+    verify_hash: bool = False,
 ) -> None:
     """The quick check that ``evaluate``, ``train`` and ``msr`` run on the shards they will
     read (``scene_ids``; None: all in the manifest) before any work: each is there, has
     the size the manifest records, opens as a finished shard and holds the recorded scene,
-    configurations and episodes. MomaError naming the first bad shard (``check`` also
-    verifies checksums and every array)."""
+    configurations and episodes; with ``verify_hash`` its SHA-256 is the manifest's too (a
+    byte flipped anywhere; about 1 s per GB). MomaError naming the first bad shard
+    (``check`` also verifies every array)."""
     root = Path(root)
     wanted = None if scene_ids is None else {int(s) for s in scene_ids}
     for key, entry in manifest["shards"].items():
         if wanted is None or int(key) in wanted:
             try:
-                shard, _, _ = _open_checked(int(key), entry, root / entry["file"])
+                shard, _, _ = _open_checked(int(key), entry, root / entry["file"], verify_hash)
             except MomaError as exc:
                 raise MomaError(f"{root}: {exc}; run `momakitchen check {root}`") from None
             shard.close()
@@ -223,6 +227,7 @@ def check_dataset(
         episodes += check_shard(root, sid, entry, path, verify_hash, floor_z)
         if progress:
             progress(i + 1, len(entries))
+    _check_counts(root, manifest.get("counts", {}), mf.compute_counts(e for _, e, _ in entries))
     expected = manifest.get("counts", {}).get("total", {}).get("episodes")
     if expected != episodes:
         raise MomaError(f"manifest counts {expected} episodes, the shards hold {episodes}")
@@ -260,6 +265,7 @@ def dataset_stats(root: str | os.PathLike) -> dict[str, Any]:
     manifest = mf.load_manifest(root)
     entries = _shard_entries(root, manifest)
     counts = manifest["counts"]
+    _check_counts(root, counts, mf.compute_counts(e for _, e, _ in entries))
     total_bytes = 0
     points: dict[str, list[int]] = {"global": [], "floor": []}
     label_mean: list[float] = []
@@ -273,6 +279,13 @@ def dataset_stats(root: str | os.PathLike) -> dict[str, Any]:
             raise MomaError(f"shard {entry['file']}: {str(exc).split(': ', 1)[-1]}") from None
         with shard:
             try:
+                per_config = [len(shard.episode_indices(c)) for c in shard.config_indices()]
+                if per_config != entry["episodes_per_config"]:
+                    raise MomaError(
+                        f"shard {entry['file']} holds {sum(per_config)} episodes "
+                        f"{per_config}, the manifest says {sum(entry['episodes_per_config'])} "
+                        f"{entry['episodes_per_config']}; run `momakitchen check {root}`"
+                    )
                 for c in shard.config_indices():
                     for e in shard.episode_indices(c):
                         g = shard._group(f"config_{c:03d}", f"episode_{e:03d}")
@@ -334,6 +347,26 @@ def dataset_stats(root: str | os.PathLike) -> dict[str, Any]:
             else None
         ),
     }
+
+
+def _check_counts(root: Path, counts: dict[str, Any], actual: dict[str, Any]) -> None:
+    """MomaError unless the manifest's ``counts`` are those its shard entries add up to
+    (``actual``): a hand-edited or stale manifest is named, not reported as fact."""
+    for split in ("total", *mf.SPLITS):
+        for key in ("scenes", "configurations", "episodes", "trials", "successful_trials"):
+            said = counts.get(split, {}).get(key)
+            if said != actual[split][key]:
+                raise MomaError(
+                    f"{root}/manifest.json counts {said} {key} in {split!r}, its shard "
+                    f"entries add up to {actual[split][key]} (edited by hand?); run "
+                    f"`momakitchen check {root}`"
+                )
+    for table in ("robots", "targets"):
+        if sorted(counts.get(table, {})) != sorted(actual[table]):
+            raise MomaError(
+                f"{root}/manifest.json lists {table} {sorted(counts.get(table, {}))}, its "
+                f"shard entries {sorted(actual[table])}; run `momakitchen check {root}`"
+            )
 
 
 def _summary(values: Sequence[float]) -> dict[str, float] | None:

@@ -44,6 +44,7 @@ import numpy as np
 from momakitchen.data.coverage import COVERAGE_RADIUS, sees_near
 from momakitchen.data.episode import SEMANTIC_CLASSES, ConfigurationLabels, Episode
 from momakitchen.errors import MomaError
+from momakitchen.fileio import DISK_FULL
 from momakitchen.frames import float3
 from momakitchen.robots.spec import DESCRIPTOR_NAMES, DESCRIPTOR_VERSION
 from momakitchen.sim.config import STAGE_NAMES
@@ -181,48 +182,72 @@ def shard_summary(scene_id: int, records: SceneRecords) -> dict[str, Any]:
     }
 
 
+def shard_bytes(scene_id: int, records: SceneRecords) -> bytes:
+    """The bytes of a scene's shard, built in memory (HDF5's core driver): the same bytes
+    as a file written by HDF5, but HDF5 never touches the disk, so a full disk is a plain
+    ``OSError`` from :func:`write_shard_bytes` rather than a crash inside HDF5."""
+    _check_records(scene_id, records)
+    # libver pinned so the bytes do not depend on the HDF5 library's default.
+    with h5py.File(
+        shard_name(scene_id), "w", driver="core", backing_store=False, libver=("earliest", "v110")
+    ) as f:
+        _write_records(f, scene_id, records)
+        f.flush()
+        return bytes(f.id.get_file_image())
+
+
 def write_shard(directory: str | os.PathLike, scene_id: int, records: SceneRecords) -> dict:
     """Write the records of one scene atomically to ``directory/scene_XXXXXX.h5``.
 
     Returns the shard summary (see :func:`shard_summary`) plus ``file``, ``bytes`` and
-    ``sha256`` of the final file.
+    ``sha256`` of the final file. A full disk is a MomaError naming the directory, with
+    no temporary file left behind.
     """
-    _check_records(scene_id, records)
-    directory = Path(directory)
-    final = directory / shard_name(scene_id)
-    tmp = directory / f"{TMP_PREFIX}{os.getpid()}-{final.name}"
-    try:
-        # libver pinned so the bytes do not depend on the HDF5 library's default.
-        with h5py.File(tmp, "w", libver=("earliest", "v110")) as f:
-            _write_records(f, scene_id, records)
-            f.flush()
-        with open(tmp, "rb+") as fh:
-            digest = hashlib.sha256(fh.read()).hexdigest()
-            os.fsync(fh.fileno())
-        os.replace(tmp, final)
-        _fsync_dir(directory)
-    finally:
-        tmp.unlink(missing_ok=True)
+    data = shard_bytes(scene_id, records)
+    write_shard_bytes(directory, scene_id, data)
+    return file_summary(scene_id, records, data)
+
+
+def file_summary(scene_id: int, records: SceneRecords, data: bytes) -> dict:
+    """:func:`shard_summary` plus ``file``, ``bytes`` and ``sha256`` of the shard ``data``."""
     summary = shard_summary(scene_id, records)
-    summary.update(file=f"{SCENES_DIR}/{final.name}", bytes=final.stat().st_size, sha256=digest)
+    summary.update(
+        file=f"{SCENES_DIR}/{shard_name(scene_id)}",
+        bytes=len(data),
+        sha256=hashlib.sha256(data).hexdigest(),
+    )
     return summary
 
 
 def write_shard_bytes(directory: str | os.PathLike, scene_id: int, data: bytes) -> Path:
-    """Atomically place a shard's bytes (made elsewhere, e.g. on a Ray worker)."""
+    """Atomically place a shard's bytes (:func:`shard_bytes`, possibly made elsewhere, e.g.
+    on a Ray worker); MomaError naming the directory if the disk is full."""
     directory = Path(directory)
     final = directory / shard_name(scene_id)
     tmp = directory / f"{TMP_PREFIX}{os.getpid()}-{final.name}"
     try:
-        with open(tmp, "wb") as fh:
-            fh.write(data)
-            fh.flush()
-            os.fsync(fh.fileno())
+        _write_durably(tmp, data)
         os.replace(tmp, final)
         _fsync_dir(directory)
+    except OSError as exc:
+        if exc.errno in DISK_FULL:
+            raise MomaError(
+                f"cannot write shard {final.name} ({len(data) / 1e6:.1f} MB) to "
+                f"{str(directory)!r}: {os.strerror(exc.errno)}; free some space and run "
+                "the same command again to resume"
+            ) from None
+        raise
     finally:
         tmp.unlink(missing_ok=True)
     return final
+
+
+def _write_durably(path: Path, data: bytes) -> None:
+    """Write ``data`` to a new file ``path`` and make it reach the disk."""
+    with open(path, "wb") as fh:
+        fh.write(data)
+        fh.flush()
+        os.fsync(fh.fileno())
 
 
 def _fsync_dir(directory: Path) -> None:

@@ -189,14 +189,18 @@ def summarize(records: list[dict[str, Any]], config: AuditConfig) -> dict[str, A
         feasible = [r for r in recs if r["feasible"]]
         infeasible = [r for r in recs if not r["feasible"]]
         # The stage that kept infeasible configurations from succeeding.
+        # Only stages that failed some trial count ("success" never does here: a zero count
+        # is no failure), and the geometric ones only when nothing else failed.
         stages: Counter[str] = Counter()
         for r in infeasible:
             for name, n in r["grid"]["stages"].items():
-                if Stage[name.upper()] not in GEOMETRY_STAGES:
+                if n > 0 and Stage[name.upper()] not in (Stage.SUCCESS, *GEOMETRY_STAGES):
                     stages[name] += n
         if not stages:
             for r in infeasible:
-                stages.update(r["grid"]["stages"])
+                for name, n in r["grid"]["stages"].items():
+                    if n > 0 and name != "success":
+                        stages[name] += n
         out: dict[str, Any] = {
             "configurations": len(recs),
             "infeasible": _fraction(not r["feasible"] for r in recs),

@@ -33,6 +33,13 @@ import numpy as np
 
 from momakitchen.errors import MomaError
 from momakitchen.eval.msr import RATE_KEYS
+from momakitchen.eval.stats import (
+    auroc,
+    detectable_lead,
+    mcnemar,
+    sign_test,
+    signed_rank_test,
+)
 from momakitchen.fileio import (
     atomic_write_bytes,
     atomic_write_text,
@@ -369,78 +376,7 @@ def main_table(reports: Sequence[dict], msr: dict) -> list[str]:
     ]
 
 
-def mcnemar(a: Sequence[int], b: Sequence[int]) -> tuple[int, int, float]:
-    """McNemar's exact test of two methods' paired outcomes (1 success, 0 failure) on the
-    same configurations: (only a succeeded, only b succeeded, two-sided p-value). The p-value
-    is the binomial test of the discordant pairs at 1/2."""
-    from scipy.stats import binomtest
-
-    if len(a) != len(b):
-        raise MomaError(f"paired outcomes differ in length: {len(a)} and {len(b)}")
-    pairs = [(bool(x), bool(y)) for x, y in zip(a, b, strict=True)]
-    only_a, only_b = pairs.count((True, False)), pairs.count((False, True))
-    n = only_a + only_b
-    return only_a, only_b, float(binomtest(only_a, n, 0.5).pvalue) if n else 1.0
-
-
-def mcnemar_power(
-    configurations: int, discordant: float, lead: float, alpha: float = 0.05
-) -> float:
-    """Probability that :func:`mcnemar` finds method a ahead of method b (p < ``alpha``, more
-    configurations solved only by a) over ``configurations`` independent configurations, where
-    a configuration is solved by exactly one of the two with probability ``discordant``, and
-    a's success rate exceeds b's by ``lead`` (only a: (discordant + lead) / 2, only b:
-    (discordant - lead) / 2). Exact: summed over the number of discordant configurations."""
-    from scipy.stats import binom
-
-    if configurations < 1 or not 0 < discordant <= 1 or not 0 <= lead <= discordant:
-        raise MomaError(
-            f"mcnemar_power: want configurations >= 1 and 0 <= lead <= discordant <= 1, got "
-            f"{configurations}, discordant {discordant}, lead {lead}"
-        )
-    d = np.arange(configurations + 1)
-    # Two-sided exact test at 1/2: p = 2 P(X >= k) for k above d / 2, so a is ahead from the
-    # least k with P(X >= k) < alpha / 2: isf(q) + 1 (the least k with P(X >= k) <= q), one
-    # more where that is equality.
-    k_min = binom.isf(alpha / 2, d, 0.5) + 1
-    k_min = np.where(binom.sf(k_min - 1, d, 0.5) < alpha / 2, k_min, k_min + 1)
-    given_d = binom.sf(k_min - 1, d, (discordant + lead) / (2 * discordant))
-    return float(np.sum(binom.pmf(d, configurations, discordant) * given_d))
-
-
-MAX_CONFIGURATIONS = 1_000_000  # configurations_needed gives up beyond
 PLANNING_POWER = 0.8  # the power the benchmark's closed-loop table plans for
-
-
-def detectable_lead(configurations: int, discordant: float, power: float) -> float:
-    """The least lead (to 1e-4) that McNemar's test finds with probability ``power`` over
-    ``configurations``, or NaN if even a lead of ``discordant`` is not found that often
-    (power rises with the lead, so bisection finds it)."""
-    if mcnemar_power(configurations, discordant, discordant) < power:
-        return float("nan")
-    lo, hi = 0.0, discordant
-    while hi - lo > 1e-4:
-        mid = (lo + hi) / 2
-        lo, hi = (lo, mid) if mcnemar_power(configurations, discordant, mid) >= power else (mid, hi)
-    return hi
-
-
-def configurations_needed(discordant: float, lead: float, power: float) -> int:
-    """The number of configurations (to 1 %) from which McNemar's test finds ``lead`` with
-    probability ``power``: bisection between the powers of two around it. The exact test's
-    power saw-tooths a little with the number of configurations, so a slightly smaller number
-    may reach ``power`` too (by a few configurations, at discordant rates near 1)."""
-    if lead <= 0:
-        raise MomaError(f"a lead of {lead} is never found ahead; want a positive lead")
-    lo, hi = 0, 1
-    while mcnemar_power(hi, discordant, lead) < power:
-        lo, hi = hi, 2 * hi
-        if hi > MAX_CONFIGURATIONS:
-            raise MomaError(f"a lead of {lead} needs over {MAX_CONFIGURATIONS} configurations")
-    while hi - lo > max(1, hi // 100):
-        mid = (lo + hi) // 2
-        lo, hi = (lo, mid) if mcnemar_power(mid, discordant, lead) >= power else (mid, hi)
-    return hi
 
 
 def top1_outcomes(msr: dict, name: str) -> list[int]:
@@ -475,8 +411,6 @@ def pooled_paired_table(outcomes: dict[str, list[list[int]]], unit: str = "runs"
     configurations where each is ahead, and the two-sided sign test of those counts.
     (With unequal numbers of runs the difference is not symmetric under the null.)
     ``unit`` names what the outcome lists are in the caption (runs, or views)."""
-    from scipy.stats import binomtest
-
     wins = {m: np.sum(np.asarray(o, int), axis=0) for m, o in outcomes.items()}
     reference, *others = wins
     runs = len(outcomes[reference])
@@ -490,7 +424,7 @@ def pooled_paired_table(outcomes: dict[str, list[list[int]]], unit: str = "runs"
     for name in others:
         d = wins[reference] - wins[name]
         ahead, behind = int((d > 0).sum()), int((d < 0).sum())
-        p = binomtest(ahead, ahead + behind).pvalue if ahead + behind else 1.0
+        p = sign_test(ahead, behind)
         lines.append(_row([name, str(ahead), str(behind), f"{p:.2g}"]))
     return [
         *lines,
@@ -533,8 +467,6 @@ def paired_map_table(reports: Sequence[dict]) -> list[str]:
     """The first run against every other on the map metrics, paired by test scene: the
     scenes where the first is better, and the two-sided Wilcoxon signed-rank p-value of the
     per-scene differences."""
-    from scipy.stats import wilcoxon
-
     ref = reports[0]
     scenes = sorted(ref["per_scene"], key=int)
     columns = dict(MAP_COLUMNS)
@@ -550,7 +482,7 @@ def paired_map_table(reports: Sequence[dict]) -> list[str]:
         for key in PAIRED_MAP_METRICS:
             d = np.array([ref["per_scene"][s][key] - other["per_scene"][s][key] for s in scenes])
             d = -d if columns[key].endswith("↓") else d  # > 0: the first run is better
-            p = float(wilcoxon(d).pvalue) if np.any(d != 0) else 1.0
+            p = signed_rank_test(d)
             cells.append(f"{int((d > 0).sum())} of {len(d)}, {p:.2g}")
         lines.append(_row(cells))
     return [
@@ -705,16 +637,6 @@ def sweep_figure(sweep: Sequence[tuple[float, dict]]) -> bytes:
     return png_bytes(fig)
 
 
-def auroc(scores: np.ndarray, labels: np.ndarray) -> float:
-    """Probability that a random success scores higher than a random failure (ties 1/2)."""
-    pos, neg = scores[labels == 1], scores[labels == 0]
-    if not len(pos) or not len(neg):
-        return float("nan")
-    greater = (pos[:, None] > neg[None, :]).mean()
-    ties = (pos[:, None] == neg[None, :]).mean()
-    return float(greater + 0.5 * ties)
-
-
 def confidence_table(msr: dict, name: str) -> list[str]:
     """Does the model's confidence at its Top-1 point predict the trial's outcome?"""
     rows = [r["methods"][name] for r in msr["records"] if r["methods"][name]["outcomes"]]
@@ -760,7 +682,7 @@ def qualitative_figure(
     from momakitchen.data import EpisodeDataset
     from momakitchen.eval.predictions import load_predictions
     from momakitchen.models.inference import inference_collator, predict_batch
-    from momakitchen.perception.figures import floor_map, png_bytes, pyplot
+    from momakitchen.perception.figures import png_bytes
     from momakitchen.train.checkpoint import load_checkpoint
 
     data = EpisodeDataset(data_dir, "test")
@@ -777,37 +699,43 @@ def qualitative_figure(
     if not picked:
         raise MomaError(f"no test configuration of {str(data_dir)!r} has a successful trial")
     loaded = [load_checkpoint(r) for r in runs]
-    shown = [(s["scene_id"], s["config_index"], s["episode_index"]) for s in picked]
     stored = [load_predictions(path, _test_episodes(data), name).maps for name, path in predictions]
-    columns = len(loaded) + len(stored)
-    plt = pyplot()
-    fig, axes = plt.subplots(
-        len(picked),
-        1 + columns,
-        figsize=(3.6 * (1 + columns), 3.2 * len(picked)),
-        constrained_layout=True,
-        squeeze=False,
-    )
-    for row, sample in enumerate(picked):
-        xyz = sample["floor_xyz"].numpy()
-        floor_map(
-            axes[row, 0],
-            xyz,
-            sample["floor_label"].numpy(),
-            f"ground truth: scene {sample['scene_id']}, {sample['robot_name']}",
-        )
+    rows = []
+    for sample in picked:
         maps = []
         for run in loaded:
             batch = inference_collator(run.config)([sample])
             maps.append((run.config.model, predict_batch(run.model, batch)[0].numpy()))
-        key = "/".join(map(str, shown[row]))
+        key = f"{sample['scene_id']}/{sample['config_index']}/{sample['episode_index']}"
         maps += [(name, m[key]) for (name, _), m in zip(predictions, stored, strict=True)]
-        for col, (name, pred) in enumerate(maps, start=1):
-            floor_map(
-                axes[row, col],
-                xyz,
-                pred,
-                f"{name} (max {pred.max():.2f})",
-                vmax=max(float(pred.max()), 0.05),
-            )
+        title = f"ground truth: scene {sample['scene_id']}, {sample['robot_name']}"
+        rows.append((title, sample["floor_xyz"].numpy(), sample["floor_label"].numpy(), maps))
+    fig = qualitative_grid(rows)
     return png_bytes(fig)
+
+
+def qualitative_grid(
+    rows: Sequence[tuple[str, np.ndarray, np.ndarray, Sequence[tuple[str, np.ndarray]]]],
+) -> Any:
+    """The figure of :func:`qualitative_figure`: per row (title, floor points (N, 3), the
+    ground truth (N,), [(model name, its map (N,))]) the ground truth and every map, all on
+    one 0-1 colour scale with one colour bar, so that a model whose map peaks at
+    0.06 looks as unsure as it is (each map's maximum is in its title)."""
+    from momakitchen.perception.figures import floor_map, pyplot
+
+    plt = pyplot()
+    columns = 1 + max(len(maps) for *_, maps in rows)
+    fig, axes = plt.subplots(
+        len(rows),
+        columns,
+        figsize=(3.6 * columns + 0.8, 3.2 * len(rows)),
+        constrained_layout=True,
+        squeeze=False,
+    )
+    scatter = None
+    for row, (title, xyz, label, maps) in enumerate(rows):
+        scatter = floor_map(axes[row, 0], xyz, label, title, vmax=1.0)
+        for col, (name, pred) in enumerate(maps, start=1):
+            floor_map(axes[row, col], xyz, pred, f"{name} (max {pred.max():.2f})", vmax=1.0)
+    fig.colorbar(scatter, ax=axes.ravel().tolist(), shrink=0.6, label="affordance (0–1)")
+    return fig

@@ -434,7 +434,7 @@ def robustness_markdown(results: Sequence[dict[str, Any]]) -> list[str]:
     """Markdown lines: one table row per model and corruption (``robustness`` results,
     merged), with the change from ``clean``, and McNemar's test of every pair of models
     under each combined corruption (Top-1 per view, the views both counted)."""
-    from momakitchen.eval.report import mcnemar
+    from momakitchen.eval.stats import mcnemar
 
     models: dict[str, tuple[dict[str, Any], dict[str, Any]]] = {}
     for res in results:

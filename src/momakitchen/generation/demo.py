@@ -245,6 +245,20 @@ def _mark_target(ax: Any, mask: np.ndarray) -> None:
     )
 
 
+def _legend_marks(ax: Any) -> None:
+    """A legend for the marks of the top-down maps: the target star, the robot's camera
+    and the base poses."""
+    from matplotlib.lines import Line2D
+
+    handles = [
+        Line2D([], [], marker="*", ls="", color="red", mec="black", ms=12, label="target"),
+        Line2D([], [], marker="^", ls="", color="black", ms=8, label="robot (camera)"),
+        Line2D([], [], marker=r"$\rightarrow$", ls="", color="red", ms=12, label="chosen pose"),
+        Line2D([], [], marker=r"$\rightarrow$", ls="", color="orange", ms=12, label="Top-2..5"),
+    ]
+    ax.legend(handles=handles, loc="lower left", fontsize=7, framealpha=0.85)
+
+
 def report_figure(
     rgb: np.ndarray,
     depth: np.ndarray,
@@ -321,6 +335,7 @@ def report_figure(
     fig.colorbar(
         sc, ax=[axes[1, 0], axes[1, 1]], shrink=0.8, label="affordance = success rate (4 and 5)"
     )
+    _legend_marks(axes[1, 0])
     ax = axes[1, 2]
     ax.axis("off")
     x, y, yaw = result["chosen_pose_base_frame"]

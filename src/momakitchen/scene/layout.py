@@ -18,6 +18,7 @@ import numpy as np
 from momakitchen.assets import AssetModel, Envelope, Rect, get_category
 from momakitchen.errors import MomaError
 from momakitchen.scene.geometry import Footprint
+from momakitchen.scene.ids import check_scene_id
 
 LAYOUT_STREAM = 0  # seed stream of the layout; configurations use stream 1
 
@@ -193,8 +194,7 @@ def _unit_sequence(rng: np.random.Generator) -> list[str]:
 
 def sample_layout(scene_id: int) -> Layout:
     """The kitchen of ``scene_id``: room, furniture sequence and instances, counter height."""
-    if not isinstance(scene_id, (int, np.integer)) or scene_id < 0:
-        raise MomaError(f"scene_id must be a non-negative integer, got {scene_id!r}")
+    check_scene_id(scene_id)
     rng = scene_rng(scene_id, LAYOUT_STREAM)
     counter_height = _r(rng.uniform(0.86, 0.94))
     counter_depth = _r(rng.uniform(0.56, 0.66))

@@ -105,7 +105,9 @@ def save_label_figure(
     fits = standable(layout, cfg, pts.reshape(-1, 2)).reshape(free.shape)
     values = values.reshape(free.shape)
     image = np.where(free, np.where(fits, values, 0.0), np.nan)
-    masked = free & ~fits & (values > 0)
+    # Orange: all floor the mask sets to 0, so that a 0 of the trials (dark) and a 0 of
+    # the mask (the base does not fit there, or it lies beyond reach) look different.
+    masked = free & ~fits
     draw_kitchen(ax2, layout, cfg, handles=False, alpha=0.5)
     im = ax2.imshow(
         image,
@@ -124,7 +126,7 @@ def save_label_figure(
     frame_plan(ax2, xlim, ylim)
     if masked.any():
         ax2.legend(
-            handles=[Patch(color=(1.0, 0.55, 0.1), label="base does not fit or out of reach: 0")],
+            handles=[Patch(color=(1.0, 0.55, 0.1), label="0: base does not fit, or beyond reach")],
             loc="lower left",
             fontsize=7,
             framealpha=0.9,

@@ -5,7 +5,9 @@ A run directory holds:
 - ``config.json``: format, model name, preset, the full :class:`TrainConfig`, the robot
   descriptor version and names, and the preprocessing (cloud voxels, floor threshold,
   depth range) of the data it was trained on; a run without it used the defaults;
-- ``model.safetensors``: the model's ``state_dict`` after the last finished epoch;
+- ``model.safetensors``: the model's ``state_dict`` after the last finished epoch; its
+  metadata records the SHA-256 of its tensor data, checked (with the weights' finiteness)
+  whenever it is loaded;
 - ``trainer_state.safetensors`` + ``trainer_state.json``: optimiser moments, RNG state,
   epoch, step and history, for resuming;
 - ``log.csv`` and ``loss_curve.png``.
@@ -13,7 +15,9 @@ A run directory holds:
 
 from __future__ import annotations
 
+import hashlib
 import json
+import struct
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -143,23 +147,69 @@ def check_preprocessing(run: LoadedRun, data: Preprocessing | None, what: str = 
         )
 
 
+# The metadata key of a safetensors file's checksum: the SHA-256 of its tensor data (the
+# bytes after the header). It lives in the file itself, so that weights and checksum are
+# written in one atomic rename and travel together; files written before it carry none.
+CHECKSUM_KEY = "sha256"
+
+
+def _data_block(raw: bytes) -> tuple[dict[str, Any], bytes]:
+    """The header (JSON object) and the tensor data of a serialised safetensors file; raises
+    ValueError if the layout is broken."""
+    if len(raw) < 8:
+        raise ValueError("shorter than a safetensors header")
+    (size,) = struct.unpack("<Q", raw[:8])
+    if size > len(raw) - 8:
+        raise ValueError("header longer than the file")
+    header = json.loads(raw[8 : 8 + size])
+    if not isinstance(header, dict):
+        raise ValueError("header is not a JSON object")
+    return header, raw[8 + size :]
+
+
+def safetensors_bytes(tensors: dict[str, torch.Tensor], metadata: dict[str, str]) -> bytes:
+    """``tensors`` serialised as safetensors with ``metadata`` plus the checksum of their
+    data (:data:`CHECKSUM_KEY`)."""
+    plain = st_save(tensors, metadata=metadata)
+    digest = hashlib.sha256(_data_block(plain)[1]).hexdigest()
+    return st_save(tensors, metadata={**metadata, CHECKSUM_KEY: digest})
+
+
 def save_weights(path: Path, model: torch.nn.Module) -> None:
     state = {k: v.detach().cpu().contiguous() for k, v in model.state_dict().items()}
-    atomic_write_bytes(Path(path), st_save(state, metadata={"format": FORMAT}))
+    atomic_write_bytes(Path(path), safetensors_bytes(state, {"format": FORMAT}))
 
 
 def _safetensors(path: Path, what: str) -> dict[str, torch.Tensor]:
-    """The tensors of a safetensors file; MomaError naming the file if it is missing or
-    unreadable (truncated, damaged or not safetensors)."""
+    """The tensors of a safetensors file; MomaError naming the file if it is missing,
+    unreadable (truncated, damaged or not safetensors), its data does not match the
+    checksum its metadata records (one flipped byte), or a floating-point tensor holds NaN
+    or infinity (weights that would make every prediction NaN)."""
     if not path.is_file():
         raise MomaError(f"{what} {str(path)!r} are missing")
     try:
-        return st_load(path.read_bytes())
-    except (SafetensorError, OSError) as exc:
+        raw = path.read_bytes()
+        tensors = st_load(raw)
+        header, data = _data_block(raw)
+    except (SafetensorError, OSError, ValueError) as exc:
         reason = " ".join(str(exc).split())[:120]
         raise MomaError(
             f"{what} {str(path)!r} are unreadable (truncated or damaged?): {reason}"
         ) from None
+    recorded = (header.get("__metadata__") or {}).get(CHECKSUM_KEY)
+    if recorded is not None and hashlib.sha256(data).hexdigest() != recorded:
+        raise MomaError(
+            f"{what} {str(path)!r} are damaged: their data does not match the SHA-256 "
+            "recorded when they were written"
+        )
+    for name, tensor in tensors.items():
+        if tensor.is_floating_point() and not bool(torch.isfinite(tensor).all()):
+            bad = int((~torch.isfinite(tensor)).sum())
+            raise MomaError(
+                f"{what} {str(path)!r} are damaged: tensor {name!r} holds {bad} NaN or "
+                "infinite value(s)"
+            )
+    return tensors
 
 
 def load_weights(path: Path, model: torch.nn.Module) -> None:
@@ -203,7 +253,7 @@ def save_trainer_state(
     groups = []
     for g in opt["param_groups"]:
         groups.append({k: (list(v) if isinstance(v, tuple) else v) for k, v in g.items()})
-    atomic_write_bytes(Path(run_dir) / STATE_FILE, st_save(tensors))
+    atomic_write_bytes(Path(run_dir) / STATE_FILE, safetensors_bytes(tensors, {}))
     body = {"progress": progress, "param_groups": groups, "scalars": scalars}
     atomic_write_text(Path(run_dir) / STATE_JSON, json.dumps(body, indent=1) + "\n")
 
@@ -241,6 +291,18 @@ def load_trainer_state(run_dir: Path, optimizer: torch.optim.Optimizer) -> dict[
 def has_checkpoint(run_dir: Path) -> bool:
     run_dir = Path(run_dir)
     return (run_dir / WEIGHTS_FILE).is_file() and (run_dir / STATE_JSON).is_file()
+
+
+def require_checkpoint(run_dir: str | Path) -> None:
+    """MomaError unless ``run_dir`` holds a finished epoch to resume from: asked to resume
+    a run that has none, training from scratch would be a silent surprise of hours."""
+    run_dir = Path(run_dir)
+    if not has_checkpoint(run_dir):
+        where = "does not exist" if not run_dir.exists() else "holds no finished epoch"
+        raise MomaError(
+            f"nothing to resume: run directory {str(run_dir)!r} {where} (no {WEIGHTS_FILE} "
+            f"and {STATE_JSON}); start the run without --resume"
+        )
 
 
 @dataclass

@@ -39,6 +39,7 @@ from momakitchen.train.checkpoint import (
     load_trainer_state,
     load_weights,
     read_run_config,
+    require_checkpoint,
     run_preprocessing,
     save_trainer_state,
     save_weights,
@@ -107,14 +108,17 @@ def _check_resume(
     config: TrainConfig, run_dir: Path, resume: bool, preprocessing: Preprocessing
 ) -> TrainConfig | None:
     """The config to resume with (``config`` with the run's model sizes), or None to start
-    afresh; raises MomaError on a mismatching or unexpected checkpoint."""
-    if not has_checkpoint(run_dir):
-        return None
-    if not resume:
+    afresh; raises MomaError on a mismatching or unexpected checkpoint, or when asked to
+    resume a run that has none."""
+    if resume:
+        require_checkpoint(run_dir)
+    elif has_checkpoint(run_dir):
         raise MomaError(
-            f"run directory {str(run_dir)!r} already holds a checkpoint; pass resume=True "
-            "to continue it or choose another directory"
+            f"run directory {str(run_dir)!r} already holds a checkpoint; pass --resume "
+            "(resume=True in Python) to continue it or choose another directory"
         )
+    else:
+        return None
     saved, info = read_run_config(run_dir)
     if saved.model != config.model:
         raise MomaError(
@@ -160,8 +164,10 @@ def plot_loss_curve(rows: list[dict[str, Any]], path: Path, title: str = "") -> 
     """Training loss per logged step and validation loss per epoch, log scale, as PNG."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
+    from matplotlib.ticker import FormatStrFormatter, NullFormatter
 
-    fig = Figure(figsize=(6, 4), dpi=100)
+    # Constrained layout keeps the tick labels and the axis label inside the picture.
+    fig = Figure(figsize=(6, 4), dpi=100, layout="constrained")
     FigureCanvasAgg(fig)
     ax = fig.add_subplot(1, 1, 1)
     tr = [(int(r["step"]), float(r["loss"])) for r in rows if r["kind"] == "train"]
@@ -181,6 +187,12 @@ def plot_loss_curve(rows: list[dict[str, Any]], path: Path, title: str = "") -> 
     ax.set_ylabel("loss")
     if tr or va:
         ax.set_yscale("log")
+        # Plain decimals; within one decade a log axis labels only its minor ticks (as
+        # wide "4 x 10^-2" labels): label them then, and only then.
+        ax.yaxis.set_major_formatter(FormatStrFormatter("%.3g"))
+        low, high = ax.get_ylim()
+        minor = FormatStrFormatter("%.3g") if high / low < 10 else NullFormatter()
+        ax.yaxis.set_minor_formatter(minor)
         ax.legend()
     ax.set_title(title)
     ax.grid(True, alpha=0.3)
@@ -244,7 +256,8 @@ def train(
     Writes ``config.json``, ``model.safetensors``, the trainer state, ``log.csv`` and
     ``loss_curve.png`` into ``out_dir`` after every epoch. With ``resume=True`` a run
     directory that holds a checkpoint continues after its last finished epoch (same model
-    and sizes required); without it, such a directory is refused.
+    and sizes required; one without a checkpoint is refused); without it, a directory
+    that holds one is refused.
     """
     if len(cast(Sized, train_set)) == 0:  # map-style datasets have a length
         raise MomaError("the training set is empty")
