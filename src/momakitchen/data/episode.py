@@ -6,7 +6,9 @@ writer, read back by the dataset reader and the torch Dataset.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -106,3 +108,22 @@ class Episode:
                 f"episode {self.scene_id}/{self.config_index}/{self.episode_index}:"
                 f" malformed field(s) {bad}"
             )
+
+
+def stored_frame(arrays: Mapping[str, np.ndarray]) -> Any:
+    """An episode's render as a :class:`~momakitchen.perception.sensors.Frame` (the true
+    camera pose; target and obstacle masks from the semantic image), from its stored
+    ``depth``, ``rgb``, ``semantic``, ``intrinsics`` and ``camera_to_base``."""
+    from momakitchen.perception.camera import Intrinsics
+    from momakitchen.perception.sensors import Frame
+
+    sem = arrays["semantic"]
+    fx, fy, cx, cy = (float(v) for v in arrays["intrinsics"])
+    return Frame(
+        depth=np.asarray(arrays["depth"], np.float32),
+        rgb=arrays["rgb"],
+        target_mask=sem == SEMANTIC_CLASSES.index("target"),
+        obstacle_masks=(sem == SEMANTIC_CLASSES.index("obstacle"),),
+        intrinsics=Intrinsics(fx, fy, cx, cy, int(sem.shape[1]), int(sem.shape[0])),
+        camera_to_base=np.asarray(arrays["camera_to_base"], np.float64),
+    )

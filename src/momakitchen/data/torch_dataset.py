@@ -53,22 +53,11 @@ def noisy_sample(
     """
     from scipy.spatial import cKDTree
 
-    from momakitchen.data.episode import SEMANTIC_CLASSES
+    from momakitchen.data.episode import stored_frame
     from momakitchen.models.inference import frame_inputs
-    from momakitchen.perception.camera import Intrinsics
-    from momakitchen.perception.sensors import Frame, corrupt_frame
+    from momakitchen.perception.sensors import corrupt_frame
 
-    sem = arrays["semantic"]
-    frame = Frame(
-        depth=arrays["depth"].astype(np.float32),
-        rgb=arrays["rgb"],
-        target_mask=sem == SEMANTIC_CLASSES.index("target"),
-        obstacle_masks=(sem == SEMANTIC_CLASSES.index("obstacle"),),
-        intrinsics=Intrinsics(
-            *(float(v) for v in arrays["intrinsics"]), sem.shape[1], sem.shape[0]
-        ),
-        camera_to_base=np.asarray(arrays["camera_to_base"], np.float64),
-    )
+    frame = stored_frame(arrays)
     corruption = augmentation.draw(rng)
     bad = corrupt_frame(frame, corruption, rng)
     try:

@@ -92,21 +92,12 @@ class RobustnessConfig:
 
 
 def episode_frame(episode: Any) -> Any:
-    """A stored episode's render as a :class:`~momakitchen.perception.sensors.Frame` (the
-    true camera pose; target and obstacle masks from its semantic image)."""
-    from momakitchen.data.episode import SEMANTIC_CLASSES
-    from momakitchen.perception.camera import Intrinsics
-    from momakitchen.perception.sensors import Frame
+    """A stored :class:`~momakitchen.data.episode.Episode`'s render as a
+    :class:`~momakitchen.perception.sensors.Frame`."""
+    from momakitchen.data.episode import stored_frame
 
-    sem = episode.semantic
-    return Frame(
-        depth=episode.depth.astype(np.float32),
-        rgb=episode.rgb,
-        target_mask=sem == SEMANTIC_CLASSES.index("target"),
-        obstacle_masks=(sem == SEMANTIC_CLASSES.index("obstacle"),),
-        intrinsics=Intrinsics(*(float(v) for v in episode.intrinsics), sem.shape[1], sem.shape[0]),
-        camera_to_base=np.asarray(episode.camera_to_base, np.float64),
-    )
+    names = ("depth", "rgb", "semantic", "intrinsics", "camera_to_base")
+    return stored_frame({n: getattr(episode, n) for n in names})
 
 
 def corruption_rng(seed: int, ids: Sequence[int], name: str) -> np.random.Generator:
@@ -246,7 +237,9 @@ def run_robustness(
         episode = shard.episode(ci, ep)
         frame = episode_frame(episode)
         descriptor = np.asarray(robot_descriptor(get_robot_spec(cfg.robot)), np.float32)
-        grid = SimpleNamespace(positions=labels.trial_positions, outcomes=labels.trial_outcomes)
+        grid: Any = SimpleNamespace(
+            positions=labels.trial_positions, outcomes=labels.trial_outcomes
+        )
         record: dict[str, Any] = {
             "scene_id": sid,
             "config_index": ci,
