@@ -22,13 +22,13 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
 
-import momakitchen  # noqa: E402
-from momakitchen.data import manifest as mf  # noqa: E402
-from momakitchen.data.shard import SceneShard  # noqa: E402
-from momakitchen.eval.robustness import episode_frame  # noqa: E402
-from momakitchen.models.inference import predict_map  # noqa: E402
-from momakitchen.robots.spec import get_robot_spec, robot_descriptor  # noqa: E402
-from momakitchen.train.checkpoint import default_checkpoint, load_checkpoint  # noqa: E402
+import momakitchen
+from momakitchen.data import manifest as mf
+from momakitchen.data.shard import SceneShard
+from momakitchen.eval.robustness import episode_frame
+from momakitchen.models.inference import predict_map
+from momakitchen.robots.spec import get_robot_spec, robot_descriptor
+from momakitchen.train.checkpoint import default_checkpoint, load_checkpoint
 
 
 def main(argv: list[str] | None = None) -> int:
