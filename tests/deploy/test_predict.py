@@ -111,12 +111,21 @@ def test_predict_any_resolution_invalid_depth_and_uncertainty(episode, tiny_run)
     np.testing.assert_array_equal(none.affordance, a.affordance)
 
 
+def _raised(tf, metres):
+    out = np.array(tf, np.float64)
+    out[2, 3] += metres
+    return out
+
+
 def test_predict_bad_input(episode, tiny_run):
     ep = episode
     ok = _inputs(ep)
     cases = {
         "does not match the depth image": dict(target_mask=ep.semantic[:-1] == TARGET),
         "no valid pixel": dict(depth=np.full_like(ep.depth, np.nan)),
+        "depth looks like millimetres": dict(depth=ep.depth * 1000),
+        "but none with a valid depth": dict(depth=np.where(ep.semantic == TARGET, 0, ep.depth)),
+        "no floor plane found": dict(camera_to_base=_raised(ep.camera_to_base, 1.0)),
         "target mask is empty": dict(target_mask=np.zeros_like(ep.semantic, bool)),
         "not a rigid transform": dict(camera_to_base=ep.camera_to_base * 2),
         "unknown robot": dict(robot="r2d2"),

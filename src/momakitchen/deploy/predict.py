@@ -188,6 +188,8 @@ def robot_input(robot: str | Sequence[float] | Mapping[str, float]) -> tuple[str
 
 
 # ------------------------------------------------------------------------------ predict
+# A median depth above this (m) is millimetres passed as metres.
+MILLIMETRE_HINT = 30.0
 def predict(
     depth: np.ndarray | str | os.PathLike,
     intrinsics: Sequence[float] | Any,
@@ -264,6 +266,12 @@ def predict(
     valid = np.isfinite(d) & (d > 0)
     if not valid.any():
         raise MomaError("the depth image has no valid pixel (all 0 or NaN)")
+    typical = float(np.median(d[valid]))
+    if typical > MILLIMETRE_HINT:  # no indoor scene is tens of metres deep
+        raise MomaError(
+            f"the depth looks like millimetres (median {typical:g}): give metres, or a "
+            "16-bit PNG in millimetres"
+        )
     name, descriptor = robot_input(robot)
 
     run = (
