@@ -159,3 +159,32 @@ def test_noisy_training_samples_keep_their_labels_where_the_robot_would_stand(re
     np.testing.assert_array_equal(noisy[0]["global_xyz"], b["global_xyz"])
     noisy.set_epoch(1)
     assert not np.array_equal(noisy[0]["global_xyz"].numpy(), b["global_xyz"].numpy())
+
+
+def test_a_target_beyond_the_sensors_range_is_counted_apart():
+    from momakitchen.eval.robustness import run_view, target_range
+    from momakitchen.perception.camera import Intrinsics
+    from momakitchen.perception.sensors import Frame
+
+    depth = np.full((48, 64), 4.5, np.float32)  # beyond the Kinect's 4 m, within D435's
+    mask = np.zeros((48, 64), bool)
+    mask[10:14, 30:34] = True
+    frame = Frame(
+        depth,
+        np.zeros((48, 64, 3), np.uint8),
+        mask,
+        (),
+        Intrinsics(60.0, 60.0, 32.0, 24.0, 64, 48),
+        np.eye(4),
+    )
+    assert target_range(frame) == pytest.approx(4.5)
+    view = run_view(
+        None,
+        frame,
+        "kinect",
+        (0, 0, 0),
+        "panda",
+        np.zeros(4, np.float32),
+        RobustnessConfig(corruptions=("kinect",)),
+    )
+    assert view == {"status": "beyond_range", "target_range": 4.5}
