@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 from script_cli import run_main
 
-import momakitchen.models.inference as inference
+import momakitchen.perception.live as live
 from momakitchen.errors import MomaError
 from momakitchen.eval.robustness import RobustnessConfig, format_robustness_table, run_robustness
 from momakitchen.fileio import atomic_write_text
@@ -68,7 +68,7 @@ def main() -> None:
         max_configs=args.max_configs,
         seed=args.seed,
     )
-    inference.frame_inputs = trusting_frame_inputs  # type: ignore[assignment]
+    live.frame_inputs = trusting_frame_inputs  # type: ignore[assignment]
     result = run_robustness(args.data, args.checkpoint, config, progress=True)
     result["pipeline"] = "before: extrinsics trusted, no floor-plane inference"
     atomic_write_text(args.json, json.dumps(result, indent=1) + "\n")

@@ -42,7 +42,7 @@ def noisy_sample(
     """An episode's cloud arrays as a robot with a random real sensor would give them to
     the model: the stored frame corrupted (:func:`~momakitchen.perception.sensors.corrupt_frame`
     with a draw of ``augmentation``) and rebuilt by the real-robot path
-    (:func:`~momakitchen.models.inference.frame_inputs`, floor-plane correction included).
+    (:func:`~momakitchen.perception.live.frame_inputs`, floor-plane correction included).
     The labels of the rebuilt floor points are those of the nearest stored floor points
     (the true affordance where the robot would drive), which the correction puts back
     in the true base frame. If the corrupted frame cannot be used (no target pixel left,
@@ -54,7 +54,7 @@ def noisy_sample(
     from scipy.spatial import cKDTree
 
     from momakitchen.data.episode import stored_frame
-    from momakitchen.models.inference import frame_inputs
+    from momakitchen.perception.live import frame_inputs
     from momakitchen.perception.sensors import corrupt_frame
 
     frame = stored_frame(arrays)

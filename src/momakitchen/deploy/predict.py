@@ -190,6 +190,8 @@ def robot_input(robot: str | Sequence[float] | Mapping[str, float]) -> tuple[str
 # ------------------------------------------------------------------------------ predict
 # A median depth above this (m) is millimetres passed as metres.
 MILLIMETRE_HINT = 30.0
+
+
 def predict(
     depth: np.ndarray | str | os.PathLike,
     intrinsics: Sequence[float] | Any,
@@ -241,7 +243,8 @@ def predict(
             network): the calibrated camera height then fixes the scale, read from the
             floor, instead of the floor correcting the height.
     """
-    from momakitchen.models.inference import frame_inputs, predict_map
+    from momakitchen.models.inference import predict_map
+    from momakitchen.perception.live import frame_inputs
     from momakitchen.train.checkpoint import LoadedRun, default_checkpoint, load_checkpoint
 
     if not 1 <= top_k <= 50:

@@ -4,7 +4,7 @@ For each configuration of a split, the view that ``msr`` picks for the same seed
 taken as a perfect render and corrupted by each named corruption
 (:data:`momakitchen.perception.sensors.CORRUPTIONS`: sensor noise, segmenter masks,
 calibration errors, monocular depth); the corrupted frame goes through the real-robot
-path (:func:`momakitchen.models.inference.frame_inputs`, floor-plane correction
+path (:func:`momakitchen.perception.live.frame_inputs`, floor-plane correction
 included) and the model's Top-k base positions, in the frame the robot believes, are
 driven to and tried with the labelling's own trial in PyBullet. Map metrics compare the
 predicted map with the ground truth at the same floor points (the labels' interpolation
@@ -124,7 +124,8 @@ def run_view(
 ) -> dict[str, Any]:
     """One model on one corrupted view: ``{"status": "ok"|"beyond_range"|"error", ...}``
     with the prediction (``prediction``) when ok."""
-    from momakitchen.models.inference import frame_inputs, predict_map
+    from momakitchen.models.inference import predict_map
+    from momakitchen.perception.live import frame_inputs
     from momakitchen.perception.sensors import corrupt_frame, get_corruption
 
     corruption = get_corruption(corruption_name)

@@ -48,7 +48,8 @@ def run_demo(
     from momakitchen.fileio import atomic_write_bytes, atomic_write_text
     from momakitchen.frames import base_to_world, base_to_world_xy
     from momakitchen.generation.producer import sample_views
-    from momakitchen.models.inference import frame_inputs, predict_map
+    from momakitchen.models.inference import predict_map
+    from momakitchen.perception.live import frame_inputs
     from momakitchen.robots import get_robot_spec, robot_descriptor
     from momakitchen.scene.configuration import sample_scene
     from momakitchen.sim.config import Stage
