@@ -143,18 +143,10 @@ def run_configuration(
 
     sid = scene.layout.scene_id
     labels = shard.configuration(ci)
-    episodes = [e for e in shard.episode_indices(ci) if shard.num_points(ci, e)[1] > 0]
-    if ci >= len(scene.configurations) or not episodes:
+    ep = msr_view(shard, scene, ci, config.seed)
+    if ep is None:
         return None
     cfg = scene.configurations[ci]
-    if cfg.robot != labels.robot:
-        raise MomaError(
-            f"{shard.path.name} configuration {ci}: stored robot {labels.robot!r} "
-            f"but the rebuilt world has {cfg.robot!r} (another momakitchen "
-            "version?)"
-        )
-    rng = np.random.default_rng([config.seed, sid, ci])
-    ep = int(episodes[int(rng.integers(len(episodes)))])
     episode = shard.episode(ci, ep)
     floor_xy = episode.floor_xyz[:, :2].astype(np.float64)
     world_xy = base_to_world_xy(floor_xy, episode.base_pose)
@@ -226,6 +218,35 @@ def run_configuration(
         finally:
             runner.close()
     return record
+
+
+def msr_view(shard: SceneShard, scene: Any, ci: int, seed: int) -> int | None:
+    """The episode (view) of configuration ``ci`` that MSR judges for ``seed`` (None when
+    the configuration has no view with floor points, or the rebuilt scene lacks it)."""
+    episodes = [e for e in shard.episode_indices(ci) if shard.num_points(ci, e)[1] > 0]
+    if ci >= len(scene.configurations) or not episodes:
+        return None
+    stored = shard.configuration(ci).robot
+    if scene.configurations[ci].robot != stored:
+        raise MomaError(
+            f"{shard.path.name} configuration {ci}: stored robot {stored!r} "
+            f"but the rebuilt world has {scene.configurations[ci].robot!r} (another "
+            "momakitchen version?)"
+        )
+    rng = np.random.default_rng([seed, scene.layout.scene_id, ci])
+    return int(episodes[int(rng.integers(len(episodes)))])
+
+
+def dataset_generation(root: Path) -> tuple[dict[str, Any], Any]:
+    """The manifest of a simulator-made dataset and its generation config (what rebuilds
+    its worlds); MomaError otherwise."""
+    from momakitchen.data.config import GenerationConfig
+
+    manifest = _load_dataset(root)
+    try:
+        return manifest, GenerationConfig.from_dict(manifest["config"])
+    except (TypeError, KeyError, ValueError) as exc:
+        raise MomaError(f"{root}: unreadable generation config in manifest.json ({exc})") from exc
 
 
 def _base_free(runner: Any, world_xy: np.ndarray) -> Callable[[int], bool]:
@@ -301,7 +322,7 @@ def run_msr(
     """
     from tqdm.auto import tqdm
 
-    from momakitchen.data.config import GenerationConfig, Preprocessing
+    from momakitchen.data.config import Preprocessing
     from momakitchen.data.integrity import check_shard_files
     from momakitchen.train.checkpoint import check_preprocessing
 
@@ -317,11 +338,7 @@ def run_msr(
 
         checkpoints = [default_checkpoint()]
     root = Path(data)
-    manifest = _load_dataset(root)
-    try:
-        gen = GenerationConfig.from_dict(manifest["config"])
-    except (TypeError, KeyError, ValueError) as exc:
-        raise MomaError(f"{root}: unreadable generation config in manifest.json ({exc})") from exc
+    manifest, gen = dataset_generation(root)
     # Models score the episodes' stored clouds: they must be built as for their training.
     preprocessing = Preprocessing(gen.cloud, gen.camera.max_depth)
 

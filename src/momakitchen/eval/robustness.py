@@ -20,7 +20,7 @@ from __future__ import annotations
 import zlib
 from collections import Counter
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from types import SimpleNamespace
 from typing import Any
@@ -183,9 +183,14 @@ def run_robustness(
     ``topk``, ``pcc``, ``sim`` (over the views predicted)."""
     from tqdm.auto import tqdm
 
-    from momakitchen.data.config import GenerationConfig, Preprocessing
+    from momakitchen.data.config import Preprocessing
     from momakitchen.data.integrity import check_shard_files
-    from momakitchen.eval.msr import _load_dataset, rebuilt_configurations, split_configurations
+    from momakitchen.eval.msr import (
+        dataset_generation,
+        msr_view,
+        rebuilt_configurations,
+        split_configurations,
+    )
     from momakitchen.frames import base_to_world_xy
     from momakitchen.metrics import episode_metrics
     from momakitchen.robots.spec import get_robot_spec, robot_descriptor
@@ -200,11 +205,7 @@ def run_robustness(
 
     config = config or RobustnessConfig()
     root = Path(data)
-    manifest = _load_dataset(root)
-    try:
-        gen = GenerationConfig.from_dict(manifest["config"])
-    except (TypeError, KeyError, ValueError) as exc:
-        raise MomaError(f"{root}: unreadable generation config in manifest.json ({exc})") from exc
+    manifest, gen = dataset_generation(root)
     preprocessing = Preprocessing(gen.cloud, gen.camera.max_depth)
     runs: dict[str, Any] = {}
     for run_dir in checkpoints or [default_checkpoint()]:
@@ -228,13 +229,10 @@ def run_robustness(
     for scene, shard, ci in rebuilt_configurations(root, bar, gen.scene):
         sid = scene.layout.scene_id
         labels = shard.configuration(ci)
-        episodes = [e for e in shard.episode_indices(ci) if shard.num_points(ci, e)[1] > 0]
-        if ci >= len(scene.configurations) or not episodes:
+        ep = msr_view(shard, scene, ci, config.seed)  # the view msr judges for this seed
+        if ep is None:
             continue
         cfg = scene.configurations[ci]
-        # the view msr picks for the same seed
-        rng = np.random.default_rng([config.seed, sid, ci])
-        ep = int(episodes[int(rng.integers(len(episodes)))])
         episode = shard.episode(ci, ep)
         frame = episode_frame(episode)
         descriptor = np.asarray(robot_descriptor(get_robot_spec(cfg.robot)), np.float32)
@@ -301,15 +299,7 @@ def run_robustness(
     }
     return {
         "dataset": str(root),
-        "config": {
-            "corruptions": list(config.corruptions),
-            "top_k": config.top_k,
-            "min_spread": config.min_spread,
-            "pick_radius": config.pick_radius,
-            "seed": config.seed,
-            "split": config.split,
-            "max_configs": config.max_configs,
-        },
+        "config": {**asdict(config), "corruptions": list(config.corruptions)},
         "configurations": len(records),
         "models": models,
         "records": records,
