@@ -153,15 +153,7 @@ def run_configuration(
     target_xy = world_to_base(np.asarray([cfg.target.anchor[:2]]), episode.base_pose)[0]
     dist = np.hypot(*(floor_xy - target_xy).T)
     reach = get_robot_spec(cfg.robot).reach
-    record: dict[str, Any] = {
-        "scene_id": sid,
-        "config_index": ci,
-        "episode_index": ep,
-        "robot": cfg.robot,
-        "target": labels.target,
-        "feasible": bool(labels.trial_outcomes.any()),
-        "methods": {},
-    }
+    record = view_record(sid, ci, ep, labels, methods={})
     with World(scene.layout) as world:
         world.load_configuration(cfg)
         runner = TrialRunner(world, cfg.robot, gen.trial)
@@ -235,6 +227,21 @@ def msr_view(shard: SceneShard, scene: Any, ci: int, seed: int) -> int | None:
         )
     rng = np.random.default_rng([seed, scene.layout.scene_id, ci])
     return int(episodes[int(rng.integers(len(episodes)))])
+
+
+def view_record(
+    scene_id: int, config_index: int, episode_index: int, labels: Any, **more: Any
+) -> dict[str, Any]:
+    """The head of a judged view's record (MSR, the robustness track), then ``more``."""
+    return {
+        "scene_id": scene_id,
+        "config_index": config_index,
+        "episode_index": episode_index,
+        "robot": labels.robot,
+        "target": labels.target,
+        "feasible": bool(labels.trial_outcomes.any()),
+        **more,
+    }
 
 
 def dataset_generation(root: Path) -> tuple[dict[str, Any], Any]:

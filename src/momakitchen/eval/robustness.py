@@ -190,6 +190,7 @@ def run_robustness(
         msr_view,
         rebuilt_configurations,
         split_configurations,
+        view_record,
     )
     from momakitchen.frames import base_to_world_xy
     from momakitchen.metrics import episode_metrics
@@ -239,16 +240,9 @@ def run_robustness(
         grid: Any = SimpleNamespace(
             positions=labels.trial_positions, outcomes=labels.trial_outcomes
         )
-        record: dict[str, Any] = {
-            "scene_id": sid,
-            "config_index": ci,
-            "episode_index": ep,
-            "robot": cfg.robot,
-            "target": labels.target,
-            "feasible": bool(labels.trial_outcomes.any()),
-            "target_range": round(target_range(frame), 3),
-            "views": {},
-        }
+        record = view_record(
+            sid, ci, ep, labels, target_range=round(target_range(frame), 3), views={}
+        )
         with World(scene.layout) as world:
             world.load_configuration(cfg)
             runner = TrialRunner(world, cfg.robot, gen.trial)
