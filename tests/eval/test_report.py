@@ -363,3 +363,35 @@ def test_paired_map_table_counts_scenes_where_the_first_run_is_better():
     fewer = report("votenet", [0.8] * 5, [0.1] * 5)
     with pytest.raises(MomaError, match="different scenes"):
         paired_map_table([ref, fewer])
+
+
+def test_report_robustness_table(report, tmp_path):
+    """`benchmark --robustness FILE`: the track's table, and McNemar's test of the models
+    under each combination (two models here: the run judged twice under other names)."""
+    from momakitchen.eval.robustness import RobustnessConfig, run_robustness
+
+    req, _ = report
+    config = RobustnessConfig(corruptions=("clean", "combined"), max_configs=1)
+    first = run_robustness(req.data, [req.runs[0]], config)
+    second = json.loads(json.dumps(first))  # the same views under another model name
+    second["models"] = {"other": second["models"]["navaff"]}
+    for record in second["records"]:
+        record["views"] = {"other": record["views"]["navaff"]}
+    files = []
+    for name, result in (("a", first), ("b", second)):
+        files.append(tmp_path / f"{name}.json")
+        files[-1].write_text(json.dumps(result))
+    out = tmp_path / "bench"
+    run_benchmark(
+        dataclasses.replace(req, out=out, msr=(req.out / "msr.json",), robustness=tuple(files)),
+        log=lambda _: None,
+    )
+    text = (out / "RESULTS.md").read_text()
+    section = text.split("## Robustness to real sensors")[1].split("\n## ")[0]
+    assert "| navaff | combined | 1 |" in section and "| other | clean | 1 |" in section
+    assert "| navaff vs other | combined | 1 | 0 | 0 | 1 |" in section  # identical outcomes
+    bad = tmp_path / "bad.json"
+    bad.write_text("{}")
+    with pytest.raises(MomaError, match="not a `momakitchen robustness` result"):
+        run_benchmark(dataclasses.replace(req, out=tmp_path / "x", robustness=(bad,)))
+    assert not (tmp_path / "x").exists()
