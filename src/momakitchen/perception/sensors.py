@@ -110,9 +110,9 @@ class DepthModel:
 
 @dataclass(frozen=True)
 class SensorPreset:
-    """A named depth sensor: its model, a sentence on where the figures come from, and
-    whether its depth is metric (``predict`` then corrects the camera height from the
-    floor) or relative (``predict`` recovers the scale from the calibrated height)."""
+    """A named depth sensor: its model (``depth.metric`` False for relative depth, whose
+    scale ``predict`` reads from the floor and the calibrated height), the cameras it
+    stands for and where its figures come from."""
 
     name: str
     depth: DepthModel
