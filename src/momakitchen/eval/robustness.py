@@ -397,13 +397,15 @@ def robustness_figure(view_maps: dict[str, Any], title: str) -> bytes:
 
 def top1_by_view(result: dict[str, Any], model: str, corruption: str) -> dict[tuple, int]:
     """Each counted view's Top-1 outcome (errors: 0; views beyond range left out), keyed
-    by (scene, configuration, episode)."""
+    by (seed, scene, configuration, episode): the record's own ``seed`` where results of
+    several seeds are pooled, else the run's."""
     out = {}
     for r in result["records"]:
         v = r["views"].get(model, {}).get(corruption)
         if v is None or v["status"] == "beyond_range":
             continue
-        key = (r["scene_id"], r["config_index"], r["episode_index"])
+        seed = r.get("seed", result["config"]["seed"])
+        key = (seed, r["scene_id"], r["config_index"], r["episode_index"])
         out[key] = int(v["outcomes"][0]) if v["status"] == "ok" else 0
     return out
 
