@@ -365,7 +365,13 @@ def robustness_figure(view_maps: dict[str, Any], title: str) -> bytes:
     names = list(view_maps)
     cols = min(5, len(names))
     rows = (len(names) + cols - 1) // cols
-    fig, axes = plt.subplots(rows, cols, figsize=(3.0 * cols, 2.6 * rows + 0.6), squeeze=False)
+    fig, axes = plt.subplots(
+        rows,
+        cols,
+        figsize=(2.9 * cols + 1.0, 2.7 * rows + 0.5),
+        squeeze=False,
+        constrained_layout=True,
+    )
     preds = [p for p in view_maps.values() if hasattr(p, "floor_xyz")]
     # the floor within 1.2 m of the target, where the robot may stand
     t = preds[0].target_xyz[:2] if preds else np.zeros(2)
@@ -387,10 +393,16 @@ def robustness_figure(view_maps: dict[str, Any], title: str) -> bytes:
             ax.text(0.5, 0.5, reason, ha="center", va="center", transform=ax.transAxes)
             ax.set_xticks([])
             ax.set_yticks([])
-    for ax in list(axes.flat)[len(names) :]:
-        ax.axis("off")
+    for i, ax in enumerate(axes.flat):
+        if i >= len(names):
+            ax.axis("off")
+            continue
+        if i % cols:  # one axis label per row and column is enough
+            ax.set_ylabel("")
+        if i < len(names) - cols:
+            ax.set_xlabel("")
     if scatter is not None:
-        fig.colorbar(scatter, ax=axes, shrink=0.6, label="predicted affordance")
+        fig.colorbar(scatter, ax=axes, shrink=0.6, label="predicted affordance (0-1)")
     fig.suptitle(title, fontsize=10)
     return png_bytes(fig)
 
