@@ -217,3 +217,28 @@ def test_write_outputs_names_the_image_the_intrinsics_do_not_fit(episode, tiny_r
     with pytest.raises(MomaError, match=f"but the depth image is {w // 2}x{h // 2}"):
         write_outputs(pred, tmp_path / "bad", ep.rgb, ep.depth[::2, ::2], full, None)
     assert not (tmp_path / "bad").exists()
+
+
+def test_a_target_beyond_the_training_views_gives_a_warning(episode, tiny_run):
+    from momakitchen.models.inference import TRAINED_DISTANCE, predict_map
+    from momakitchen.perception.floor import fit_floor
+    from momakitchen.perception.live import FrameClouds
+    from momakitchen.robots.spec import get_robot_spec, robot_descriptor
+    from momakitchen.train import load_checkpoint
+
+    ep = episode
+    run = load_checkpoint(tiny_run)
+    desc = np.asarray(robot_descriptor(get_robot_spec(ep.robot)), np.float32)
+    arrays = {k: getattr(ep, k) for k in ("global_xyz", "global_rgb", "global_align")}
+    correction = fit_floor(ep.floor_xyz.astype(np.float64), ep.camera_to_base[:3, 3])
+    for x, warned in ((TRAINED_DISTANCE - 0.5, False), (TRAINED_DISTANCE + 0.5, True)):
+        clouds = FrameClouds(
+            **arrays,
+            floor_xyz=ep.floor_xyz,
+            target_xyz=np.array([x, 0.0, 1.0]),
+            correction=correction,
+        )
+        pred = predict_map(run, clouds, ep.robot, desc, mc_samples=0)
+        assert bool(pred.warnings) == warned
+        assert pred.to_dict(floor_points=False)["target_distance_m"] == pytest.approx(x, abs=1e-3)
+    assert "move closer" in pred.warnings[0]

@@ -31,9 +31,8 @@ class FrameClouds:
     """A live frame's model input (:func:`frame_inputs`), in the corrected base frame.
 
     Shapes: ``global_xyz`` (Ng, 3), ``global_rgb`` (Ng, 3) uint8, ``global_align`` (Ng,)
-    int8, ``floor_xyz`` (Nf, 3) with z = 0, ``target_xyz`` (3,). ``target_distance``: the
-    target's horizontal distance from the base (m); ``correction``: the floor-plane
-    correction applied (None when the floor was taken as calibrated).
+    int8, ``floor_xyz`` (Nf, 3) with z = 0, ``target_xyz`` (3,) the median of the target's
+    depth-consistent points; ``correction``: the floor-plane correction applied.
     """
 
     global_xyz: np.ndarray
@@ -41,8 +40,7 @@ class FrameClouds:
     global_align: np.ndarray
     floor_xyz: np.ndarray
     target_xyz: np.ndarray
-    target_distance: float
-    correction: FloorCorrection | None
+    correction: FloorCorrection
 
     def arrays(self) -> dict[str, np.ndarray]:
         """The cloud arrays a model sample is made of (:func:`episode_sample`)."""
@@ -168,7 +166,6 @@ def frame_inputs(
         global_align=align[keep],
         floor_xyz=f_pts,
         target_xyz=target,
-        target_distance=float(np.hypot(target[0], target[1])),
         correction=correction,
     )
 
