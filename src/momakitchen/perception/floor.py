@@ -105,10 +105,11 @@ class FloorCorrection:
         return transform(self.matrix, points)
 
     def to_dict(self) -> dict[str, Any]:
+        # (+ 0.0: no "-0.0" for a correction that rounds to nothing)
         return {
-            "height_m": round(self.height, 4),
-            "pitch_deg": round(self.pitch, 3),
-            "roll_deg": round(self.roll, 3),
+            "height_m": round(self.height, 4) + 0.0,
+            "pitch_deg": round(self.pitch, 3) + 0.0,
+            "roll_deg": round(self.roll, 3) + 0.0,
             "depth_scale": round(self.scale, 4),
             "floor_inliers": int(self.inliers),
             "floor_residual_m": round(self.residual, 4),
