@@ -282,6 +282,19 @@ def split_configurations(manifest: dict[str, Any], split: str) -> list[tuple[int
     return todo
 
 
+def judged_configurations(
+    root: Path, manifest: dict[str, Any], split: str, max_configs: int
+) -> list[tuple[int, int, str]]:
+    """:func:`split_configurations`, the first ``max_configs`` (0: all); MomaError when
+    there is none."""
+    todo = split_configurations(manifest, split)
+    if max_configs:
+        todo = todo[:max_configs]
+    if not todo:
+        raise MomaError(f"dataset {str(root)!r} has no {split} configurations")
+    return todo
+
+
 def rebuilt_configurations(
     root: Path, todo: Iterable[tuple[int, int, str]], scene_config: Any
 ) -> Iterator[tuple[Any, SceneShard, int]]:
@@ -356,11 +369,7 @@ def run_msr(
         name = run.name if run.name not in models else f"{run.name}:{Path(run_dir).name}"
         models[name] = run
 
-    todo = split_configurations(manifest, config.split)
-    if config.max_configs:
-        todo = todo[: config.max_configs]
-    if not todo:
-        raise MomaError(f"dataset {str(root)!r} has no {config.split} configurations")
+    todo = judged_configurations(root, manifest, config.split, config.max_configs)
     if predictions:
         from momakitchen.eval.predictions import load_predictions, split_episodes
 

@@ -113,6 +113,67 @@ def target_range(frame: Any) -> float:
     return float(np.median(d)) if len(d) else float("inf")
 
 
+def view_inputs(
+    frame: Any, corruption_name: str, ids: tuple[int, int, int], preprocessing: Any, seed: int
+) -> Any:
+    """The real-robot input of one view under one corruption, the same for every model
+    built with ``preprocessing``: a
+    :class:`~momakitchen.perception.live.FrameClouds`, or the view's status
+    (``{"status": "beyond_range" | "error", ...}``) when there is none."""
+    from momakitchen.perception.live import frame_inputs
+    from momakitchen.perception.sensors import corrupt_frame, get_corruption
+
+    corruption = get_corruption(corruption_name)
+    distance = target_range(frame)
+    if distance > corruption.preset.max_range:
+        return {"status": "beyond_range", "target_range": round(distance, 3)}
+    bad = corrupt_frame(frame, corruption, corruption_rng(seed, ids, corruption_name))
+    try:
+        return frame_inputs(
+            bad.depth,
+            np.isfinite(bad.depth) & (bad.depth > 0),
+            bad.rgb,
+            bad.target_mask,
+            list(bad.obstacle_masks),
+            bad.intrinsics,
+            bad.camera_to_base,
+            preprocessing.cloud,
+            preprocessing.max_depth,
+            metric_depth=corruption.preset.depth.metric,
+        )
+    except MomaError as exc:
+        return _error(exc)
+
+
+def _error(exc: MomaError) -> dict[str, Any]:
+    return {"status": "error", "cause": error_cause(str(exc)), "message": str(exc)}
+
+
+def predict_view(
+    run: Any, inputs: Any, robot: str, descriptor: np.ndarray, config: RobustnessConfig
+) -> dict[str, Any]:
+    """One model on one view's input (:func:`view_inputs`): ``{"status": "ok",
+    "prediction": Prediction}``, or a copy of the view's status when it has no input."""
+    from momakitchen.models.inference import predict_map
+
+    if isinstance(inputs, dict):
+        return dict(inputs)
+    try:
+        pred = predict_map(
+            run,
+            inputs,
+            robot,
+            descriptor,
+            top_k=config.top_k,
+            min_spread=config.min_spread,
+            pick_radius=config.pick_radius,
+            mc_samples=0,
+        )
+    except MomaError as exc:
+        return _error(exc)
+    return {"status": "ok", "prediction": pred}
+
+
 def run_view(
     run: Any,
     frame: Any,
@@ -124,43 +185,9 @@ def run_view(
 ) -> dict[str, Any]:
     """One model on one corrupted view: ``{"status": "ok"|"beyond_range"|"error", ...}``
     with the prediction (``prediction``) when ok."""
-    from momakitchen.models.inference import predict_map
-    from momakitchen.perception.live import frame_inputs
-    from momakitchen.perception.sensors import corrupt_frame, get_corruption
-
-    corruption = get_corruption(corruption_name)
-    preset = corruption.preset
-    distance = target_range(frame)
-    if distance > preset.max_range:
-        return {"status": "beyond_range", "target_range": round(distance, 3)}
-    bad = corrupt_frame(frame, corruption, corruption_rng(config.seed, ids, corruption_name))
-    depth = bad.depth
-    try:
-        clouds = frame_inputs(
-            depth,
-            np.isfinite(depth) & (depth > 0),
-            bad.rgb,
-            bad.target_mask,
-            list(bad.obstacle_masks),
-            bad.intrinsics,
-            bad.camera_to_base,
-            run.preprocessing.cloud,
-            run.preprocessing.max_depth,
-            metric_depth=preset.depth.metric,
-        )
-        pred = predict_map(
-            run,
-            clouds,
-            robot,
-            descriptor,
-            top_k=config.top_k,
-            min_spread=config.min_spread,
-            pick_radius=config.pick_radius,
-            mc_samples=0,
-        )
-    except MomaError as exc:
-        return {"status": "error", "cause": error_cause(str(exc)), "message": str(exc)}
-    return {"status": "ok", "prediction": pred}
+    preprocessing = None if run is None else run.preprocessing
+    inputs = view_inputs(frame, corruption_name, ids, preprocessing, config.seed)
+    return predict_view(run, inputs, robot, descriptor, config)
 
 
 def run_robustness(
@@ -187,9 +214,9 @@ def run_robustness(
     from momakitchen.data.integrity import check_shard_files
     from momakitchen.eval.msr import (
         dataset_generation,
+        judged_configurations,
         msr_view,
         rebuilt_configurations,
-        split_configurations,
         view_record,
     )
     from momakitchen.frames import base_to_world_xy
@@ -218,11 +245,7 @@ def run_robustness(
             else f"{run.config.model}:{Path(run_dir).name}"
         )
         runs[name] = run
-    todo = split_configurations(manifest, config.split)
-    if config.max_configs:
-        todo = todo[: config.max_configs]
-    if not todo:
-        raise MomaError(f"dataset {str(root)!r} has no {config.split} configurations")
+    todo = judged_configurations(root, manifest, config.split, config.max_configs)
     check_shard_files(root, manifest, {sid for sid, _, _ in todo})
 
     records: list[dict[str, Any]] = []
@@ -248,11 +271,21 @@ def run_robustness(
             runner = TrialRunner(world, cfg.robot, gen.trial)
             trials: dict[tuple[float, float], Any] = {}
             try:
-                for model, run in runs.items():
-                    for name in config.corruptions:
-                        view = run_view(
-                            run, frame, name, (sid, ci, ep), cfg.robot, descriptor, config
-                        )
+                for name in config.corruptions:
+                    # one corrupted frame and one input per corruption, for every model
+                    inputs = view_inputs(frame, name, (sid, ci, ep), preprocessing, config.seed)
+                    gt = None
+                    if not isinstance(inputs, dict):  # the truth at the input's floor points
+                        gt = floor_affordance(
+                            grid,
+                            scene.layout,
+                            cfg,
+                            inputs.floor_xyz[:, :2],
+                            episode.base_pose,
+                            gen.dense,
+                        ).astype(np.float64)
+                    for model, run in runs.items():
+                        view = predict_view(run, inputs, cfg.robot, descriptor, config)
                         pred = view.pop("prediction", None)
                         if view_maps is not None and not records and model == next(iter(runs)):
                             view_maps[name] = pred if pred is not None else view
@@ -265,15 +298,8 @@ def run_robustness(
                                     trials[key] = runner.run(*key)
                                 outcomes.append(int(trials[key].success))
                                 stages.append(int(trials[key].stage))
-                            gt = floor_affordance(
-                                grid,
-                                scene.layout,
-                                cfg,
-                                pred.floor_xyz[:, :2],
-                                episode.base_pose,
-                                gen.dense,
-                            )
-                            m = episode_metrics(pred.affordance, gt.astype(np.float64))
+                            assert gt is not None  # a prediction means an input
+                            m = episode_metrics(pred.affordance, gt)
                             view.update(
                                 points=[[round(float(v), 4) for v in p] for p in world_xy],
                                 outcomes=outcomes,
@@ -331,6 +357,13 @@ def summarize(records: Sequence[dict[str, Any]], model: str, name: str) -> dict[
     }
 
 
+def _vs_clean(s: dict[str, Any], ref: dict[str, Any] | None, name: str) -> tuple[str, str]:
+    """A row's Top-1 (points) and PCC changes from ``clean`` ("" for clean itself)."""
+    if ref is None or name == "clean":
+        return "", ""
+    return f"{(s['top1'] - ref['top1']) * 100:+.1f}", f"{s['pcc'] - ref['pcc']:+.3f}"
+
+
 def format_robustness_table(result: dict[str, Any]) -> str:
     """A text table: one row per model and corruption, with the change from ``clean``
     (``usable``: Top-1 over the views whose mask kept a target pixel of valid depth)."""
@@ -345,8 +378,7 @@ def format_robustness_table(result: dict[str, Any]) -> str:
     for model, rows in result["models"].items():
         ref = rows.get("clean")
         for name, s in rows.items():
-            d1 = f"{(s['top1'] - ref['top1']) * 100:+6.1f}" if ref and name != "clean" else ""
-            dp = f"{s['pcc'] - ref['pcc']:+.3f}" if ref and name != "clean" else ""
+            d1, dp = _vs_clean(s, ref, name)
             lines.append(
                 f"{model:<12} {name:<14} {s['views']:>5} {s['beyond_range']:>5} "
                 f"{sum(s['errors'].values()):>6} {s['top1'] * 100:>6.1f} {d1:>7} "
@@ -445,8 +477,7 @@ def robustness_markdown(results: Sequence[dict[str, Any]]) -> list[str]:
         ref = rows.get("clean")
         for name, s in rows.items():
             errors = ", ".join(f"{k} {v}" for k, v in s["errors"].items()) or "0"
-            d1 = f"{(s['top1'] - ref['top1']) * 100:+.1f}" if ref and name != "clean" else ""
-            dp = f"{s['pcc'] - ref['pcc']:+.3f}" if ref and name != "clean" else ""
+            d1, dp = _vs_clean(s, ref, name)
             lines.append(
                 f"| {model} | {name} | {s['views']} | {s['beyond_range']} | {errors} | "
                 f"{s['top1'] * 100:.1f} | {d1} | {s['top1_usable'] * 100:.1f} | "
