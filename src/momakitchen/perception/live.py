@@ -121,9 +121,10 @@ def frame_inputs(
     max_depth = max_depth if max_depth is not None else CameraConfig().max_depth
     d = np.where(valid, depth, 0.0)
     flat_d = d.reshape(-1)
-    tmask = np.asarray(target_mask, bool).reshape(-1)
+    mask2d = np.asarray(target_mask, bool)
+    tmask = mask2d.reshape(-1)
     if not (tmask & (flat_d > 0) & (flat_d <= max_depth)).any():
-        _no_target(d, np.asarray(target_mask, bool), max_depth)
+        _no_target(d, mask2d, max_depth)
     tf = np.asarray(camera_to_base, np.float64)
     # The floor is fitted on every FIT_STRIDE-th pixel of each FIT_STRIDE-th row (plenty
     # for three parameters); the frame is then back-projected once, already corrected.
@@ -154,7 +155,7 @@ def frame_inputs(
     for m in obstacle_masks:
         align[np.asarray(m, bool).reshape(-1)[idx]] = -1
     t_rows = np.flatnonzero(in_mask)
-    t_rows = t_rows[consistent_target(d.reshape(-1)[idx[t_rows]])]
+    t_rows = t_rows[consistent_target(flat_d[idx[t_rows]])]
     align[t_rows] = 1
     if not (align[keep] > 0).any():  # a small target thinned away: its own voxels
         t_keep = t_rows[voxel_downsample(pts[t_rows], cloud.voxel)]

@@ -483,14 +483,18 @@ def _rot(axis: int, deg: float) -> np.ndarray:
     return r
 
 
+def _turn(error: CalibrationError) -> np.ndarray:
+    """The real camera's rotation in the calibrated camera's axes. (3, 3)."""
+    # OpenCV axes: a positive rotation about x tilts z (forward) toward -y, i.e. up;
+    # about y turns z toward +x (right); about z turns the image clockwise from behind.
+    return _rot(0, error.pitch) @ _rot(1, error.yaw) @ _rot(2, error.roll)
+
+
 def real_camera_to_base(calibrated: np.ndarray, error: CalibrationError) -> np.ndarray:
     """The real camera's transform, given the calibrated one and how the real camera
     differs. Shapes: (4, 4) -> (4, 4)."""
     out = np.array(calibrated, np.float64)
-    # OpenCV axes: a positive rotation about x tilts z (forward) toward -y, i.e. up;
-    # about y turns z toward +x (right); about z turns the image clockwise from behind.
-    turn = _rot(0, error.pitch) @ _rot(1, error.yaw) @ _rot(2, error.roll)
-    out[:3, :3] = out[:3, :3] @ turn
+    out[:3, :3] = out[:3, :3] @ _turn(error)
     out[2, 3] += error.height
     return out
 
@@ -518,8 +522,7 @@ def corrupt_frame(frame: Frame, corruption: Corruption, rng: np.random.Generator
     calibrated = np.array(frame.camera_to_base, np.float64)
     if cal != CalibrationError():
         # real = calibrated (+) error, so calibrated = real (-) error
-        turn = _rot(0, cal.pitch) @ _rot(1, cal.yaw) @ _rot(2, cal.roll)
-        calibrated[:3, :3] = calibrated[:3, :3] @ turn.T
+        calibrated[:3, :3] = calibrated[:3, :3] @ _turn(cal).T
         calibrated[2, 3] -= cal.height
     depth = apply_depth_model(frame.depth, frame.intrinsics, corruption.preset.depth, rng)
     target = apply_mask_error(frame.target_mask, corruption.mask, rng)
