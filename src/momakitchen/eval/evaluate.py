@@ -60,18 +60,8 @@ def evaluate(
         scenes += list(batch["scene_id"])
         robots += list(batch["robot_name"])
         configs += list(zip(batch["scene_id"], batch["config_index"], strict=True))
-    out = {
-        "model": run.config.model,
-        "preset": run.config.preset,
-        "episodes": len(preds),
-        "floor_context": run.config.num_floor,
-        "metrics": map_metrics(preds, gts),
-        "per_robot": breakdown(preds, gts, robots),
-        "per_scene": breakdown(preds, gts, scenes),
-    }
-    if targets is not None:
-        out["per_category"] = breakdown(preds, gts, [targets[c] for c in configs])
-    return out
+    head = {"model": run.config.model, "preset": run.config.preset}
+    return _report(head, run.config.num_floor, preds, gts, robots, scenes, configs, targets)
 
 
 def predicted_maps(
@@ -144,18 +134,32 @@ def evaluate_predictions(
     finally:
         if shard is not None:
             shard.close()
+    head = {"model": method.name, "preset": "predictions", "predictions": str(path)}
+    return _report(head, None, preds, gts, robots, scenes, configs, targets)
+
+
+def _report(
+    head: dict[str, Any],
+    floor_context: int | None,
+    preds: list[np.ndarray],
+    gts: list[np.ndarray],
+    robots: list[str],
+    scenes: list[int],
+    configs: list[tuple[int, int]],
+    targets: dict[tuple[int, int], str] | None,
+) -> dict[str, Any]:
+    """The report :func:`evaluate` and :func:`evaluate_predictions` return, from the
+    per-episode maps (N arrays each) and their robots, scenes and configurations."""
     out = {
-        "model": method.name,
-        "preset": "predictions",
-        "predictions": str(path),
+        **head,
         "episodes": len(preds),
-        "floor_context": None,
+        "floor_context": floor_context,
         "metrics": map_metrics(preds, gts),
         "per_robot": breakdown(preds, gts, robots),
         "per_scene": breakdown(preds, gts, scenes),
     }
     if targets is not None:
-        out["per_category"] = breakdown(preds, gts, [targets[k] for k in configs])
+        out["per_category"] = breakdown(preds, gts, [targets[c] for c in configs])
     return out
 
 
