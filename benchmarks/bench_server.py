@@ -130,35 +130,29 @@ def main() -> None:
         assert match, "the server did not start"
         url = match.group(0)
         print(f"frame 640x480, robot {ep.robot}; server {url}; load {os.getloadavg()[0]:.2f}")
+
+        def in_process(depth: np.ndarray, mc: int) -> None:
+            momakitchen.predict(
+                depth,
+                ep.intrinsics,
+                ep.camera_to_base,
+                ep.semantic == TARGET,
+                ep.robot,
+                rgb=ep.rgb,
+                obstacle_masks=[ep.semantic == OBSTACLE],
+                checkpoint=run,
+                mc_samples=mc,
+            )
+
         for mc in (0, 8):
             for _ in range(2):  # warm-up
                 _post(url, ep, mc, False)
-                momakitchen.predict(
-                    ep.depth,
-                    ep.intrinsics,
-                    ep.camera_to_base,
-                    ep.semantic == TARGET,
-                    ep.robot,
-                    rgb=ep.rgb,
-                    obstacle_masks=[ep.semantic == OBSTACLE],
-                    checkpoint=run,
-                    mc_samples=mc,
-                )
+                in_process(ep.depth, mc)
             for rep in range(args.repeats):
                 local, http, http_floor, model = [], [], [], []
                 for _ in range(args.requests):
                     t0 = time.perf_counter()
-                    momakitchen.predict(
-                        np.round(ep.depth * 1000) / 1000,
-                        ep.intrinsics,
-                        ep.camera_to_base,
-                        ep.semantic == TARGET,
-                        ep.robot,
-                        rgb=ep.rgb,
-                        obstacle_masks=[ep.semantic == OBSTACLE],
-                        checkpoint=run,
-                        mc_samples=mc,
-                    )
+                    in_process(np.round(ep.depth * 1000) / 1000, mc)
                     local.append(1000 * (time.perf_counter() - t0))
                     t0 = time.perf_counter()
                     model.append(1000 * _post(url, ep, mc, False))
