@@ -195,15 +195,16 @@ class EpisodeDataset(Dataset):
         :class:`~momakitchen.perception.sensors.SensorAugmentation`) would give it
         (:func:`noisy_sample`), drawn from ``(seed, epoch, scene, configuration,
         episode)`` (:meth:`set_epoch`). The stored data stay clean."""
-        from momakitchen.data.config import GenerationConfig, Preprocessing
+        from momakitchen.data.config import manifest_preprocessing
 
-        if self.manifest.get("producer") != mf.KITCHEN or "config" not in self.manifest:
+        kitchen = self.manifest.get("producer") == mf.KITCHEN
+        preprocessing = manifest_preprocessing(self.manifest) if kitchen else None
+        if preprocessing is None:
             raise MomaError(
                 f"{self.root}: sensor noise needs the RGB-D frames of a simulator-made "
                 f"dataset (this one was made by {self.manifest.get('producer')!r})"
             )
-        gen = GenerationConfig.from_dict(self.manifest["config"])
-        self.preprocessing = Preprocessing(gen.cloud, gen.camera.max_depth)
+        self.preprocessing = preprocessing
         self.sensor_noise = augmentation
 
     def set_epoch(self, epoch: int, seed: int = 0) -> None:
