@@ -129,11 +129,9 @@ def run(args: argparse.Namespace) -> int:
         if args.sensor is not None:
             import dataclasses
 
-            from momakitchen.perception.sensors import SENSORS
+            from momakitchen.perception.sensors import get_sensor
 
-            if args.sensor not in SENSORS:
-                raise MomaError(f"unknown sensor {args.sensor!r}; sensors: {', '.join(SENSORS)}")
-            far = min(SENSORS[args.sensor].max_range, 20.0)
+            far = min(get_sensor(args.sensor).max_range, 20.0)
             config = dataclasses.replace(
                 config, views=dataclasses.replace(config.views, max_distance=far)
             )

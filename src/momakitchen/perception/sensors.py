@@ -193,6 +193,13 @@ SENSORS: dict[str, SensorPreset] = {
 }
 
 
+def get_sensor(name: str) -> SensorPreset:
+    """A sensor preset of :data:`SENSORS`; MomaError naming the choices otherwise."""
+    if name not in SENSORS:
+        raise MomaError(f"unknown sensor {name!r}; sensors: {', '.join(SENSORS)}")
+    return SENSORS[name]
+
+
 @dataclass(frozen=True)
 class MaskError:
     """A segmenter's mask errors (pixels; applied to the target and obstacle masks).
@@ -278,8 +285,7 @@ class Corruption:
     description: str = ""
 
     def __post_init__(self) -> None:
-        if self.sensor not in SENSORS:
-            raise MomaError(f"unknown sensor {self.sensor!r}; sensors: {', '.join(SENSORS)}")
+        get_sensor(self.sensor)
 
     @property
     def preset(self) -> SensorPreset:
@@ -568,11 +574,8 @@ class SensorAugmentation:
     p_colour: float = 0.3
 
     def __post_init__(self) -> None:
-        for s in self.sensors:
-            if s not in SENSORS:
-                raise MomaError(
-                    f"unknown sensor {s!r} in augmentation; sensors: {', '.join(SENSORS)}"
-                )
+        for name in self.sensors:
+            get_sensor(name)
         for name in ("p_ideal", "p_mask", "p_colour"):
             if not 0.0 <= getattr(self, name) <= 1.0:
                 raise MomaError(
