@@ -105,18 +105,13 @@ def evaluate_predictions(
     map of one has another length, NaN or values outside [0, 1], is refused (MomaError
     naming the first such episode) before anything is scored."""
     from momakitchen.data.shard import SceneShard
-    from momakitchen.eval.predictions import episode_key, load_predictions
+    from momakitchen.eval.predictions import dataset_episodes, load_predictions
 
     index = list(data.index)
     if not index:
         raise MomaError("the evaluation dataset is empty")
     root = Path(data.root)
-    counts = {
-        (int(sid), c, e): int(data.manifest["shards"][str(sid)]["floor_points"][c][e])
-        for _, sid, c, e, _ in index
-    }
-    expected = [(episode_key(*k), n) for k, n in counts.items()]
-    method = load_predictions(path, expected, name)
+    method = load_predictions(path, dataset_episodes(data), name)
     targets = _targets(data.manifest)
     preds, gts, scenes, robots, configs = [], [], [], [], []
     shard: SceneShard | None = None

@@ -71,6 +71,17 @@ def split_episodes(
     return out
 
 
+def dataset_episodes(data: Any) -> list[tuple[str, int]]:
+    """``(key, floor point count)`` of every episode an
+    :class:`~momakitchen.data.EpisodeDataset` serves, in its order: what a predictions file
+    scored on it must cover."""
+    shards = data.manifest["shards"]
+    return [
+        (episode_key(sid, c, e), int(shards[str(sid)]["floor_points"][c][e]))
+        for _, sid, c, e, _ in data.index
+    ]
+
+
 def file_kind(path: Path) -> str:
     """``"npz"`` or ``"hdf5"`` by the suffix of ``path``; MomaError for another suffix."""
     suffix = path.suffix.lower()

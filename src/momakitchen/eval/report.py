@@ -162,7 +162,7 @@ def run_benchmark(req: BenchmarkRequest, log: Callable[[str], None] = print) -> 
     from momakitchen.data.manifest import load_manifest, split_checksum
     from momakitchen.eval.evaluate import evaluate_predictions
     from momakitchen.eval.msr import BASELINES, MsrConfig, check_same_views, merge_msr, run_msr
-    from momakitchen.eval.predictions import load_predictions, method_name
+    from momakitchen.eval.predictions import dataset_episodes, load_predictions, method_name
     from momakitchen.eval.robustness import robustness_markdown
     from momakitchen.train.checkpoint import load_checkpoint
 
@@ -207,7 +207,7 @@ def run_benchmark(req: BenchmarkRequest, log: Callable[[str], None] = print) -> 
             raise MomaError(f"{str(path)!r} is not a `momakitchen robustness` result")
     test_data = EpisodeDataset(data, "test")
     for path in named.values():  # every file read and checked before any work
-        load_predictions(path, _test_episodes(test_data))
+        load_predictions(path, dataset_episodes(test_data))
     test_shards = split_checksum(load_manifest(data), "test")  # keys reusable test.json
     out.mkdir(parents=True, exist_ok=True)
 
@@ -318,18 +318,6 @@ def run_benchmark(req: BenchmarkRequest, log: Callable[[str], None] = print) -> 
     }
     atomic_write_text(out / "benchmark.json", json.dumps(result, indent=1, default=float) + "\n")
     return result
-
-
-def _test_episodes(data: Any) -> list[tuple[str, int]]:
-    """(key, floor points) of the episodes of an EpisodeDataset, as predictions files
-    must cover them."""
-    from momakitchen.eval.predictions import episode_key
-
-    shards = data.manifest["shards"]
-    return [
-        (episode_key(sid, c, e), int(shards[str(sid)]["floor_points"][c][e]))
-        for _, sid, c, e, _ in data.index
-    ]
 
 
 def _row(cells: Sequence[str]) -> str:
@@ -680,7 +668,7 @@ def qualitative_figure(
     same test episodes: the last view of the first ``examples`` test configurations that
     have a successful trial. PNG bytes."""
     from momakitchen.data import EpisodeDataset
-    from momakitchen.eval.predictions import load_predictions
+    from momakitchen.eval.predictions import dataset_episodes, load_predictions
     from momakitchen.models.inference import inference_collator, predict_batch
     from momakitchen.perception.figures import png_bytes
     from momakitchen.train.checkpoint import load_checkpoint
@@ -699,7 +687,9 @@ def qualitative_figure(
     if not picked:
         raise MomaError(f"no test configuration of {str(data_dir)!r} has a successful trial")
     loaded = [load_checkpoint(r) for r in runs]
-    stored = [load_predictions(path, _test_episodes(data), name).maps for name, path in predictions]
+    stored = [
+        load_predictions(path, dataset_episodes(data), name).maps for name, path in predictions
+    ]
     rows = []
     for sample in picked:
         maps = []
