@@ -108,7 +108,7 @@ def test_checkpoint_errors(tmp_path, tiny_sets, make_config):
         load_checkpoint(tmp_path / "nowhere")
     with pytest.raises(MomaError, match="already holds a checkpoint; pass --resume"):
         train(make_config(epochs=1, model="pointnet2"), train_set, None, run)
-    with pytest.raises(MomaError, match=r"nothing to resume.*holds no finished epoch"):
+    with pytest.raises(MomaError, match=r"nothing to resume.*holds no checkpoint"):
         (tmp_path / "empty").mkdir()
         train(make_config(epochs=1), train_set, None, tmp_path / "empty", resume=True)
     assert not any((tmp_path / "empty").iterdir())
@@ -152,6 +152,30 @@ def test_resume_continues_exactly(tmp_path, tiny_sets, make_config):
     ):
         assert torch.allclose(a, b, atol=1e-6), k
     assert [h["epoch"] for h in resumed.history] == [1, 2, 3]
+
+
+def test_resume_within_an_epoch_continues_exactly(tmp_path, tiny_sets, make_config):
+    """A checkpoint written within an epoch (checkpoint_minutes) resumes from the next
+    batch: the weights and the epoch's loss are those of the run never stopped."""
+    train_set, _ = tiny_sets
+    cfg = make_config(epochs=3, checkpoint_minutes=1e-9)  # after every batch
+    full = train(cfg, train_set, None, tmp_path / "full")
+    # Epoch 2's first batch trains, and its checkpoint is written; its second fails.
+    with pytest.raises(KeyboardInterrupt):
+        train(cfg, _Interrupting(train_set, len(train_set) + 5), None, tmp_path / "cut")
+    progress = json.loads((tmp_path / "cut" / "trainer_state.json").read_text())["progress"]
+    assert (progress["epoch"], progress["epoch_step"], progress["global_step"]) == (1, 1, 3)
+    resumed = train(cfg, train_set, None, tmp_path / "cut", resume=True)
+    assert resumed.global_step == full.global_step == 6
+    a, b = full.model.state_dict(), resumed.model.state_dict()
+    assert all(torch.equal(a[k], b[k]) for k in a)
+    assert [h["loss"] for h in resumed.history] == [h["loss"] for h in full.history]
+    assert [h["samples"] for h in resumed.history] == [8, 8, 8]
+
+
+def test_checkpoint_minutes_must_be_a_duration(make_config):
+    with pytest.raises(MomaError, match="checkpoint_minutes"):
+        make_config(checkpoint_minutes=float("nan"))
 
 
 def test_data_loading_workers_change_nothing(tmp_path, tiny_sets, make_config):

@@ -122,6 +122,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         metavar="RUN",
         help="start from this run's weights (fine-tuning; 'bundled': the bundled model)",
     )
+    tr.add_argument(
+        "--checkpoint-minutes",
+        type=non_negative_float,
+        default=None,
+        help="also write the checkpoint this often within an epoch, for --resume to go on "
+        "from (default 20; 0: only at epoch ends)",
+    )
     tr.add_argument("--resume", action="store_true", help="continue the run in --out")
     tr.add_argument("--quiet", action="store_true", help="no progress bars")
     tr.set_defaults(func=run_train)
@@ -220,6 +227,7 @@ def train_config(args: argparse.Namespace) -> TrainConfig:
             ("progress", False if args.quiet else None),
             ("sensor_noise", args.sensor_noise),
             ("init", args.init),
+            ("checkpoint_minutes", args.checkpoint_minutes),
         )
         if value is not None
     }

@@ -5,11 +5,13 @@ A run directory holds:
 - ``config.json``: format, model name, preset, the full :class:`TrainConfig`, the robot
   descriptor version and names, and the preprocessing (cloud voxels, floor threshold,
   depth range) of the data it was trained on; a run without it used the defaults;
-- ``model.safetensors``: the model's ``state_dict`` after the last finished epoch; its
+- ``model.safetensors``: the model's ``state_dict`` at the last checkpoint (an epoch's
+  end, or within one: ``TrainConfig.checkpoint_minutes``); its
   metadata records the SHA-256 of its tensor data, checked (with the weights' finiteness)
   whenever it is loaded;
 - ``trainer_state.safetensors`` + ``trainer_state.json``: optimiser moments, RNG state,
-  epoch, step and history, for resuming;
+  epoch, step and history (and within an epoch, its batches done so far and their
+  loss), for resuming;
 - ``log.csv`` and ``loss_curve.png``.
 """
 
@@ -294,11 +296,11 @@ def has_checkpoint(run_dir: Path) -> bool:
 
 
 def require_checkpoint(run_dir: str | Path) -> None:
-    """MomaError unless ``run_dir`` holds a finished epoch to resume from: asked to resume
+    """MomaError unless ``run_dir`` holds a checkpoint to resume from: asked to resume
     a run that has none, training from scratch would be a silent surprise of hours."""
     run_dir = Path(run_dir)
     if not has_checkpoint(run_dir):
-        where = "does not exist" if not run_dir.exists() else "holds no finished epoch"
+        where = "does not exist" if not run_dir.exists() else "holds no checkpoint"
         raise MomaError(
             f"nothing to resume: run directory {str(run_dir)!r} {where} (no {WEIGHTS_FILE} "
             f"and {STATE_JSON}); start the run without --resume"

@@ -47,6 +47,9 @@ class TrainConfig:
         log_every: write a training row to the CSV log every this many steps.
         val_every, checkpoint_every: validate / write the checkpoint, log and loss curve
             every this many epochs (and always after the last one).
+        checkpoint_minutes: also write the checkpoint this often within an epoch (0:
+            only at epoch ends), so a killed run loses at most this much; ``--resume``
+            then goes on from the same batch of the same epoch, as if never stopped.
         progress: show tqdm progress bars (rank 0 only).
         sensor_noise: train on the stored frames as real sensors, segmenters and
             calibrations would give them (a random
@@ -78,6 +81,7 @@ class TrainConfig:
     log_every: int = 10
     val_every: int = 1
     checkpoint_every: int = 1
+    checkpoint_minutes: float = 20.0
     progress: bool = True
     sensor_noise: bool = False
     init: str = ""
@@ -122,6 +126,8 @@ class TrainConfig:
         for name in ("log_every", "val_every", "checkpoint_every"):
             if getattr(self, name) < 1:
                 raise bad(name, "must be >= 1")
+        if not 0 <= self.checkpoint_minutes < float("inf"):
+            raise bad("checkpoint_minutes", "must be >= 0 (0: only at epoch ends)")
 
     def replace(self, **changes: Any) -> TrainConfig:
         """A copy with some fields changed (validated again)."""

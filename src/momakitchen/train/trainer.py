@@ -11,10 +11,11 @@ from __future__ import annotations
 
 import csv
 import io
+import itertools
 import math
 import os
 import time
-from collections.abc import Sized
+from collections.abc import Iterator, Sized
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, cast
@@ -22,7 +23,7 @@ from typing import Any, cast
 import torch
 import torch.distributed as dist
 from torch.nn.parallel import DistributedDataParallel
-from torch.utils.data import DataLoader, Dataset, DistributedSampler
+from torch.utils.data import DataLoader, Dataset, DistributedSampler, Sampler
 from tqdm.auto import tqdm
 
 from momakitchen.data.batch import EpisodeCollator, episode_maps
@@ -97,6 +98,21 @@ def _dist_setup() -> tuple[int, int, bool]:
     if dist.is_initialized():
         return dist.get_rank(), dist.get_world_size(), created
     return 0, 1, created
+
+
+class _SkipSampler(Sampler[int]):
+    """``sampler``'s indices less the first ``skip`` (set before each epoch): a run resumed
+    within an epoch reads only the samples it has not trained on yet."""
+
+    def __init__(self, sampler: Sampler[int]) -> None:
+        self.sampler = sampler
+        self.skip = 0
+
+    def __iter__(self) -> Iterator[int]:
+        return itertools.islice(iter(self.sampler), self.skip, None)
+
+    def __len__(self) -> int:
+        return max(len(cast(Sized, self.sampler)) - self.skip, 0)
 
 
 def _barrier(world: int) -> None:
@@ -254,8 +270,9 @@ def train(
     """Train ``config.model`` on ``train_set``; validate on ``val_set`` after each epoch.
 
     Writes ``config.json``, ``model.safetensors``, the trainer state, ``log.csv`` and
-    ``loss_curve.png`` into ``out_dir`` after every epoch. With ``resume=True`` a run
-    directory that holds a checkpoint continues after its last finished epoch (same model
+    ``loss_curve.png`` into ``out_dir`` after every epoch (and every
+    ``config.checkpoint_minutes`` within one). With ``resume=True`` a run directory that
+    holds a checkpoint continues exactly where it was written (same model
     and sizes required; one without a checkpoint is refused); without it, a directory
     that holds one is refused.
     """
@@ -324,10 +341,11 @@ def _train(
     sampler: DistributedSampler[Any] = DistributedSampler(
         train_set, num_replicas=world, rank=rank, shuffle=True, seed=config.seed
     )
+    resumable = _SkipSampler(sampler)
     loader = DataLoader(
         train_set,
         batch_size=config.batch_size,
-        sampler=sampler,
+        sampler=resumable,
         collate_fn=collate,
         num_workers=config.num_workers,
     )
@@ -340,7 +358,8 @@ def _train(
             collate_fn=collate,
             num_workers=config.num_workers,
         )
-    total_steps = config.epochs * len(loader)
+    steps_per_epoch = math.ceil(len(sampler) / config.batch_size)
+    total_steps = config.epochs * steps_per_epoch
     if config.max_steps:
         total_steps = min(total_steps, config.max_steps)
     net: torch.nn.Module = DistributedDataParallel(model) if world > 1 else model
@@ -353,16 +372,39 @@ def _train(
     history: list[dict[str, Any]] = list(progress["history"])
     show = config.progress and rank == 0
 
+    # A checkpoint written within an epoch (checkpoint_minutes) records how far it got:
+    # that epoch goes on from the next batch of the same shuffled order.
+    done_in_epoch = int(progress.get("epoch_step", 0))
+    # Making the loader's iterator draws its worker seed from the torch RNG, which the
+    # uninterrupted run did at the epoch's start: restore the saved state after it.
+    resume_rng = torch.get_rng_state() if done_in_epoch else None
     for epoch in range(progress["epoch"], config.epochs):
         if step >= total_steps:
             break
         sampler.set_epoch(epoch)
+        resumable.skip = done_in_epoch * config.batch_size
         if config.sensor_noise:
             cast(Any, train_set).set_epoch(epoch, config.seed)
         net.train()
-        t0 = time.perf_counter()
         loss_sum = torch.zeros(3, dtype=torch.float64)  # loss*B, mse*B, samples
-        bar = tqdm(loader, desc=f"epoch {epoch + 1}/{config.epochs}", leave=False, disable=not show)
+        seconds_before = 0.0
+        if done_in_epoch:
+            loss_sum += torch.tensor(progress["epoch_loss_sum"], dtype=torch.float64)
+            seconds_before = float(progress["epoch_seconds"])
+        t0 = time.perf_counter()
+        last_save = t0
+        batches = iter(loader)
+        if resume_rng is not None:
+            torch.set_rng_state(resume_rng)
+            resume_rng = None
+        bar = tqdm(
+            batches,
+            desc=f"epoch {epoch + 1}/{config.epochs}",
+            leave=False,
+            disable=not show,
+            initial=done_in_epoch,
+            total=steps_per_epoch,
+        )
         for batch in bar:
             if step >= total_steps:
                 break
@@ -395,7 +437,29 @@ def _train(
                 # Keep the CSV current during long epochs (resume trims rows past the
                 # checkpoint's step).
                 _write_log(log_path, rows)
-        seconds = time.perf_counter() - t0
+            done_in_epoch += 1
+            minutes = config.checkpoint_minutes
+            if (
+                rank == 0
+                and minutes
+                and time.perf_counter() - last_save >= 60 * minutes
+                and done_in_epoch < steps_per_epoch
+            ):
+                within = {
+                    "epoch_step": done_in_epoch,
+                    "epoch_loss_sum": loss_sum.tolist(),
+                    "epoch_seconds": seconds_before + time.perf_counter() - t0,
+                }
+                save_weights(run_dir / WEIGHTS_FILE, model)
+                save_trainer_state(
+                    run_dir,
+                    optimizer,
+                    {"epoch": epoch, "global_step": step, "history": history, **within},
+                )
+                _write_log(log_path, rows)
+                last_save = time.perf_counter()
+        done_in_epoch = 0
+        seconds = seconds_before + time.perf_counter() - t0
         if world > 1:
             dist.all_reduce(loss_sum)
         n = max(float(loss_sum[2]), 1.0)
