@@ -6,8 +6,9 @@
 #   mkdir -p ~/mk-runs && cp -rn results/partial/* ~/mk-runs/   # on the new machine, then
 #   ONLY="navaff-12ep pointnet2-12ep" bash scripts/results.sh
 #
-# Each run is kept as it stood after its last finished epoch: weights, optimiser state and
-# the log up to that step (a resume trims the log the same way). A training may go on
+# Each run is kept as it stood at its last checkpoint (an epoch's end, or within an epoch:
+# train --checkpoint-minutes): weights, optimiser state and the log up to that step (a
+# resume trims the log the same way). A training may go on
 # beside it: if an epoch ends while the files are copied, they are copied again.
 set -euo pipefail
 RUNS=${RUNS:-$HOME/mk-runs}
@@ -19,14 +20,14 @@ fi
 for name in "$@"; do
   src=$RUNS/$name
   if [[ ! -f $src/trainer_state.json ]]; then
-    echo "partial.sh: $src has no saved epoch (no trainer_state.json)" >&2
+    echo "partial.sh: $src has no checkpoint (no trainer_state.json)" >&2
     exit 2
   fi
 done
 for name in "$@"; do
   src=$RUNS/$name
   tmp=$(mktemp -d "$REPO/results/.partial-XXXXXX")
-  # The files of one epoch: the trainer writes the weights, then trainer_state.safetensors,
+  # The files of one checkpoint: the trainer writes the weights, then trainer_state.safetensors,
   # then trainer_state.json, so neither may be newer than it, and it must not change.
   until
     before=$(cksum <"$src/trainer_state.json")

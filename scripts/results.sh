@@ -14,7 +14,7 @@
 #                                      # evaluate and MSR for the archived runs, no training
 #
 # Every step resumes where it stopped: generation skips finished scenes, training continues
-# after its last finished epoch, and finished evaluations and MSR are kept. Run it again
+# from its last checkpoint (every epoch, and every 20 minutes within one), and finished evaluations and MSR are kept. Run it again
 # after an interruption (e.g. under nohup, one session after another). MSR is kept per
 # compared model (RUN/msr.json, as soon as the model is trained) and for the baselines
 # ($RUNS/msr-baselines.json); benchmark merges them (same seed: the same views).
@@ -77,10 +77,16 @@ RUN_LIST=(
   "lambda-0.5 --model navaff --lambda-zero 0.5 $NODROP"
   "lambda-0.7 --model navaff --lambda-zero 0.7 $NODROP"
   "lambda-1.0 --model navaff --lambda-zero 1.0 $NODROP"
+  # The 12-epoch pair again, every sample seen through a random real sensor, segmenter
+  # and calibration (train --sensor-noise, docs/SENSORS.md): the candidates to replace the
+  # bundled model. About 3 times the clean runs' CPU time each.
+  "navaff-12ep-noise --model navaff --epochs 12 --sensor-noise"
+  "pointnet2-12ep-noise --model pointnet2 --epochs 12 --sensor-noise"
 )
 MAIN=(navaff pointnet2 votenet h3dnet)  # compared in closed loop
 MSR_RUNS=("${MAIN[@]}" navaff-seed1 navaff-12ep navaff-12ep-seed1
-  pointnet2-seed1 pointnet2-12ep pointnet2-12ep-seed1 votenet-12ep h3dnet-12ep)   # MSR for these
+  pointnet2-seed1 pointnet2-12ep pointnet2-12ep-seed1 votenet-12ep h3dnet-12ep
+  navaff-12ep-noise pointnet2-12ep-noise)   # MSR for these
 # Second seeds of the 12-epoch pair, also judged on four more views per configuration
 # (RUN/views/msr-seed1..4.json, Top-1), as the pair is below ($RUNS/views).
 VIEW_RUNS=(navaff-12ep-seed1 pointnet2-12ep-seed1)
@@ -146,7 +152,7 @@ run_one() {  # name, then train options: train (or restore), evaluate, MSR (MSR_
     return 0
   else
     stamp "train $name"
-    # Resume a run cut short after a finished epoch; train refuses --resume without one.
+    # Resume a run cut short after a checkpoint; train refuses --resume without one.
     local resume=()
     [[ -f "$RUNS/$name/trainer_state.json" ]] && resume=(--resume)
     # shellcheck disable=SC2086  # the options are words
