@@ -79,9 +79,10 @@ RUN_LIST=(
   "lambda-1.0 --model navaff --lambda-zero 1.0 $NODROP"
   # The 12-epoch pair again, every sample seen through a random real sensor, segmenter
   # and calibration (train --sensor-noise, docs/SENSORS.md): the candidates to replace the
-  # bundled model. About 3 times the clean runs' CPU time each.
-  "navaff-12ep-noise --model navaff --epochs 12 --sensor-noise"
-  "pointnet2-12ep-noise --model pointnet2 --epochs 12 --sensor-noise"
+  # bundled model. The sample rebuild dominates (about 3 times the clean runs' CPU time):
+  # two DataLoader workers rebuild while one thread trains.
+  "navaff-12ep-noise --model navaff --epochs 12 --sensor-noise --workers 2 --threads 1"
+  "pointnet2-12ep-noise --model pointnet2 --epochs 12 --sensor-noise --workers 2 --threads 1"
 )
 MAIN=(navaff pointnet2 votenet h3dnet)  # compared in closed loop
 MSR_RUNS=("${MAIN[@]}" navaff-seed1 navaff-12ep navaff-12ep-seed1
