@@ -33,6 +33,8 @@ def run(dataset, tmp_path_factory):
                 "2",
                 "--lambda-zero",
                 "0.3",
+                "--checkpoint-minutes",
+                "5",
                 "--quiet",
             ]
         )
@@ -45,6 +47,7 @@ def test_train_then_evaluate(run, dataset, tmp_path, capsys):
     assert (run / "model.safetensors").is_file() and (run / "loss_curve.png").is_file()
     saved = json.loads((run / "config.json").read_text())["train_config"]
     assert saved["max_steps"] == 2 and saved["model_config"]["lambda_zero"] == 0.3
+    assert saved["checkpoint_minutes"] == 5
     report_path = tmp_path / "eval.json"
     assert (
         main(
@@ -89,6 +92,11 @@ def test_train_then_evaluate(run, dataset, tmp_path, capsys):
         (
             ["evaluate", "--data", "DATA", "--checkpoint", "OUT/none", "--json", "OUT/e.json"],
             "none",
+        ),
+        (
+            ["train", "--data", "DATA", "--model", "navaff", "--out", "OUT"]
+            + ["--checkpoint-minutes", "-1"],
+            "-1",
         ),
         # Nothing to resume: refused at once, not trained from scratch.
         (
