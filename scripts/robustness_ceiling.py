@@ -72,13 +72,11 @@ def main(argv: list[str] | None = None) -> int:
                 continue
             q = bad.floor_xyz[:, :2]
             shift = bad.target_xyz[:2] - clean.target_xyz[:2]
-
-            def truth(points: np.ndarray) -> np.ndarray:
-                return floor_affordance(
-                    grid, scene.layout, cfg, points, episode.base_pose, gen.dense
-                ).astype(np.float64)
-
-            m = episode_metrics(truth(q - shift), truth(q))
+            truth = [
+                floor_affordance(grid, scene.layout, cfg, at, episode.base_pose, gen.dense)
+                for at in (q - shift, q)
+            ]
+            m = episode_metrics(truth[0].astype(np.float64), truth[1].astype(np.float64))
             rows[name].append(
                 {
                     "view": [sid, ci, ep],

@@ -94,8 +94,17 @@ def test_train_then_evaluate(run, dataset, tmp_path, capsys):
             "none",
         ),
         (
-            ["train", "--data", "DATA", "--model", "navaff", "--out", "OUT"]
-            + ["--checkpoint-minutes", "-1"],
+            [
+                "train",
+                "--data",
+                "DATA",
+                "--model",
+                "navaff",
+                "--out",
+                "OUT",
+                "--checkpoint-minutes",
+                "-1",
+            ],
             "-1",
         ),
         # Nothing to resume: refused at once, not trained from scratch.
