@@ -9,6 +9,8 @@ import pytest
 
 @pytest.mark.slow
 def test_two_process_torchrun_run_completes(tmp_path):
+    """Two processes, with a checkpoint after every batch (rank 0's clock decides, every
+    rank sums its loss into it): the run completes and counts every sample once."""
     torchrun = shutil.which("torchrun")
     cmd = [torchrun] if torchrun else [sys.executable, "-m", "torch.distributed.run"]
     out = tmp_path / "ddp"
@@ -30,6 +32,8 @@ def test_two_process_torchrun_run_completes(tmp_path):
             "2",
             "--batch-size",
             "2",
+            "--checkpoint-minutes",
+            "1e-9",
         ],
         capture_output=True,
         text=True,

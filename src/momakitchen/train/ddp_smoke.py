@@ -22,7 +22,9 @@ from momakitchen.train.config import TrainConfig
 from momakitchen.train.trainer import train
 
 
-def smoke_config(model: str, epochs: int, batch_size: int) -> TrainConfig:
+def smoke_config(
+    model: str, epochs: int, batch_size: int, checkpoint_minutes: float = 20.0
+) -> TrainConfig:
     """A model small enough to train in seconds on one core per process."""
     return TrainConfig(
         model=model,
@@ -34,6 +36,7 @@ def smoke_config(model: str, epochs: int, batch_size: int) -> TrainConfig:
         batch_size=batch_size,
         progress=False,
         log_every=1,
+        checkpoint_minutes=checkpoint_minutes,
     )
 
 
@@ -44,6 +47,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--episodes", type=int, default=8)
     parser.add_argument("--epochs", type=int, default=2)
     parser.add_argument("--batch-size", type=int, default=2)
+    parser.add_argument(
+        "--checkpoint-minutes", type=float, default=20.0, help="checkpoints within an epoch"
+    )
     args = parser.parse_args(argv)
     world = int(os.environ.get("WORLD_SIZE", "1"))
     if world > 1 and not dist.is_initialized():
@@ -53,7 +59,12 @@ def main(argv: list[str] | None = None) -> int:
         SyntheticConfig(num_episodes=args.episodes, num_global=256, num_floor=128, seed=1)
     )
     val = SyntheticEpisodes(SyntheticConfig(num_episodes=4, num_global=256, num_floor=128, seed=2))
-    result = train(smoke_config(args.model, args.epochs, args.batch_size), data, val, args.out)
+    result = train(
+        smoke_config(args.model, args.epochs, args.batch_size, args.checkpoint_minutes),
+        data,
+        val,
+        args.out,
+    )
     if rank == 0:
         last = result.history[-1]
         summary = {

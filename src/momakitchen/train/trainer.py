@@ -115,6 +115,16 @@ class _SkipSampler(Sampler[int]):
         return max(len(cast(Sized, self.sampler)) - self.skip, 0)
 
 
+def _checkpoint_due(due: bool, world: int) -> bool:
+    """Rank 0's clock decides when a checkpoint within an epoch is written; under DDP every
+    rank learns it (they all take part in summing the loss so far)."""
+    if world == 1:
+        return due
+    flag = torch.tensor([int(due)])
+    dist.broadcast(flag, 0)
+    return bool(flag.item())
+
+
 def _barrier(world: int) -> None:
     if world > 1:
         dist.barrier()
@@ -388,8 +398,9 @@ def _train(
         net.train()
         loss_sum = torch.zeros(3, dtype=torch.float64)  # loss*B, mse*B, samples
         seconds_before = 0.0
-        if done_in_epoch:
+        if done_in_epoch and rank == 0:  # every rank's loss before the checkpoint
             loss_sum += torch.tensor(progress["epoch_loss_sum"], dtype=torch.float64)
+        if done_in_epoch:
             seconds_before = float(progress["epoch_seconds"])
         t0 = time.perf_counter()
         last_save = t0
@@ -438,25 +449,29 @@ def _train(
                 # checkpoint's step).
                 _write_log(log_path, rows)
             done_in_epoch += 1
-            minutes = config.checkpoint_minutes
-            if (
-                rank == 0
-                and minutes
-                and time.perf_counter() - last_save >= 60 * minutes
-                and done_in_epoch < steps_per_epoch
+            if config.checkpoint_minutes and _checkpoint_due(
+                time.perf_counter() - last_save >= 60 * config.checkpoint_minutes
+                and done_in_epoch < steps_per_epoch,
+                world,
             ):
-                within = {
-                    "epoch_step": done_in_epoch,
-                    "epoch_loss_sum": loss_sum.tolist(),
-                    "epoch_seconds": seconds_before + time.perf_counter() - t0,
-                }
-                save_weights(run_dir / WEIGHTS_FILE, model)
-                save_trainer_state(
-                    run_dir,
-                    optimizer,
-                    {"epoch": epoch, "global_step": step, "history": history, **within},
-                )
-                _write_log(log_path, rows)
+                # Every rank's loss so far goes into the checkpoint (rank 0's share of a
+                # resumed epoch), so the epoch's mean covers all of it.
+                so_far = loss_sum.clone()
+                if world > 1:
+                    dist.all_reduce(so_far)
+                if rank == 0:
+                    within = {
+                        "epoch_step": done_in_epoch,
+                        "epoch_loss_sum": so_far.tolist(),
+                        "epoch_seconds": seconds_before + time.perf_counter() - t0,
+                    }
+                    save_weights(run_dir / WEIGHTS_FILE, model)
+                    save_trainer_state(
+                        run_dir,
+                        optimizer,
+                        {"epoch": epoch, "global_step": step, "history": history, **within},
+                    )
+                    _write_log(log_path, rows)
                 last_save = time.perf_counter()
         done_in_epoch = 0
         seconds = seconds_before + time.perf_counter() - t0
