@@ -12,12 +12,15 @@
 #                                      # only these runs and the baselines' MSR; no report
 #   SPLIT=test bash scripts/results.sh # the test scenes alone (a fifth of the generation):
 #                                      # evaluate and MSR for the archived runs, no training
+#   ROB_DATA=~/mk-data/rob-final bash scripts/results.sh
+#                                      # also the robustness track of the noise-trained pair
 #
 # Every step resumes where it stopped: generation skips finished scenes, training continues
-# from its last checkpoint (every epoch, and every 20 minutes within one), and finished evaluations and MSR are kept. Run it again
-# after an interruption (e.g. under nohup, one session after another). MSR is kept per
-# compared model (RUN/msr.json, as soon as the model is trained) and for the baselines
-# ($RUNS/msr-baselines.json); benchmark merges them (same seed: the same views).
+# from its last checkpoint (every epoch, and every 20 minutes within one), and finished
+# evaluations and MSR are kept. Run it again after an interruption (e.g. under nohup, one
+# session after another). MSR is kept per compared model (RUN/msr.json, as soon as the
+# model is trained) and for the baselines ($RUNS/msr-baselines.json); benchmark merges
+# them (same seed: the same views).
 #
 # Trained models outlive the machine: each run that finishes its schedule has its weights
 # and config (2-3 MB) copied to $ARCHIVE (default results/runs/ in this repository, to be
@@ -237,6 +240,20 @@ archive_results "$RUNS" "$ARCHIVE" msr-baselines.json
 if [[ -z "$ONLY" ]]; then
   more_views views "$RUNS/navaff-12ep/model.safetensors" --checkpoint "$RUNS/navaff-12ep" \
     --checkpoint "$RUNS/pointnet2-12ep" --method oracle
+fi
+
+# The real-sensor track of the noise-trained pair, once both finished their schedule, on
+# ROB_DATA (the held-out scenes of docs/RESULTS.md's robustness section: generate --out
+# ROB_DATA --scenes 35 --first-scene-id 450000 --split test), when given.
+ROB_DATA=${ROB_DATA:-}
+if [[ -n "$ROB_DATA" ]] && nav=$(archived navaff-12ep-noise) && pn2=$(archived pointnet2-12ep-noise); then
+  rob=$RUNS/robustness-noise.json
+  if [[ ! -f "$rob" || "$nav/model.safetensors" -nt "$rob" || "$pn2/model.safetensors" -nt "$rob" ]]; then
+    stamp "robustness of the noise-trained pair on $ROB_DATA"
+    momakitchen robustness --data "$ROB_DATA" --checkpoint "$nav" --checkpoint "$pn2" \
+      --json "$rob" --out "$RUNS/robustness-noise" --quiet
+  fi
+  cp "$rob" "$REPO/results/robustness/after-noise-trained.json"
 fi
 
 if [[ -n "$ONLY$SPLIT" ]]; then
