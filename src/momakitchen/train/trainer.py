@@ -397,11 +397,9 @@ def _train(
             cast(Any, train_set).set_epoch(epoch, config.seed)
         net.train()
         loss_sum = torch.zeros(3, dtype=torch.float64)  # loss*B, mse*B, samples
-        seconds_before = 0.0
+        seconds_before = float(progress["epoch_seconds"]) if done_in_epoch else 0.0
         if done_in_epoch and rank == 0:  # every rank's loss before the checkpoint
             loss_sum += torch.tensor(progress["epoch_loss_sum"], dtype=torch.float64)
-        if done_in_epoch:
-            seconds_before = float(progress["epoch_seconds"])
         t0 = time.perf_counter()
         last_save = t0
         batches = iter(loader)
