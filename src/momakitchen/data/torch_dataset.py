@@ -29,8 +29,10 @@ CLOUD_FIELDS = (
 )
 
 
-# The stored frame a noisy sample is rebuilt from.
+# The stored frame a noisy sample is rebuilt from, and what it keeps of the stored clouds
+# (the global cloud is rebuilt; it is read only when the corrupted frame is unusable).
 NOISE_FIELDS = ("depth", "rgb", "semantic", "intrinsics", "camera_to_base")
+NOISE_KEEPS = ("descriptor", "floor_xyz", "floor_label")
 # A rebuilt floor point takes the label of the nearest stored floor point within this
 # distance (m); farther ones (floor the clean render did not show) are left out.
 LABEL_RADIUS = 0.08
@@ -38,7 +40,7 @@ LABEL_RADIUS = 0.08
 
 def noisy_sample(
     arrays: dict[str, np.ndarray], augmentation: Any, rng: np.random.Generator, preprocessing: Any
-) -> dict[str, np.ndarray]:
+) -> dict[str, np.ndarray] | None:
     """An episode's cloud arrays as a robot with a random real sensor would give them to
     the model: the stored frame corrupted (:func:`~momakitchen.perception.sensors.corrupt_frame`
     with a draw of ``augmentation``) and rebuilt by the real-robot path
@@ -46,9 +48,9 @@ def noisy_sample(
     The labels of the rebuilt floor points are those of the nearest stored floor points
     (the true affordance where the robot would drive), which the correction puts back
     in the true base frame. If the corrupted frame cannot be used (no target pixel left,
-    no floor plane), the clean arrays are returned.
+    no floor plane), returns None: the caller serves the clean arrays.
 
-    Shapes: ``arrays`` holds ``CLOUD_FIELDS`` and ``NOISE_FIELDS`` of one episode; returns
+    Shapes: ``arrays`` holds ``NOISE_KEEPS`` and ``NOISE_FIELDS`` of one episode; returns
     ``CLOUD_FIELDS`` arrays.
     """
     from scipy.spatial import cKDTree
@@ -74,12 +76,12 @@ def noisy_sample(
             metric_depth=corruption.preset.depth.metric,
         )
     except MomaError:
-        return {k: arrays[k] for k in CLOUD_FIELDS}
+        return None
     stored = arrays["floor_xyz"][:, :2].astype(np.float64)
     dist, near = cKDTree(stored).query(clouds.floor_xyz[:, :2], distance_upper_bound=LABEL_RADIUS)
     keep = np.isfinite(dist)
     if not keep.any():
-        return {k: arrays[k] for k in CLOUD_FIELDS}
+        return None
     return {
         "descriptor": arrays["descriptor"],
         "global_xyz": clouds.global_xyz.astype(np.float32),
@@ -233,13 +235,15 @@ class EpisodeDataset(Dataset):
         if not -len(self) <= i < len(self):
             raise IndexError(i)
         file, sid, c, e, robot = self.index[i]
-        fields = CLOUD_FIELDS + (NOISE_FIELDS if self.sensor_noise is not None else ())
-        a = self._shard(file).arrays(c, e, fields)
+        noisy = self.sensor_noise is not None
+        shard = self._shard(file)
+        a = shard.arrays(c, e, NOISE_KEEPS + NOISE_FIELDS if noisy else CLOUD_FIELDS)
         if a["descriptor"].shape != (DESCRIPTOR_DIM,):
             raise MomaError(f"{file} episode {c}/{e}: descriptor shape {a['descriptor'].shape}")
-        if self.sensor_noise is not None:
+        if noisy:
             rng = np.random.default_rng([self.noise_seed, self.epoch, sid, c, e])
-            a = noisy_sample(a, self.sensor_noise, rng, self.preprocessing)
+            rebuilt = noisy_sample(a, self.sensor_noise, rng, self.preprocessing)
+            a = rebuilt if rebuilt is not None else shard.arrays(c, e, CLOUD_FIELDS)
         sample = episode_sample(a, sid, c, e, robot)
         return self.transform(sample) if self.transform else sample
 
