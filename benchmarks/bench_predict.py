@@ -29,6 +29,25 @@ from momakitchen.data.manifest import load_manifest
 from momakitchen.data.shard import SceneShard
 from momakitchen.train.checkpoint import default_checkpoint, load_checkpoint
 
+TARGET, OBSTACLE = SEMANTIC_CLASSES.index("target"), SEMANTIC_CLASSES.index("obstacle")
+
+
+def predict_episode(ep, run, mc: int, depth: np.ndarray | None = None, threads: int = 1):
+    """``momakitchen.predict`` on a stored episode's raw frame (its own depth unless
+    ``depth`` is given), as a robot would call it."""
+    return momakitchen.predict(
+        ep.depth if depth is None else depth,
+        ep.intrinsics,
+        ep.camera_to_base,
+        ep.semantic == TARGET,
+        ep.robot,
+        rgb=ep.rgb,
+        obstacle_masks=[ep.semantic == OBSTACLE],
+        checkpoint=run,
+        mc_samples=mc,
+        threads=threads,
+    )
+
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
@@ -47,21 +66,9 @@ def main() -> None:
             episodes.append(shard.episode(0, shard.episode_indices(0)[-1]))
         if len(episodes) == args.episodes:
             break
-    target, obstacle = SEMANTIC_CLASSES.index("target"), SEMANTIC_CLASSES.index("obstacle")
 
     def call(ep, mc):
-        return momakitchen.predict(
-            ep.depth,
-            ep.intrinsics,
-            ep.camera_to_base,
-            ep.semantic == target,
-            ep.robot,
-            rgb=ep.rgb,
-            obstacle_masks=[ep.semantic == obstacle],
-            checkpoint=run,
-            mc_samples=mc,
-            threads=args.threads,
-        )
+        return predict_episode(ep, run, mc, threads=args.threads)
 
     print(
         f"{len(episodes)} test episodes, model {run.config.model} ({run.config.preset}), "

@@ -35,14 +35,11 @@ from pathlib import Path
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
 import numpy as np
+from bench_predict import OBSTACLE, TARGET, predict_episode  # run from benchmarks/
 from PIL import Image
 
-import momakitchen
-from momakitchen.data.episode import SEMANTIC_CLASSES
 from momakitchen.data.shard import SceneShard
 from momakitchen.train.checkpoint import default_checkpoint, load_checkpoint
-
-TARGET, OBSTACLE = SEMANTIC_CLASSES.index("target"), SEMANTIC_CLASSES.index("obstacle")
 
 
 def _episode(data: str | None):
@@ -132,17 +129,7 @@ def main() -> None:
         print(f"frame 640x480, robot {ep.robot}; server {url}; load {os.getloadavg()[0]:.2f}")
 
         def in_process(depth: np.ndarray, mc: int) -> None:
-            momakitchen.predict(
-                depth,
-                ep.intrinsics,
-                ep.camera_to_base,
-                ep.semantic == TARGET,
-                ep.robot,
-                rgb=ep.rgb,
-                obstacle_masks=[ep.semantic == OBSTACLE],
-                checkpoint=run,
-                mc_samples=mc,
-            )
+            predict_episode(ep, run, mc, depth)
 
         for mc in (0, 8):
             for _ in range(2):  # warm-up

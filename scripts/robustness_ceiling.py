@@ -81,7 +81,7 @@ def main(argv: list[str] | None = None) -> int:
                 {
                     "view": [sid, ci, ep],
                     "status": "ok",
-                    "target": cfg.target.category if hasattr(cfg, "target") else "",
+                    "target": cfg.target.category,
                     "dxy": round(float(np.hypot(*shift)), 4),
                     "ceiling_pcc": round(float(m["pcc"]), 4),
                 }
