@@ -188,3 +188,121 @@ def test_a_target_beyond_the_sensors_range_is_counted_apart():
         RobustnessConfig(corruptions=("kinect",)),
     )
     assert view == {"status": "beyond_range", "target_range": 4.5}
+
+
+def _score_exported(inputs_file, run_dir, out):
+    """Score every ok view of a robustness inputs file with the run, reading nothing but
+    the file (as a method running elsewhere would), and write its predictions file."""
+    from momakitchen.eval.predictions import write_predictions
+    from momakitchen.models.inference import predict_map
+    from momakitchen.perception.live import FrameClouds
+    from momakitchen.train.checkpoint import load_checkpoint
+
+    run = load_checkpoint(run_dir)
+    maps = {}
+    with np.load(inputs_file) as f:
+        views = sorted({k.rsplit("/", 1)[0] for k in f.files if k.count("/") == 4})
+        for key in views:
+            if str(f[f"{key}/status"]) != "ok":
+                continue
+            clouds = FrameClouds(
+                *(f[f"{key}/{n}"] for n in ("global_xyz", "global_rgb", "global_align")),
+                floor_xyz=f[f"{key}/floor_xyz"],
+                target_xyz=f[f"{key}/target_xyz"],
+                correction=None,
+            )
+            robot = str(f[f"{key}/robot_name"])
+            pred = predict_map(run, clouds, robot, f[f"{key}/robot"], top_k=1, mc_samples=0)
+            maps[key] = pred.affordance
+    write_predictions(out, maps)
+    return maps
+
+
+def test_a_method_that_runs_elsewhere_gets_the_same_views_and_figures(
+    real_dataset, tiny_run, tmp_path
+):
+    """The exported corrupted inputs are exactly what a model is given: the model's own
+    maps of them, as a predictions file, score the same trials and metrics as the model."""
+    from momakitchen.eval.robustness import export_robustness_inputs
+
+    config = RobustnessConfig(corruptions=("clean", "kinect", "pitch+2"), top_k=2)
+    inputs = tmp_path / "inputs.npz"
+    counts = export_robustness_inputs(real_dataset, inputs, config)
+    assert sum(counts.values()) == 2 * 3 and counts.get("ok", 0) >= 4
+    with np.load(inputs) as f:
+        assert str(f["format"]) == "momakitchen-robustness-inputs-1"
+        assert list(f["corruptions"]) == list(config.corruptions)
+        pitched = [k for k in f.files if k.startswith("pitch+2/") and k.endswith("_correction")]
+        assert pitched
+        for key in pitched:  # the floor fit undid the pitch before the points were written
+            assert not np.allclose(f[key], np.eye(4))
+    maps = _score_exported(inputs, tiny_run, tmp_path / "mine.npz")
+    assert len(maps) == counts["ok"]
+    result = run_robustness(
+        real_dataset, [tiny_run], config, predictions=[(tmp_path / "mine.npz", None)]
+    )
+    assert set(result["models"]) == {"navaff", "mine"}
+    for record in result["records"]:
+        model, method = record["views"]["navaff"], record["views"]["mine"]
+        for name in config.corruptions:
+            assert model[name] == method[name]
+    assert result["models"]["navaff"] == result["models"]["mine"]
+
+
+def test_robustness_predictions_cli_and_bad_files(real_dataset, tiny_run, tmp_path, capsys):
+    from momakitchen.cli.main import main
+    from momakitchen.eval.predictions import write_predictions
+
+    inputs = tmp_path / "inputs.h5"
+    common = ["--data", str(real_dataset), "--max-configs", "1", "--quiet"]
+    argv = ["export-inputs", "--robustness", "--corruption", "d435", "--out", str(inputs)]
+    assert main(argv + common) == 0
+    assert "views x corruptions" in capsys.readouterr().out
+    maps = _score_exported_h5(inputs, tiny_run, tmp_path / "mine.npz")
+    out = tmp_path / "rb"
+    argv = ["robustness", "--predictions", str(tmp_path / "mine.npz"), "--name", "mine"]
+    argv += ["--corruption", "d435", "--json", str(tmp_path / "r.json"), "--out", str(out)]
+    assert main(argv + common) == 0
+    result = json.loads((tmp_path / "r.json").read_text())
+    assert list(result["models"]) == ["mine"]  # no bundled model when a method is given
+    assert (out / "robustness.png").exists()
+    # bad input: one line naming the bad value, status 2, nothing written
+    short = {k: v[:-1] for k, v in maps.items()}
+    write_predictions(tmp_path / "short.npz", short)
+    write_predictions(tmp_path / "clean-only.npz", {k: v for k, v in maps.items() if "clean/" in k})
+    nan = {k: np.full_like(v, np.nan) for k, v in maps.items()}
+    write_predictions(tmp_path / "nan.npz", nan)
+    for file, extra, message in [
+        ("short.npz", [], "floor points"),
+        ("clean-only.npz", [], "no maps for corruption 'd435'"),
+        ("nan.npz", [], "NaN"),
+        ("none.npz", [], "does not exist"),
+        ("mine.npz", ["--name", "a", "--name", "b"], "2 --name for 1 --predictions"),
+    ]:
+        bad = ["robustness", "--predictions", str(tmp_path / file), "--corruption", "d435"]
+        bad += ["--json", str(tmp_path / "b.json"), "--out", str(tmp_path / "b"), *extra]
+        assert main(bad + common) == 2, file
+        err = capsys.readouterr().err.strip()
+        assert message in err and len(err.splitlines()) == 1, err
+        assert not (tmp_path / "b.json").exists() and not (tmp_path / "b").exists()
+    plain = ["export-inputs", "--corruption", "d435", "--out", str(tmp_path / "x.npz")]
+    assert main([*plain, "--data", str(real_dataset)]) == 2
+    assert "need --robustness" in capsys.readouterr().err
+
+
+def _score_exported_h5(inputs_file, run_dir, out):
+    """:func:`_score_exported` for an HDF5 inputs file (read with h5py alone)."""
+    import h5py
+
+    npz = inputs_file.with_suffix(".npz")
+    with h5py.File(inputs_file, "r") as f:
+        arrays = {}
+
+        def visit(name, obj):
+            if isinstance(obj, h5py.Dataset):
+                value = obj[()]
+                arrays[name] = value.decode() if isinstance(value, bytes) else value
+
+        f.visititems(visit)
+    np.savez(npz, **arrays)
+    return _score_exported(npz, run_dir, out)

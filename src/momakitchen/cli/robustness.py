@@ -8,7 +8,8 @@ the labelling's own trial. Prints, per model and corruption, closed-loop Top-1 /
 PCC and SIM against the ground truth at the predicted floor points, views whose target
 lies beyond the sensor's working range (apart, not as failures) and errors by cause;
 writes them as JSON and, under ``--out``, ``robustness.png`` (one view under each
-corruption) and ``robustness.md`` (the table).
+corruption) and ``robustness.md`` (the table). A method that runs elsewhere takes part
+through ``export-inputs --robustness`` and ``--predictions`` (docs/METHODS.md).
 """
 
 from __future__ import annotations
@@ -19,7 +20,12 @@ import time
 
 from momakitchen.cli.common import non_negative_float, non_negative_int, output_file, positive_int
 from momakitchen.errors import MomaError
-from momakitchen.fileio import atomic_write_bytes, atomic_write_text, existing_dir
+from momakitchen.fileio import (
+    atomic_write_bytes,
+    atomic_write_text,
+    existing_dir,
+    existing_file,
+)
 
 SPLITS = ("test", "train", "all")
 
@@ -38,7 +44,22 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         action="append",
         default=[],
         metavar="RUN",
-        help="run directory of a trained model (repeatable; default: the bundled model)",
+        help="run directory of a trained model (repeatable; with no --checkpoint or "
+        "--predictions: the bundled model)",
+    )
+    rb.add_argument(
+        "--predictions",
+        action="append",
+        default=[],
+        metavar="FILE",
+        help="a method's maps of every view of export-inputs --robustness (.npz or .h5, "
+        "docs/METHODS.md; repeatable)",
+    )
+    rb.add_argument(
+        "--name",
+        action="append",
+        default=[],
+        help="the name of each --predictions method, in order (default: the file's stem)",
     )
     rb.add_argument(
         "--corruption",
@@ -93,6 +114,14 @@ def run(args: argparse.Namespace) -> int:
     existing_dir(args.data, "dataset directory")
     for run_dir in args.checkpoint:
         existing_dir(run_dir, "checkpoint directory")
+    for path in args.predictions:
+        existing_file(path, "predictions file")
+    if args.name and len(args.name) != len(args.predictions):
+        raise MomaError(
+            f"{len(args.name)} --name for {len(args.predictions)} --predictions: give one "
+            "name per predictions file, in order, or none"
+        )
+    names_given = args.name or [None] * len(args.predictions)
     out_json = output_file(args.json)
     planned_output_dir(args.out)
     names = list(args.corruption) or list(CORRUPTIONS)
@@ -108,7 +137,12 @@ def run(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     maps: dict = {}
     result = run_robustness(
-        args.data, args.checkpoint, config, progress=not args.quiet, view_maps=maps
+        args.data,
+        args.checkpoint,
+        config,
+        progress=not args.quiet,
+        view_maps=maps,
+        predictions=list(zip(args.predictions, names_given, strict=True)),
     )
     result["seconds"] = round(time.perf_counter() - t0, 1)
     table = format_robustness_table(result)

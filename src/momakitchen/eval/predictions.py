@@ -185,10 +185,10 @@ def load_predictions(
 def write_predictions(path: str | os.PathLike, maps: Mapping[str, np.ndarray]) -> None:
     """Write maps by episode key as a predictions file (``.npz`` or ``.h5``; atomic)."""
     path = Path(path)
-    _write(path, ((k, np.asarray(v, np.float32)) for k, v in maps.items()), {})
+    write_arrays(path, ((k, np.asarray(v, np.float32)) for k, v in maps.items()), {})
 
 
-def _write(path: Path, arrays: Iterator[tuple[str, np.ndarray]], attrs: dict) -> None:
+def write_arrays(path: Path, arrays: Iterator[tuple[str, np.ndarray]], attrs: dict) -> None:
     """Stream ``(key, array)`` pairs into an ``.npz`` (zip of ``.npy``, compressed) or an
     HDF5 file (keys with ``/`` become groups), atomically; top-level ``attrs`` are stored
     as arrays (NPZ) or attributes (HDF5). Text is stored as NumPy unicode (NPZ) or UTF-8
@@ -258,5 +258,5 @@ def export_inputs(
         "descriptor_names": np.asarray(DESCRIPTOR_NAMES),
     }
     out.parent.mkdir(parents=True, exist_ok=True)  # once the inputs are known to be sound
-    _write(out, arrays(), attrs)
+    write_arrays(out, arrays(), attrs)
     return len(episodes)

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import zlib
 from collections import Counter
-from collections.abc import Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from types import SimpleNamespace
@@ -120,16 +120,24 @@ def view_inputs(
     built with ``preprocessing``: a
     :class:`~momakitchen.perception.live.FrameClouds`, or the view's status
     (``{"status": "beyond_range" | "error", ...}``) when there is none."""
+    return corrupted_view(frame, corruption_name, ids, preprocessing, seed)[1]
+
+
+def corrupted_view(
+    frame: Any, corruption_name: str, ids: tuple[int, int, int], preprocessing: Any, seed: int
+) -> tuple[Any, Any]:
+    """The corrupted frame (None for a target beyond the sensor's range, which is not
+    corrupted) and :func:`view_inputs`' result."""
     from momakitchen.perception.live import frame_inputs
     from momakitchen.perception.sensors import corrupt_frame, get_corruption
 
     corruption = get_corruption(corruption_name)
     distance = target_range(frame)
     if distance > corruption.preset.max_range:
-        return {"status": "beyond_range", "target_range": round(distance, 3)}
+        return None, {"status": "beyond_range", "target_range": round(distance, 3)}
     bad = corrupt_frame(frame, corruption, corruption_rng(seed, ids, corruption_name))
     try:
-        return frame_inputs(
+        return bad, frame_inputs(
             bad.depth,
             np.isfinite(bad.depth) & (bad.depth > 0),
             bad.rgb,
@@ -142,22 +150,117 @@ def view_inputs(
             metric_depth=corruption.preset.depth.metric,
         )
     except MomaError as exc:
-        return _error(exc)
+        return bad, _error(exc)
 
 
 def _error(exc: MomaError) -> dict[str, Any]:
     return {"status": "error", "cause": error_cause(str(exc)), "message": str(exc)}
 
 
+def view_key(corruption: str, scene_id: int, config_index: int, episode_index: int) -> str:
+    """A view's key in robustness inputs and predictions files:
+    ``"corruption/scene/config/episode"``."""
+    from momakitchen.eval.predictions import episode_key
+
+    return f"{corruption}/{episode_key(scene_id, config_index, episode_index)}"
+
+
+@dataclass(frozen=True)
+class PredictionsMethod:
+    """A method that ran elsewhere, as a robustness-track method: its map of each view's
+    floor points (a predictions file keyed by :func:`view_key`, written from
+    :func:`export_robustness_inputs`)."""
+
+    name: str
+    path: Path
+    maps: dict[str, np.ndarray]
+
+    def predict(self, key: str, inputs: Any, robot: str, config: RobustnessConfig) -> Any:
+        """The view's :class:`~momakitchen.models.inference.Prediction`: the stored map
+        and the poses ``predict`` would choose from it (no uncertainty)."""
+        from momakitchen.models.inference import Prediction, facing_poses
+
+        where = f"predictions file {str(self.path)!r}"
+        if key not in self.maps:
+            raise MomaError(
+                f"{where} lacks view {key!r}: score every view of export-inputs "
+                "--robustness made with the same --split, --seed and corruptions"
+            )
+        scores = self.maps[key].astype(np.float64)
+        n = len(inputs.floor_xyz)
+        if len(scores) != n:
+            raise MomaError(
+                f"{where}: view {key!r} has {len(scores)} values, the view {n} floor points "
+                "(inputs exported with another --seed or momakitchen version?)"
+            )
+        chosen, poses = facing_poses(
+            inputs.floor_xyz,
+            scores,
+            inputs.target_xyz,
+            config.top_k,
+            config.min_spread,
+            config.pick_radius,
+        )
+        zeros = np.zeros(n)
+        return Prediction(
+            floor_xyz=inputs.floor_xyz,
+            affordance=scores,
+            uncertainty=zeros,
+            poses=poses,
+            pose_scores=scores[chosen],
+            pose_uncertainty=zeros[chosen],
+            target_xyz=inputs.target_xyz,
+            robot=robot,
+            model=self.name,
+            correction=inputs.correction,
+        )
+
+
+def load_robustness_predictions(
+    path: str | Path, corruptions: Sequence[str], name: str | None = None
+) -> PredictionsMethod:
+    """Read a robustness predictions file and check, before any work, that it has maps
+    for every corruption and that each map of theirs is a 1-D array of numbers in
+    [0, 1] (its length is checked against each view's floor points as it is judged)."""
+    from momakitchen.eval.predictions import check_predictions, method_name, read_predictions
+
+    maps = read_predictions(path)
+    kept = {}
+    for corruption in corruptions:
+        keys = [k for k in maps if k.startswith(f"{corruption}/") and k.count("/") == 3]
+        if not keys:
+            raise MomaError(
+                f"predictions file {str(path)!r} has no maps for corruption {corruption!r} "
+                "(keys 'corruption/scene/config/episode', from export-inputs --robustness)"
+            )
+        for k in keys:
+            if maps[k].ndim != 1:
+                raise MomaError(
+                    f"predictions file {str(path)!r}: view {k!r} has shape "
+                    f"{maps[k].shape}, not one value per floor point"
+                )
+            kept[k] = maps[k]
+    check_predictions(kept, [(k, len(v)) for k, v in kept.items()], path)
+    return PredictionsMethod(method_name(path, name), Path(path), kept)
+
+
 def predict_view(
-    run: Any, inputs: Any, robot: str, descriptor: np.ndarray, config: RobustnessConfig
+    run: Any,
+    inputs: Any,
+    robot: str,
+    descriptor: np.ndarray,
+    config: RobustnessConfig,
+    key: str = "",
 ) -> dict[str, Any]:
-    """One model on one view's input (:func:`view_inputs`): ``{"status": "ok",
-    "prediction": Prediction}``, or a copy of the view's status when it has no input."""
+    """One model (a loaded run, or a :class:`PredictionsMethod` with the view's ``key``)
+    on one view's input (:func:`view_inputs`): ``{"status": "ok", "prediction":
+    Prediction}``, or a copy of the view's status when it has no input."""
     from momakitchen.models.inference import predict_map
 
     if isinstance(inputs, dict):
         return dict(inputs)
+    if isinstance(run, PredictionsMethod):  # a bad file is the user's error, not the view's
+        return {"status": "ok", "prediction": run.predict(key, inputs, robot, config)}
     try:
         pred = predict_map(
             run,
@@ -196,11 +299,13 @@ def run_robustness(
     config: RobustnessConfig | None = None,
     progress: bool = False,
     view_maps: dict[str, Any] | None = None,
+    predictions: Sequence[tuple[str | Path, str | None]] = (),
 ) -> dict[str, Any]:
-    """The robustness track of trained runs (none given: the bundled model) on a dataset
-    split. ``view_maps``, if given, receives the first model's prediction of the first
-    configuration's view under each corruption (name -> Prediction or the error), for
-    :func:`robustness_figure`.
+    """The robustness track of trained runs and of methods that ran elsewhere
+    (``predictions``: ``(file, name or None)`` pairs, :func:`load_robustness_predictions`)
+    on a dataset split; with neither, the bundled model. ``view_maps``, if given, receives
+    the first model's prediction of the first configuration's view under each corruption
+    (name -> Prediction or the error), for :func:`robustness_figure`.
 
     Returns ``{"config", "configurations", "models": {model: {corruption: summary}},
     "records": [...]}``; a summary has ``views``, ``beyond_range``, ``errors`` (by cause),
@@ -212,13 +317,7 @@ def run_robustness(
 
     from momakitchen.data.config import Preprocessing
     from momakitchen.data.integrity import check_shard_files
-    from momakitchen.eval.msr import (
-        dataset_generation,
-        judged_configurations,
-        msr_view,
-        rebuilt_configurations,
-        view_record,
-    )
+    from momakitchen.eval.msr import dataset_generation, judged_configurations, view_record
     from momakitchen.frames import base_to_world_xy
     from momakitchen.metrics import episode_metrics
     from momakitchen.robots.spec import get_robot_spec, robot_descriptor
@@ -236,7 +335,7 @@ def run_robustness(
     manifest, gen = dataset_generation(root)
     preprocessing = Preprocessing(gen.cloud, gen.camera.max_depth)
     runs: dict[str, Any] = {}
-    for run_dir in checkpoints or [default_checkpoint()]:
+    for run_dir in checkpoints or ([] if predictions else [default_checkpoint()]):
         run = load_checkpoint(run_dir)
         check_preprocessing(run, preprocessing, f"dataset {str(root)!r}")
         name = (
@@ -245,17 +344,19 @@ def run_robustness(
             else f"{run.config.model}:{Path(run_dir).name}"
         )
         runs[name] = run
+    for path, label in predictions:
+        method = load_robustness_predictions(path, config.corruptions, label)
+        if method.name in runs:
+            raise MomaError(f"two methods are named {method.name!r}: give --name")
+        runs[method.name] = method
     todo = judged_configurations(root, manifest, config.split, config.max_configs)
     check_shard_files(root, manifest, {sid for sid, _, _ in todo})
 
     records: list[dict[str, Any]] = []
     bar = tqdm(todo, desc="robustness", unit="config", disable=not progress)
-    for scene, shard, ci in rebuilt_configurations(root, bar, gen.scene):
+    for scene, shard, ci, ep in judged_views(root, bar, gen, config.seed):
         sid = scene.layout.scene_id
         labels = shard.configuration(ci)
-        ep = msr_view(shard, scene, ci, config.seed)  # the view msr judges for this seed
-        if ep is None:
-            continue
         cfg = scene.configurations[ci]
         episode = shard.episode(ci, ep)
         frame = episode_frame(episode)
@@ -284,8 +385,9 @@ def run_robustness(
                             episode.base_pose,
                             gen.dense,
                         ).astype(np.float64)
+                    key = view_key(name, sid, ci, ep)
                     for model, run in runs.items():
-                        view = predict_view(run, inputs, cfg.robot, descriptor, config)
+                        view = predict_view(run, inputs, cfg.robot, descriptor, config, key)
                         pred = view.pop("prediction", None)
                         if view_maps is not None and not records and model == next(iter(runs)):
                             view_maps[name] = pred if pred is not None else view
@@ -293,11 +395,11 @@ def run_robustness(
                             world_xy = base_to_world_xy(pred.poses[:, :2], episode.base_pose)
                             outcomes, stages = [], []
                             for x, y in world_xy:
-                                key = (round(float(x), 4), round(float(y), 4))
-                                if key not in trials:
-                                    trials[key] = runner.run(*key)
-                                outcomes.append(int(trials[key].success))
-                                stages.append(int(trials[key].stage))
+                                at = (round(float(x), 4), round(float(y), 4))
+                                if at not in trials:
+                                    trials[at] = runner.run(*at)
+                                outcomes.append(int(trials[at].success))
+                                stages.append(int(trials[at].stage))
                             assert gt is not None  # a prediction means an input
                             m = episode_metrics(pred.affordance, gt)
                             view.update(
@@ -324,6 +426,116 @@ def run_robustness(
         "models": models,
         "records": records,
     }
+
+
+def judged_views(
+    root: Path, todo: Iterable[tuple[int, int, str]], gen: Any, seed: int
+) -> Iterator[tuple[Any, Any, int, int]]:
+    """(scene, shard, config_index, episode_index) of the view ``msr`` judges for ``seed``
+    in each configuration of ``todo`` that has one."""
+    from momakitchen.eval.msr import msr_view, rebuilt_configurations
+
+    for scene, shard, ci in rebuilt_configurations(root, todo, gen.scene):
+        ep = msr_view(shard, scene, ci, seed)
+        if ep is not None:
+            yield scene, shard, ci, ep
+
+
+ROBUSTNESS_INPUTS_FORMAT = "momakitchen-robustness-inputs-1"
+
+
+def export_robustness_inputs(
+    data: str | Path,
+    out: str | Path,
+    config: RobustnessConfig,
+    images: bool = False,
+    progress: bool = False,
+) -> dict[str, int]:
+    """Write the robustness track's inputs, for a method that runs elsewhere: the view
+    ``msr`` judges for ``config.seed`` in each configuration, under each corruption,
+    through the real-robot path exactly as :func:`run_robustness` gives it to a model.
+
+    Under the key ``K`` = ``"corruption/scene/config/episode"`` (:func:`view_key`) of an
+    ``.npz`` or ``.h5`` file: ``K/status`` (``ok``, ``beyond_range`` or ``error``, with
+    ``K/reason``) for every view, and for the ``ok`` ones the fields of
+    :data:`~momakitchen.eval.predictions.INPUT_FIELDS` (the corrupted cloud, the floor
+    points to score in this order), ``K/target_xyz`` (3,), ``K/floor_correction`` (4, 4)
+    (already applied to the points), ``K/robot_name``; ``intrinsics`` and
+    ``camera_to_base`` are the calibration the robot believes. ``images``: also the
+    corrupted ``K/rgb``, ``K/depth`` (0: no return) and ``K/target_mask`` (uint8).
+    Returns the number of views by status.
+    """
+    from tqdm.auto import tqdm
+
+    from momakitchen.data.config import Preprocessing
+    from momakitchen.data.integrity import check_shard_files
+    from momakitchen.eval.msr import dataset_generation, judged_configurations
+    from momakitchen.eval.predictions import INPUT_FIELDS, file_kind, write_arrays
+    from momakitchen.robots.spec import DESCRIPTOR_NAMES, get_robot_spec, robot_descriptor
+
+    root, out = Path(data), Path(out)
+    file_kind(out)
+    manifest, gen = dataset_generation(root)
+    preprocessing = Preprocessing(gen.cloud, gen.camera.max_depth)
+    todo = judged_configurations(root, manifest, config.split, config.max_configs)
+    check_shard_files(root, manifest, {sid for sid, _, _ in todo})
+    counts: Counter[str] = Counter()
+
+    def arrays() -> Iterator[tuple[str, np.ndarray]]:
+        bar = tqdm(todo, desc="export", unit="config", disable=not progress)
+        for scene, shard, ci, ep in judged_views(root, bar, gen, config.seed):
+            sid = scene.layout.scene_id
+            robot = scene.configurations[ci].robot
+            frame = episode_frame(shard.episode(ci, ep))
+            descriptor = np.asarray(robot_descriptor(get_robot_spec(robot)), np.float32)
+            for name in config.corruptions:
+                key = view_key(name, sid, ci, ep)
+                bad, inputs = corrupted_view(frame, name, (sid, ci, ep), preprocessing, config.seed)
+                if isinstance(inputs, dict):
+                    counts[inputs["status"]] += 1
+                    yield f"{key}/status", np.asarray(inputs["status"])
+                    reason = inputs.get("message") or (
+                        f"the target is {inputs.get('target_range', 0):.2f} m away, beyond "
+                        "the sensor's range"
+                    )
+                    yield f"{key}/reason", np.asarray(reason)
+                    continue
+                counts["ok"] += 1
+                k = bad.intrinsics
+                clouds = inputs.arrays()
+                fields = {
+                    out_name: np.asarray(clouds[field], dtype)
+                    for out_name, field, dtype, _ in INPUT_FIELDS
+                    if field in clouds
+                } | {
+                    "target_xyz": np.asarray(inputs.target_xyz, np.float64),
+                    "robot": descriptor,
+                    "intrinsics": np.asarray([k.fx, k.fy, k.cx, k.cy], np.float64),
+                    "camera_to_base": np.asarray(bad.camera_to_base, np.float64),
+                    "floor_correction": inputs.correction.matrix,
+                }
+                if images:
+                    depth = np.nan_to_num(np.asarray(bad.depth, np.float32), nan=0.0)
+                    fields |= {
+                        "rgb": np.asarray(bad.rgb, np.uint8),
+                        "depth": depth,
+                        "target_mask": np.asarray(bad.target_mask, np.uint8),
+                    }
+                yield f"{key}/status", np.asarray("ok")
+                for field, value in fields.items():
+                    yield f"{key}/{field}", np.asarray(value)
+                yield f"{key}/robot_name", np.asarray(robot)
+
+    attrs = {
+        "format": np.asarray(ROBUSTNESS_INPUTS_FORMAT),
+        "split": np.asarray(config.split),
+        "seed": np.asarray(config.seed),
+        "corruptions": np.asarray(list(config.corruptions)),
+        "descriptor_names": np.asarray(DESCRIPTOR_NAMES),
+    }
+    out.parent.mkdir(parents=True, exist_ok=True)
+    write_arrays(out, arrays(), attrs)
+    return dict(counts)
 
 
 def summarize(records: Sequence[dict[str, Any]], model: str, name: str) -> dict[str, Any]:

@@ -204,6 +204,34 @@ def select_points(
     return kept
 
 
+def facing_poses(
+    floor_xyz: np.ndarray,
+    affordance: np.ndarray,
+    target: np.ndarray,
+    top_k: int,
+    min_spread: float,
+    pick_radius: float = PICK_RADIUS,
+) -> tuple[list[int], np.ndarray]:
+    """The Top-k floor points of a map (:func:`select_points`) and the base poses there,
+    facing the target.
+
+    Shapes: ``floor_xyz`` (N, 3), ``affordance`` (N,), ``target`` (3,); returns the chosen
+    indices and poses (k, 3) rows ``x, y, yaw``, best first.
+    """
+    chosen = select_points(floor_xyz[:, :2], affordance, top_k, min_spread, radius=pick_radius)
+    poses = np.array(
+        [
+            [
+                floor_xyz[i, 0],
+                floor_xyz[i, 1],
+                math.atan2(target[1] - floor_xyz[i, 1], target[0] - floor_xyz[i, 0]),
+            ]
+            for i in chosen
+        ]
+    ).reshape(-1, 3)
+    return chosen, poses
+
+
 def predict_map(
     run: Any,
     clouds: FrameClouds | dict[str, np.ndarray],
@@ -248,13 +276,7 @@ def predict_map(
             f"(up to {TRAINED_DISTANCE:.1f} m): move closer for a reliable map"
         )
 
-    chosen = select_points(f_xyz[:, :2], affordance, top_k, min_spread, radius=pick_radius)
-    poses = np.array(
-        [
-            [f_xyz[i, 0], f_xyz[i, 1], math.atan2(target[1] - f_xyz[i, 1], target[0] - f_xyz[i, 0])]
-            for i in chosen
-        ]
-    ).reshape(-1, 3)
+    chosen, poses = facing_poses(f_xyz, affordance, target, top_k, min_spread, pick_radius)
     return Prediction(
         floor_xyz=f_xyz,
         affordance=affordance,
