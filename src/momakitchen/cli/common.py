@@ -143,3 +143,20 @@ def output_file(path: str | os.PathLike) -> Path:
         raise MomaError(f"cannot write {str(out)!r}: it is not a regular file")
     planned_output_dir(out.parent)
     return out
+
+
+def checked_methods(args: argparse.Namespace) -> list[tuple[str, str | None]]:
+    """Check ``--checkpoint`` directories, ``--predictions`` files and their ``--name``s
+    before any work; the ``(file, name or None)`` pair of each predictions file."""
+    from momakitchen.fileio import existing_dir, existing_file
+
+    for run_dir in args.checkpoint:
+        existing_dir(run_dir, "checkpoint directory")
+    for path in args.predictions:
+        existing_file(path, "predictions file")
+    if args.name and len(args.name) != len(args.predictions):
+        raise MomaError(
+            f"{len(args.name)} --name for {len(args.predictions)} --predictions: give one "
+            "name per predictions file, in order, or none"
+        )
+    return list(zip(args.predictions, args.name or [None] * len(args.predictions), strict=True))

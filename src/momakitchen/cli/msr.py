@@ -12,9 +12,14 @@ import argparse
 import json
 import time
 
-from momakitchen.cli.common import non_negative_float, non_negative_int, output_file, positive_int
-from momakitchen.errors import MomaError
-from momakitchen.fileio import atomic_write_text, existing_dir, existing_file
+from momakitchen.cli.common import (
+    checked_methods,
+    non_negative_float,
+    non_negative_int,
+    output_file,
+    positive_int,
+)
+from momakitchen.fileio import atomic_write_text
 
 # momakitchen.eval.msr's BASELINES and SPLITS, spelled out so that building the parser
 # (``momakitchen --help``) does not import numpy and h5py; tests/cli/test_main.py checks.
@@ -84,16 +89,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from momakitchen.eval.msr import MsrConfig, format_msr_table, run_msr
 
-    for run_dir in args.checkpoint:
-        existing_dir(run_dir, "checkpoint directory")
-    for path in args.predictions:
-        existing_file(path, "predictions file")
-    if args.name and len(args.name) != len(args.predictions):
-        raise MomaError(
-            f"{len(args.name)} --name for {len(args.predictions)} --predictions: give one "
-            "name per predictions file, in order, or none"
-        )
-    names = args.name or [None] * len(args.predictions)
+    predictions = checked_methods(args)
     out = output_file(args.json)  # an unwritable --json fails now, not after the trials
     radius = {} if args.pick_radius is None else {"pick_radius": args.pick_radius}
     config = MsrConfig(
@@ -111,7 +107,7 @@ def run(args: argparse.Namespace) -> int:
         args.method,
         config,
         progress=not args.quiet,
-        predictions=list(zip(args.predictions, names, strict=True)),
+        predictions=predictions,
     )
     result["seconds"] = round(time.perf_counter() - t0, 1)
     out.parent.mkdir(parents=True, exist_ok=True)

@@ -18,13 +18,18 @@ import argparse
 import json
 import time
 
-from momakitchen.cli.common import non_negative_float, non_negative_int, output_file, positive_int
+from momakitchen.cli.common import (
+    checked_methods,
+    non_negative_float,
+    non_negative_int,
+    output_file,
+    positive_int,
+)
 from momakitchen.errors import MomaError
 from momakitchen.fileio import (
     atomic_write_bytes,
     atomic_write_text,
     existing_dir,
-    existing_file,
 )
 
 SPLITS = ("test", "train", "all")
@@ -112,16 +117,7 @@ def run(args: argparse.Namespace) -> int:
         if getattr(args, option) is None:
             raise MomaError(f"--{option} is required (or --list)")
     existing_dir(args.data, "dataset directory")
-    for run_dir in args.checkpoint:
-        existing_dir(run_dir, "checkpoint directory")
-    for path in args.predictions:
-        existing_file(path, "predictions file")
-    if args.name and len(args.name) != len(args.predictions):
-        raise MomaError(
-            f"{len(args.name)} --name for {len(args.predictions)} --predictions: give one "
-            "name per predictions file, in order, or none"
-        )
-    names_given = args.name or [None] * len(args.predictions)
+    predictions = checked_methods(args)
     out_json = output_file(args.json)
     planned_output_dir(args.out)
     names = list(args.corruption) or list(CORRUPTIONS)
@@ -142,7 +138,7 @@ def run(args: argparse.Namespace) -> int:
         config,
         progress=not args.quiet,
         view_maps=maps,
-        predictions=list(zip(args.predictions, names_given, strict=True)),
+        predictions=predictions,
     )
     result["seconds"] = round(time.perf_counter() - t0, 1)
     table = format_robustness_table(result)
