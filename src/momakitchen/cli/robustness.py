@@ -26,11 +26,7 @@ from momakitchen.cli.common import (
     positive_int,
 )
 from momakitchen.errors import MomaError
-from momakitchen.fileio import (
-    atomic_write_bytes,
-    atomic_write_text,
-    existing_dir,
-)
+from momakitchen.fileio import atomic_write_bytes, atomic_write_text, existing_dir
 
 SPLITS = ("test", "train", "all")
 
