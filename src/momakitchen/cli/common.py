@@ -13,6 +13,7 @@ import tempfile
 from pathlib import Path
 
 from momakitchen.errors import MomaError
+from momakitchen.fileio import existing_dir, existing_file
 
 
 def _integer(text: str, minimum: int) -> int:
@@ -148,8 +149,6 @@ def output_file(path: str | os.PathLike) -> Path:
 def checked_methods(args: argparse.Namespace) -> list[tuple[str, str | None]]:
     """Check ``--checkpoint`` directories, ``--predictions`` files and their ``--name``s
     before any work; the ``(file, name or None)`` pair of each predictions file."""
-    from momakitchen.fileio import existing_dir, existing_file
-
     for run_dir in args.checkpoint:
         existing_dir(run_dir, "checkpoint directory")
     for path in args.predictions:

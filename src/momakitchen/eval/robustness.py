@@ -178,7 +178,7 @@ class PredictionsMethod:
     def predict(self, key: str, inputs: Any, robot: str, config: RobustnessConfig) -> Any:
         """The view's :class:`~momakitchen.models.inference.Prediction`: the stored map
         and the poses ``predict`` would choose from it (no uncertainty)."""
-        from momakitchen.models.inference import Prediction, facing_poses
+        from momakitchen.models.inference import map_prediction
 
         where = f"predictions file {str(self.path)!r}"
         if key not in self.maps:
@@ -193,25 +193,16 @@ class PredictionsMethod:
                 f"{where}: view {key!r} has {len(scores)} values, the view {n} floor points "
                 "(inputs exported with another --seed or momakitchen version?)"
             )
-        chosen, poses = facing_poses(
+        return map_prediction(
             inputs.floor_xyz,
             scores,
+            np.zeros(n),
             inputs.target_xyz,
-            config.top_k,
-            config.min_spread,
-            config.pick_radius,
-        )
-        zeros = np.zeros(n)
-        return Prediction(
-            floor_xyz=inputs.floor_xyz,
-            affordance=scores,
-            uncertainty=zeros,
-            poses=poses,
-            pose_scores=scores[chosen],
-            pose_uncertainty=zeros[chosen],
-            target_xyz=inputs.target_xyz,
-            robot=robot,
-            model=self.name,
+            robot,
+            self.name,
+            top_k=config.top_k,
+            min_spread=config.min_spread,
+            pick_radius=config.pick_radius,
             correction=inputs.correction,
         )
 
@@ -495,8 +486,8 @@ def export_robustness_inputs(
                     counts[inputs["status"]] += 1
                     yield f"{key}/status", np.asarray(inputs["status"])
                     reason = inputs.get("message") or (
-                        f"the target is {inputs.get('target_range', 0):.2f} m away, beyond "
-                        "the sensor's range"
+                        f"the target is {inputs['target_range']:.2f} m away, beyond the "
+                        "sensor's range"
                     )
                     yield f"{key}/reason", np.asarray(reason)
                     continue

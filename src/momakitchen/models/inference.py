@@ -204,19 +204,24 @@ def select_points(
     return kept
 
 
-def facing_poses(
+def map_prediction(
     floor_xyz: np.ndarray,
     affordance: np.ndarray,
+    uncertainty: np.ndarray,
     target: np.ndarray,
+    robot: str,
+    model: str,
+    *,
     top_k: int,
     min_spread: float,
     pick_radius: float = PICK_RADIUS,
-) -> tuple[list[int], np.ndarray]:
-    """The Top-k floor points of a map (:func:`select_points`) and the base poses there,
-    facing the target.
+    correction: FloorCorrection | None = None,
+    warnings: tuple[str, ...] = (),
+) -> Prediction:
+    """A map as a :class:`Prediction`: its Top-k floor points (:func:`select_points`)
+    and the base poses there, facing the target.
 
-    Shapes: ``floor_xyz`` (N, 3), ``affordance`` (N,), ``target`` (3,); returns the chosen
-    indices and poses (k, 3) rows ``x, y, yaw``, best first.
+    Shapes: ``floor_xyz`` (N, 3), ``affordance`` and ``uncertainty`` (N,), ``target`` (3,).
     """
     chosen = select_points(floor_xyz[:, :2], affordance, top_k, min_spread, radius=pick_radius)
     poses = np.array(
@@ -229,7 +234,19 @@ def facing_poses(
             for i in chosen
         ]
     ).reshape(-1, 3)
-    return chosen, poses
+    return Prediction(
+        floor_xyz=floor_xyz,
+        affordance=affordance,
+        uncertainty=uncertainty,
+        poses=poses,
+        pose_scores=affordance[chosen],
+        pose_uncertainty=uncertainty[chosen],
+        target_xyz=target,
+        robot=robot,
+        model=model,
+        correction=correction,
+        warnings=warnings,
+    )
 
 
 def predict_map(
@@ -276,17 +293,16 @@ def predict_map(
             f"(up to {TRAINED_DISTANCE:.1f} m): move closer for a reliable map"
         )
 
-    chosen, poses = facing_poses(f_xyz, affordance, target, top_k, min_spread, pick_radius)
-    return Prediction(
-        floor_xyz=f_xyz,
-        affordance=affordance,
-        uncertainty=uncertainty,
-        poses=poses,
-        pose_scores=affordance[chosen],
-        pose_uncertainty=uncertainty[chosen],
-        target_xyz=target,
-        robot=robot,
-        model=run.config.model,
+    return map_prediction(
+        f_xyz,
+        affordance,
+        uncertainty,
+        target,
+        robot,
+        run.config.model,
+        top_k=top_k,
+        min_spread=min_spread,
+        pick_radius=pick_radius,
         correction=clouds.correction if isinstance(clouds, FrameClouds) else None,
         warnings=tuple(warnings),
     )
