@@ -94,6 +94,12 @@ MSR_RUNS=("${MAIN[@]}" navaff-seed1 navaff-12ep navaff-12ep-seed1
 # Second seeds of the 12-epoch pair, also judged on four more views per configuration
 # (RUN/views/msr-seed1..4.json, Top-1), as the pair is below ($RUNS/views).
 VIEW_RUNS=(navaff-12ep-seed1 pointnet2-12ep-seed1)
+# The real-sensor track (robustness, every corruption) of the noise-trained pair on ROB_DATA
+# (the held-out scenes of docs/RESULTS.md's robustness section: generate --out ROB_DATA
+# --scenes 35 --first-scene-id 450000 --split test), when given: each run's as soon as it
+# is trained, to results/robustness/after-RUN.json (benchmark --robustness merges them).
+ROB_DATA=${ROB_DATA:-}
+ROB_RUNS=(navaff-12ep-noise pointnet2-12ep-noise)
 # Runs at a time. On a 2-core machine, three one-thread NavAff trainings side by side
 # trained 28 samples/s in total, one two-thread training 23.
 PARALLEL=${PARALLEL:-2}
@@ -172,9 +178,23 @@ run_one() {  # name, then train options: train (or restore), evaluate, MSR (MSR_
     momakitchen msr --data "$DATA" --checkpoint "$RUNS/$name" --json "$RUNS/$name/msr.json" --quiet
   fi
   archive_results "$RUNS/$name" "$ARCHIVE/$name" test.json msr.json
+  if [[ -n "$ROB_DATA" && " ${ROB_RUNS[*]} " == *" $name "* ]]; then
+    robustness_of "$name"
+  fi
   if [[ " ${VIEW_RUNS[*]} " == *" $name "* ]]; then
     more_views "$name/views" "$RUNS/$name/model.safetensors" --checkpoint "$RUNS/$name"
   fi
+}
+
+robustness_of() {  # name: the real-sensor track of a finished run on ROB_DATA
+  local rob=$RUNS/$1/robustness.json
+  if [[ ! -f "$rob" || "$RUNS/$1/model.safetensors" -nt "$rob" ]]; then
+    stamp "robustness $1 on $ROB_DATA"
+    momakitchen robustness --data "$ROB_DATA" --checkpoint "$RUNS/$1" --json "$rob" \
+      --out "$RUNS/$1/robustness" --quiet
+  fi
+  # a finished run's (not a smoke run's) is kept in the repository
+  if archived "$1" >/dev/null; then cp "$rob" "$REPO/results/robustness/after-$1.json"; fi
 }
 
 more_views() {  # dir under RUNS, model they go stale with, msr options: MSR seeds 1-4, Top-1
@@ -240,20 +260,6 @@ archive_results "$RUNS" "$ARCHIVE" msr-baselines.json
 if [[ -z "$ONLY" ]]; then
   more_views views "$RUNS/navaff-12ep/model.safetensors" --checkpoint "$RUNS/navaff-12ep" \
     --checkpoint "$RUNS/pointnet2-12ep" --method oracle
-fi
-
-# The real-sensor track of the noise-trained pair, once both finished their schedule, on
-# ROB_DATA (the held-out scenes of docs/RESULTS.md's robustness section: generate --out
-# ROB_DATA --scenes 35 --first-scene-id 450000 --split test), when given.
-ROB_DATA=${ROB_DATA:-}
-if [[ -n "$ROB_DATA" ]] && nav=$(archived navaff-12ep-noise) && pn2=$(archived pointnet2-12ep-noise); then
-  rob=$RUNS/robustness-noise.json
-  if [[ ! -f "$rob" || "$nav/model.safetensors" -nt "$rob" || "$pn2/model.safetensors" -nt "$rob" ]]; then
-    stamp "robustness of the noise-trained pair on $ROB_DATA"
-    momakitchen robustness --data "$ROB_DATA" --checkpoint "$nav" --checkpoint "$pn2" \
-      --json "$rob" --out "$RUNS/robustness-noise" --quiet
-  fi
-  cp "$rob" "$REPO/results/robustness/after-noise-trained.json"
 fi
 
 if [[ -n "$ONLY$SPLIT" ]]; then
