@@ -147,3 +147,13 @@ def test_a_one_scene_dataset_says_how_to_get_a_train_split(tmp_path, capsys):
     assert main(["stats", str(root), "--json"]) == 0
     splits = json.loads(capsys.readouterr().out)["splits"]
     assert splits["train"]["episodes"] > 0 and splits["test"]["episodes"] > 0
+
+
+def test_a_bad_sensor_augmentation_in_the_config_is_named(dataset, tmp_path, capsys):
+    config = tmp_path / "noise.yaml"
+    config.write_text("sensor_noise: true\nsensor_augmentation:\n  sensors: [sonar]\n")
+    argv = ["train", "--data", str(dataset), "--model", "navaff", "--config", str(config)]
+    assert main([*argv, "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "unknown sensor 'sonar'" in err and "noise.yaml" in err
+    assert not (tmp_path / "out").exists()

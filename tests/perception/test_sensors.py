@@ -147,6 +147,12 @@ def test_named_corruptions_and_bad_values():
         ColourError(gain=0.0)
     with pytest.raises(MomaError, match="p_ideal"):
         SensorAugmentation(p_ideal=2.0)
+    with pytest.raises(MomaError, match=r"p_calibration must be in \[0, 1\], got -0.5"):
+        SensorAugmentation(p_calibration=-0.5)
+    with pytest.raises(MomaError, match=r"SensorAugmentation.erode must be in \[1, 50\] px, got 0"):
+        SensorAugmentation(erode=0)
+    with pytest.raises(MomaError, match="unknown sensor 'sonar'"):
+        SensorAugmentation(sensors=("sonar",))
 
 
 def test_augmentation_draws_every_kind_deterministically():
@@ -158,3 +164,14 @@ def test_augmentation_draws_every_kind_deterministically():
     assert sensors == {"ideal", *aug.sensors}
     assert all(abs(d.calibration.height) <= aug.height for d in draws)
     assert sum(d.mask != MaskError() for d in draws) == pytest.approx(200 * aug.p_mask, abs=25)
+
+
+def test_augmentation_rates_are_settable():
+    only_d435 = SensorAugmentation(sensors=("d435",), p_ideal=0.0, p_calibration=0.0)
+    draws = [only_d435.draw(np.random.default_rng([7, i])) for i in range(100)]
+    assert {d.sensor for d in draws} == {"d435"}
+    assert all(d.calibration == CalibrationError() for d in draws)
+    some = SensorAugmentation(p_calibration=0.3)
+    draws = [some.draw(np.random.default_rng([7, i])) for i in range(200)]
+    exact = sum(d.calibration == CalibrationError() for d in draws)
+    assert exact == pytest.approx(200 * 0.7, abs=25)

@@ -309,3 +309,29 @@ def test_fine_tuning_and_sensor_noise_refuse_bad_input_before_writing(
     with pytest.raises(MomaError, match="sensor_noise needs a generated dataset"):
         train(make_config(sensor_noise=True), train_set, None, tmp_path / "c")
     assert not any((tmp_path / n).exists() for n in ("a", "b", "c"))
+
+
+def test_sensor_noise_draws_from_the_configured_augmentation(tmp_path, tiny_sets, make_config):
+    from momakitchen.perception.sensors import SensorAugmentation
+
+    class Recording(torch.utils.data.Dataset):  # the hooks of a generated dataset
+        def __init__(self, inner):
+            self.inner, self.augmentation, self.epochs = inner, None, []
+
+        def __len__(self):
+            return len(self.inner)
+
+        def __getitem__(self, i):
+            return self.inner[i]
+
+        def use_sensor_noise(self, augmentation):
+            self.augmentation = augmentation
+
+        def set_epoch(self, epoch, seed=0):
+            self.epochs.append((epoch, seed))
+
+    augmentation = SensorAugmentation(sensors=("d435",), p_ideal=0.5, p_calibration=0.2)
+    data = Recording(tiny_sets[0])
+    config = make_config(sensor_noise=True, sensor_augmentation=augmentation, epochs=2, seed=3)
+    train(config, data, None, tmp_path / "run")
+    assert data.augmentation == augmentation and data.epochs == [(0, 3), (1, 3)]

@@ -548,12 +548,14 @@ def corrupt_frame(frame: Frame, corruption: Corruption, rng: np.random.Generator
 @dataclass(frozen=True)
 class SensorAugmentation:
     """Random corruptions for noise-aware training: each draw picks a sensor (``ideal``
-    with probability ``p_ideal``, else uniformly from ``sensors``), calibration errors
-    uniform within the bounds, and with probability ``p_mask`` one mask error.
+    with probability ``p_ideal``, else uniformly from ``sensors``), with probability
+    ``p_calibration`` calibration errors uniform within the bounds, and with probability
+    ``p_mask`` one mask error.
 
     Attributes:
         sensors: presets drawn from.
         p_ideal: chance of a perfect depth image.
+        p_calibration: chance of a calibration error (else the calibration is exact).
         height: camera height error bound (m); ``angle``: pitch and roll bound (deg);
         yaw: yaw bound (deg).
         p_mask: chance of a mask error; ``erode``/``dilate``/``spill``: their px bounds;
@@ -563,6 +565,7 @@ class SensorAugmentation:
 
     sensors: tuple[str, ...] = ("kinect", "d435", "azure", "mono")
     p_ideal: float = 0.25
+    p_calibration: float = 1.0
     height: float = 0.03
     angle: float = 3.0
     yaw: float = 1.0
@@ -576,7 +579,7 @@ class SensorAugmentation:
     def __post_init__(self) -> None:
         for name in self.sensors:
             get_sensor(name)
-        for name in ("p_ideal", "p_mask", "p_colour"):
+        for name in ("p_ideal", "p_calibration", "p_mask", "p_colour"):
             if not 0.0 <= getattr(self, name) <= 1.0:
                 raise MomaError(
                     f"SensorAugmentation.{name} must be in [0, 1], got {getattr(self, name)}"
@@ -586,6 +589,13 @@ class SensorAugmentation:
                 "SensorAugmentation needs height in [0, 0.2] m and angle, yaw in [0, 10] deg, "
                 f"got {self.height}, {self.angle}, {self.yaw}"
             )
+        for name in ("erode", "dilate", "spill"):
+            if not 1 <= getattr(self, name) <= 50:
+                raise MomaError(
+                    f"SensorAugmentation.{name} must be in [1, 50] px, got {getattr(self, name)}"
+                )
+        if not 0 <= self.shift <= 100:
+            raise MomaError(f"SensorAugmentation.shift must be in [0, 100] px, got {self.shift}")
 
     def draw(self, rng: np.random.Generator) -> Corruption:
         """One random corruption."""
@@ -598,6 +608,10 @@ class SensorAugmentation:
             roll=float(rng.uniform(-self.angle, self.angle)),
             yaw=float(rng.uniform(-self.yaw, self.yaw)),
         )
+        # Drawn only when it can matter, so that p_calibration = 1 gives the same draws
+        # as before it existed (the archived noise-trained runs).
+        if self.p_calibration < 1.0 and rng.random() >= self.p_calibration:
+            cal = CalibrationError()
         mask = MaskError()
         if rng.random() < self.p_mask:
             kind = int(rng.integers(5))

@@ -10,6 +10,7 @@ from momakitchen import codec
 from momakitchen.errors import MomaError
 from momakitchen.models.config import ModelConfig
 from momakitchen.models.registry import get_model_entry
+from momakitchen.perception.sensors import SensorAugmentation
 
 PRESETS = ("paper", "cpu")
 
@@ -55,6 +56,9 @@ class TrainConfig:
             calibrations would give them (a random
             :class:`~momakitchen.perception.sensors.SensorAugmentation` draw per sample
             and epoch, rebuilt by the real-robot path); the stored data stay clean.
+        sensor_augmentation: the random draw ``sensor_noise`` uses: which sensors, how
+            often a frame stays ideal, the calibration, mask and colour errors' rates and
+            bounds (e.g. only the robot's own camera: ``sensors: [d435]``).
         init: start from the weights of this run directory (``bundled``: the bundled
             model) instead of a random initialisation: fine-tuning. Its model and sizes
             must be this config's.
@@ -84,6 +88,7 @@ class TrainConfig:
     checkpoint_minutes: float = 20.0
     progress: bool = True
     sensor_noise: bool = False
+    sensor_augmentation: SensorAugmentation = field(default_factory=SensorAugmentation)
     init: str = ""
 
     def __post_init__(self) -> None:
@@ -95,6 +100,8 @@ class TrainConfig:
             raise bad("preset", f"must be one of {(*PRESETS, 'custom')}")
         if not isinstance(self.model_config, ModelConfig):
             raise bad("model_config", "must be a ModelConfig")
+        if not isinstance(self.sensor_augmentation, SensorAugmentation):
+            raise bad("sensor_augmentation", "must be a SensorAugmentation")
         if self.num_global < self.model_config.global_npoints[0] // 4:
             raise bad("num_global", "is far below the first set abstraction's centroid count")
         if self.num_floor < 8:

@@ -318,11 +318,9 @@ def _train(
         config = resumed
     # Checked before the run directory is written: a bad option leaves nothing behind.
     if config.sensor_noise:
-        from momakitchen.perception.sensors import SensorAugmentation
-
         if not hasattr(train_set, "use_sensor_noise"):
             raise MomaError("sensor_noise needs a generated dataset (its stored RGB-D frames)")
-        cast(Any, train_set).use_sensor_noise(SensorAugmentation())
+        cast(Any, train_set).use_sensor_noise(config.sensor_augmentation)
     init = _initial_run(config) if config.init and not resuming else None
     if rank == 0:
         run_dir.mkdir(parents=True, exist_ok=True)
