@@ -335,3 +335,15 @@ def test_sensor_noise_draws_from_the_configured_augmentation(tmp_path, tiny_sets
     config = make_config(sensor_noise=True, sensor_augmentation=augmentation, epochs=2, seed=3)
     train(config, data, None, tmp_path / "run")
     assert data.augmentation == augmentation and data.epochs == [(0, 3), (1, 3)]
+    # A resume goes on with the noise the run was trained with, or is refused.
+    with pytest.raises(
+        MomaError,
+        match=r"trained with sensor_noise on \(.*p_calibration=0.2.*"
+        r"the config asks for off",
+    ):
+        train(config.replace(sensor_noise=False, epochs=3), data, None, tmp_path / "run", True)
+    other = config.replace(sensor_augmentation=SensorAugmentation(), epochs=3)
+    with pytest.raises(MomaError, match="cannot resume"):
+        train(other, data, None, tmp_path / "run", resume=True)
+    assert train(config.replace(epochs=3), data, None, tmp_path / "run", True).global_step == 6
+    assert data.epochs[-1] == (2, 3)

@@ -161,6 +161,13 @@ def _check_resume(
             f"cannot resume: model sizes in {str(run_dir)!r} differ from the config "
             f"({', '.join(differ)})"
         )
+    noise = (config.sensor_noise, config.sensor_augmentation if config.sensor_noise else None)
+    saved_noise = (saved.sensor_noise, saved.sensor_augmentation if saved.sensor_noise else None)
+    if noise != saved_noise:
+        raise MomaError(
+            f"cannot resume: {str(run_dir)!r} was trained with sensor_noise "
+            f"{_noise_text(saved_noise)}, the config asks for {_noise_text(noise)}"
+        )
     saved_pre = run_preprocessing(info, run_dir)
     if saved_pre != preprocessing:
         raise MomaError(
@@ -168,6 +175,10 @@ def _check_resume(
             f"{saved_pre.describe()}, the training data has {preprocessing.describe()}"
         )
     return replace(config, model_config=saved.model_config)
+
+
+def _noise_text(noise: tuple[bool, Any]) -> str:
+    return f"on ({noise[1]})" if noise[0] else "off"
 
 
 def _read_log(path: Path, max_step: int) -> list[dict[str, str]]:
