@@ -161,12 +161,10 @@ def _check_resume(
             f"cannot resume: model sizes in {str(run_dir)!r} differ from the config "
             f"({', '.join(differ)})"
         )
-    noise = (config.sensor_noise, config.sensor_augmentation if config.sensor_noise else None)
-    saved_noise = (saved.sensor_noise, saved.sensor_augmentation if saved.sensor_noise else None)
-    if noise != saved_noise:
+    if _noise(saved) != _noise(config):
         raise MomaError(
             f"cannot resume: {str(run_dir)!r} was trained with sensor_noise "
-            f"{_noise_text(saved_noise)}, the config asks for {_noise_text(noise)}"
+            f"{_noise(saved) or 'off'}, the config asks for {_noise(config) or 'off'}"
         )
     saved_pre = run_preprocessing(info, run_dir)
     if saved_pre != preprocessing:
@@ -177,8 +175,9 @@ def _check_resume(
     return replace(config, model_config=saved.model_config)
 
 
-def _noise_text(noise: tuple[bool, Any]) -> str:
-    return f"on ({noise[1]})" if noise[0] else "off"
+def _noise(config: TrainConfig) -> str | None:
+    """The sensor noise a run trains with, as text (None: clean frames)."""
+    return f"on ({config.sensor_augmentation})" if config.sensor_noise else None
 
 
 def _read_log(path: Path, max_step: int) -> list[dict[str, str]]:
