@@ -1,5 +1,9 @@
 """Cloud building: the threaded, in-place base-frame cloud equals the plain formulas."""
 
+import os
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 
@@ -28,3 +32,44 @@ def test_cloud_in_base_equals_backproject_then_transform():
 def test_cloud_in_base_rejects_a_depth_of_another_size():
     with pytest.raises(MomaError, match="does not match"):
         cloud_in_base(np.ones((10, 12)), Intrinsics(10, 10, 6, 5, 12, 11), np.eye(4), 6.0)
+
+
+# Five 8 MB arrays made and freed 20 times, after a first round: minor page faults.
+_ALLOCATE = """
+import resource, sys
+import numpy as np
+from momakitchen.perception.clouds import reuse_freed_memory
+applied = reuse_freed_memory() if sys.argv[1] == "1" else None
+def work():
+    for _ in range(20):
+        arrays = [np.ones(1_000_000) for _ in range(5)]
+        del arrays
+work()
+before = resource.getrusage(resource.RUSAGE_SELF).ru_minflt
+work()
+print(applied, resource.getrusage(resource.RUSAGE_SELF).ru_minflt - before)
+"""
+
+
+def _faults(tuned: bool, **env: str) -> tuple[str, int]:
+    clean = {k: v for k, v in os.environ.items() if not k.startswith("MALLOC_")}
+    out = subprocess.run(
+        [sys.executable, "-c", _ALLOCATE, "1" if tuned else "0"],
+        check=True,
+        capture_output=True,
+        text=True,
+        env=clean | env,
+    ).stdout.split()
+    return out[0], int(out[1])
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="glibc's mallopt")
+def test_reuse_freed_memory_keeps_freed_arrays_for_the_next_ones():
+    applied, faults = _faults(True)
+    assert applied == "True"
+    _, default = _faults(False)
+    # 20 rounds of 40 MB: the default allocator hands most of it back and faults it in again
+    assert faults < 1000 < default
+    # a user's own allocator settings are kept
+    applied, faults = _faults(True, MALLOC_ARENA_MAX="2")
+    assert applied == "False" and faults > 1000

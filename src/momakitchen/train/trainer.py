@@ -33,6 +33,7 @@ from momakitchen.fileio import atomic_write_bytes, atomic_write_text
 from momakitchen.metrics import map_metrics
 from momakitchen.models.base import AffordanceModel, PlanningCollator
 from momakitchen.models.registry import build_model, get_model_entry
+from momakitchen.perception.clouds import reuse_freed_memory
 from momakitchen.train.checkpoint import (
     WEIGHTS_FILE,
     dataset_preprocessing,
@@ -331,6 +332,7 @@ def _train(
         if not hasattr(train_set, "use_sensor_noise"):
             raise MomaError("sensor_noise needs a generated dataset (its stored RGB-D frames)")
         cast(Any, train_set).use_sensor_noise(config.sensor_augmentation)
+        reuse_freed_memory()  # before the workers fork: they rebuild each frame's clouds
     init = _initial_run(config) if config.init and not resuming else None
     if rank == 0:
         run_dir.mkdir(parents=True, exist_ok=True)
