@@ -1,4 +1,5 @@
-"""Cloud building: the threaded, in-place base-frame cloud equals the plain formulas."""
+"""Cloud building: the threaded, in-place base-frame cloud equals the plain formulas; the
+allocator setting for image-sized arrays."""
 
 import os
 import subprocess

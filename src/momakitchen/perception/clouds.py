@@ -38,8 +38,9 @@ def reuse_freed_memory() -> bool:
     for the next frame's image-sized arrays instead of handing it back to the kernel:
     glibc's defaults unmap or trim a freed array of a few MB, and the next frame's array
     is a fresh page fault per 4 kB, about a tenth of a noisy training sample's CPU time
-    (BENCHMARKS.md). Keeps at most 256 MB freed per process. Results are unchanged: the
-    allocator's placement of arrays changes no arithmetic.
+    (BENCHMARKS.md). Keeps at most 256 MB freed per process. The samples are the same
+    bytes (the allocator only places the arrays; ``benchmarks/bench_noisy_sample.py``
+    compares them).
 
     Returns whether the setting was applied: False off glibc, or where the user set the
     allocator through ``MALLOC_*`` environment variables (theirs is kept).
