@@ -12,6 +12,11 @@
 #                                      # only these runs and the baselines' MSR; no report
 #   SPLIT=test bash scripts/results.sh # the test scenes alone (a fifth of the generation):
 #                                      # evaluate and MSR for the archived runs, no training
+#   SPLIT=train ONLY="navaff-12ep-noise" bash scripts/results.sh
+#                                      # the train scenes alone: train (or resume) the runs
+#                                      # and archive their weights, no scoring; on a bare
+#                                      # machine training starts after four fifths of the
+#                                      # generation, and the test scenes come later
 #   ROB_DATA=~/mk-data/rob-final bash scripts/results.sh
 #                                      # also the robustness track of the noise-trained pair
 #
@@ -38,8 +43,8 @@ OUT=${OUT:-$RUNS/benchmark}
 SCENES=${SCENES:-300}
 FIRST=${FIRST:-20000}
 SPLIT=${SPLIT:-}
-if [[ -n "$SPLIT" && "$SPLIT" != test ]]; then
-  echo "results.sh: SPLIT must be test or unset, got $SPLIT" >&2
+if [[ -n "$SPLIT" && "$SPLIT" != test && "$SPLIT" != train ]]; then
+  echo "results.sh: SPLIT must be test, train or unset, got $SPLIT" >&2
   exit 2
 fi
 TRAIN_OPTS=${TRAIN_OPTS:-}
@@ -146,7 +151,8 @@ archive_results() {  # run dir, archive dir, files: keep them, keyed by these te
   for f in "$@"; do
     if [[ -f "$from/$f" ]]; then cp "$from/$f" "$to/"; fi
   done
-  echo "$test_sum" >"$to/test-shards.sha256"
+  # (a train-only dataset has no test shards: the weights alone are kept)
+  if [[ "$SPLIT" != train ]]; then echo "$test_sum" >"$to/test-shards.sha256"; fi
 }
 
 run_one() {  # name, then train options: train (or restore), evaluate, MSR (MSR_RUNS only)
@@ -160,7 +166,7 @@ run_one() {  # name, then train options: train (or restore), evaluate, MSR (MSR_
     fi
     # Results copied after the model are not stale.
     restore_results "$ARCHIVE/$name" "$RUNS/$name" test.json msr.json
-  elif [[ -n "$SPLIT" ]]; then
+  elif [[ "$SPLIT" == test ]]; then
     stamp "skip $name: not archived, and a test-only dataset cannot train it"
     return 0
   else
@@ -172,6 +178,7 @@ run_one() {  # name, then train options: train (or restore), evaluate, MSR (MSR_
     momakitchen train --data "$DATA" --out "$RUNS/$name" "${resume[@]}" --quiet "$@" $TRAIN_OPTS
     archive_results "$RUNS/$name" "$ARCHIVE/$name" config.json model.safetensors
   fi
+  if [[ "$SPLIT" == train ]]; then return 0; fi  # scoring reads the test scenes
   if stale "$RUNS/$name/test.json" "$RUNS/$name/model.safetensors"; then
     stamp "evaluate $name"
     momakitchen evaluate --data "$DATA" --checkpoint "$RUNS/$name" --json "$RUNS/$name/test.json" --quiet
@@ -250,6 +257,10 @@ while ((running > 0)); do
   running=$((running - 1))
 done
 
+if [[ "$SPLIT" == train ]]; then
+  stamp "done (SPLIT=train: trained, not scored)"
+  exit 0
+fi
 restore_results "$ARCHIVE" "$RUNS" msr-baselines.json
 if [[ ! -f "$RUNS/msr-baselines.json" ]]; then
   stamp "msr baselines"
