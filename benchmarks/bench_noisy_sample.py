@@ -69,6 +69,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--samples", type=int, default=40, help="samples per process")
     ap.add_argument("--rounds", type=int, default=3)
     args = ap.parse_args(argv)
+    from momakitchen.data.torch_dataset import EpisodeDataset
+    from momakitchen.errors import MomaError
+
+    try:  # bad input fails here in one line, not in a child's traceback
+        if len(EpisodeDataset(args.data, split="train")) <= args.samples:
+            raise MomaError(f"{args.data}: fewer train episodes than --samples {args.samples}")
+    except MomaError as exc:
+        print(f"bench_noisy_sample.py: error: {exc}", file=sys.stderr)
+        return 2
     rows: dict[bool, list[dict]] = {False: [], True: []}
     for r in range(args.rounds):
         for tuned in (False, True):
