@@ -1,13 +1,15 @@
-"""Can the floor tell monocular depth's warp at the target? (No: docs/SENSORS.md.)
+"""Can the floor tell monocular depth's warp at the target? (Only with an exact
+calibration: docs/SENSORS.md.)
 
-Relative depth gets one scale from the floor (``predict(..., metric_depth=False)``).
-Its warp also bends the floor, so the floor could tell more: this script reads a smooth
-warp from it (after the one-scale fit, a floor pixel at height z was measured
-``(h - z) / h`` times its true depth; those ratios fitted robustly by a quadratic over
-the image, clipped to the values seen on the floor), undoes it over the whole frame and
-builds the model's input again. Per view (the views and corruption draws of
-``momakitchen robustness``), how far the apparent target lies from the clean frame's,
-on the floor, with the one scale and with the warp undone. Runs no model.
+Relative depth gets one scale from the floor (``predict(..., metric_depth=False)``), and
+the floor fit also levels the frame (pitch and roll). The depth's warp bends the floor
+too, so the floor could tell more: this script takes the floor where the calibration
+puts it, reads a smooth warp from it (a floor pixel at height z, after the one scale,
+was measured ``(h - z) / h`` times its true depth; those ratios fitted robustly by a
+quadratic over the image, clipped to the values seen on the floor), undoes it over the
+whole frame and builds the model's input again. Per view (the views and corruption
+draws of ``momakitchen robustness``), how far the apparent target lies from the clean
+frame's, on the floor, with the one scale and with the warp undone. Runs no model.
 
     python scripts/mono_dewarp.py --data DIR [--corruption mono ...] [--seed 0]
 """
@@ -30,19 +32,26 @@ def _quadratic(u: np.ndarray, v: np.ndarray, shape: tuple[int, int]) -> np.ndarr
 
 
 def warp_field(bad, inputs, band: float = 0.1) -> np.ndarray | None:
-    """The (H, W) factor that undoes the warp the floor shows, or None (too little floor)."""
+    """The (H, W) factor that undoes the warp the floor shows, or None (too little floor).
+
+    The floor is taken where the calibration puts it (z = 0 at the calibrated height h):
+    after the one scale, a floor pixel at height z was measured ``(h - z) / h`` times its
+    true depth. (A pitch or roll error of the calibration is then read as part of the
+    warp: relative depth cannot tell the two apart.)"""
     from momakitchen.perception.clouds import cloud_in_base
 
-    c = inputs.correction
-    pts, idx = cloud_in_base(bad.depth, bad.intrinsics, c.matrix @ bad.camera_to_base, np.inf)
-    h = float(c.new_camera[2])
+    tf = bad.camera_to_base
+    pts, idx = cloud_in_base(bad.depth, bad.intrinsics, tf, np.inf)
+    cam, scale = tf[:3, 3], inputs.correction.scale
+    pts = cam + scale * (pts - cam)
+    h = float(cam[2])
     near = np.abs(pts[:, 2]) < band
     pts, idx = pts[near][::16], idx[near][::16]
     if len(idx) < MIN_POINTS:
         return None
     v, u = np.divmod(idx, bad.depth.shape[1])
     basis = _quadratic(u, v, bad.depth.shape)
-    ratio = h / (h - pts[:, 2])
+    ratio = scale * h / (h - pts[:, 2])
     keep = np.ones(len(idx), bool)
     for _ in range(6):  # objects standing on the floor lie above it and drop out
         coef = np.linalg.lstsq(basis[keep], ratio[keep], rcond=None)[0]
