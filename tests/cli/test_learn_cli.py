@@ -157,3 +157,34 @@ def test_a_bad_sensor_augmentation_in_the_config_is_named(dataset, tmp_path, cap
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "unknown sensor 'sonar'" in err and "noise.yaml" in err
     assert not (tmp_path / "out").exists()
+
+
+def test_a_resume_on_other_bytes_of_the_data_is_recorded(dataset, tmp_path, capsys):
+    """config.json names the training shards' bytes; a run resumed on other bytes (the
+    same scenes made on another machine) warns once and records from which step."""
+    from momakitchen.data.manifest import load_manifest, split_checksum
+
+    other = tmp_path / "other"
+    (tmp_path / "syn.yaml").write_text("num_floor: 200\n")
+    argv = ["generate", "--out", str(other), "--scenes", "5", "--synthetic", "--quiet"]
+    assert main([*argv, "--config", str(tmp_path / "syn.yaml")]) == 0
+    sums = [split_checksum(load_manifest(d), "train") for d in (dataset, other)]
+    assert sums[0] != sums[1]
+    out = tmp_path / "run"
+
+    def train(data, steps, *resume):
+        base = ["train", "--data", str(data), "--model", "pointnet2", "--out", str(out)]
+        assert main([*base, "--max-steps", str(steps), "--batch-size", "2", *resume]) == 0
+        return json.loads((out / "config.json").read_text())["train_data"]
+
+    assert train(dataset, 1) == [{"from_step": 0, "shards_sha256": sums[0]}]
+    capsys.readouterr()
+    assert train(dataset, 2, "--resume") == [{"from_step": 0, "shards_sha256": sums[0]}]
+    assert "warning" not in capsys.readouterr().err
+    moved = [{"from_step": 0, "shards_sha256": sums[0]}, {"from_step": 2, "shards_sha256": sums[1]}]
+    assert train(other, 3, "--resume") == moved
+    err = capsys.readouterr().err
+    assert f"resuming at step 2 on training shards {sums[1][:12]}" in err
+    assert f"were {sums[0][:12]}" in err
+    assert train(other, 4, "--resume") == moved
+    assert "warning" not in capsys.readouterr().err

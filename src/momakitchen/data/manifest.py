@@ -219,11 +219,15 @@ def missing_scenes(manifest: dict[str, Any]) -> list[int] | None:
 def split_checksum(manifest: dict[str, Any], split: str) -> str:
     """One SHA-256 over the checksums of a split's shards, in scene order: it names the
     exact bytes that evaluations on the split read (results made on other bytes, e.g. the
-    same scenes generated on another CPU, are not reused)."""
-    if split not in SPLITS:
-        raise MomaError(f"unknown split {split!r}; splits: {', '.join(SPLITS)}")
+    same scenes generated on another CPU, are not reused). ``split`` "all": every shard."""
+    if split not in (*SPLITS, "all"):
+        raise MomaError(f"unknown split {split!r}; splits: {', '.join(SPLITS)}, all")
     shards = manifest["shards"]
-    sums = [shards[k]["sha256"] for k in sorted(shards, key=int) if shards[k]["split"] == split]
+    sums = [
+        shards[k]["sha256"]
+        for k in sorted(shards, key=int)
+        if split == "all" or shards[k]["split"] == split
+    ]
     return hashlib.sha256(" ".join(sums).encode()).hexdigest()
 
 

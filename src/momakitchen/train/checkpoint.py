@@ -4,7 +4,10 @@ A run directory holds:
 
 - ``config.json``: format, model name, preset, the full :class:`TrainConfig`, the robot
   descriptor version and names, and the preprocessing (cloud voxels, floor threshold,
-  depth range) of the data it was trained on; a run without it used the defaults;
+  depth range) of the data it was trained on; a run without it used the defaults; and
+  ``train_data``: the checksum of the training shards each part of the run read, from
+  which step (a run resumed on the same scenes made again on another machine, whose
+  bytes can differ, says so);
 - ``model.safetensors``: the model's ``state_dict`` at the last checkpoint (an epoch's
   end, or within one: ``TrainConfig.checkpoint_minutes``); its
   metadata records the SHA-256 of its tensor data, checked (with the weights' finiteness)
@@ -22,7 +25,7 @@ import json
 import struct
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import torch
 from safetensors import SafetensorError
@@ -32,6 +35,7 @@ from torch.utils.data import ConcatDataset, Subset
 
 from momakitchen import codec
 from momakitchen.data.config import Preprocessing, manifest_preprocessing
+from momakitchen.data.manifest import split_checksum
 from momakitchen.errors import MomaError
 from momakitchen.fileio import atomic_write_bytes, atomic_write_text, existing_dir
 from momakitchen.models.base import AffordanceModel
@@ -60,11 +64,14 @@ def default_checkpoint() -> Path:
 
 
 def write_run_config(
-    run_dir: Path, config: TrainConfig, preprocessing: Preprocessing | None = None
+    run_dir: Path,
+    config: TrainConfig,
+    preprocessing: Preprocessing | None = None,
+    shards: str | None = None,
 ) -> None:
     """Write ``config.json`` (``preprocessing``: that of the training data; None: the
-    defaults)."""
-    info = {
+    defaults; ``shards``: the training shards' checksum, :func:`dataset_shards`)."""
+    info: dict[str, Any] = {
         "format": FORMAT,
         "format_version": FORMAT_VERSION,
         "model": config.model,
@@ -74,7 +81,49 @@ def write_run_config(
         "train_config": config.to_dict(),
         "preprocessing": codec.to_dict(preprocessing or Preprocessing()),
     }
+    if shards is not None:
+        info["train_data"] = [{"from_step": 0, "shards_sha256": shards}]
     atomic_write_text(Path(run_dir) / CONFIG_FILE, json.dumps(info, indent=2) + "\n")
+
+
+def record_train_data(run_dir: Path, shards: str | None, step: int) -> str | None:
+    """A run resumed at ``step`` on training shards with checksum ``shards``: when they
+    are not the bytes the run read so far (or those were not recorded), ``config.json``'s
+    ``train_data`` gains an entry from ``step`` and the return value says so in one line;
+    None when nothing changed (or the data have no manifest to name their bytes)."""
+    if shards is None:
+        return None
+    _, info = read_run_config(run_dir)
+    parts = info.get("train_data") or [{"from_step": 0, "shards_sha256": None}]
+    before = parts[-1].get("shards_sha256")
+    if before == shards:
+        return None
+    info["train_data"] = [*parts, {"from_step": int(step), "shards_sha256": shards}]
+    atomic_write_text(Path(run_dir) / CONFIG_FILE, json.dumps(info, indent=2) + "\n")
+    was = "were not recorded" if before is None else f"were {before[:12]}"
+    return (
+        f"resuming at step {step} on training shards {shards[:12]}, not the bytes the run "
+        f"read so far (they {was}): the same scenes made on another machine can differ in "
+        "their last bits (docs/DATASET.md); config.json's train_data records from which step"
+    )
+
+
+def dataset_shards(dataset: Any) -> str | None:
+    """One SHA-256 naming the bytes of the shards behind ``dataset`` (an
+    :class:`~momakitchen.data.EpisodeDataset`, or a ``Subset`` / ``ConcatDataset`` of
+    such): its split's :func:`~momakitchen.data.manifest.split_checksum`; None for data
+    without a manifest (synthetic or in-memory)."""
+    if isinstance(dataset, Subset):
+        return dataset_shards(dataset.dataset)
+    if isinstance(dataset, ConcatDataset):
+        parts = [dataset_shards(d) for d in dataset.datasets]
+        if any(p is None for p in parts):
+            return None
+        return hashlib.sha256(" ".join(cast(list[str], parts)).encode()).hexdigest()
+    manifest = getattr(dataset, "manifest", None)
+    if not isinstance(manifest, dict) or not isinstance(manifest.get("shards"), dict):
+        return None
+    return split_checksum(manifest, getattr(dataset, "split", "all"))
 
 
 def read_run_config(run_dir: Path) -> tuple[TrainConfig, dict[str, Any]]:

@@ -14,6 +14,7 @@ import io
 import itertools
 import math
 import os
+import sys
 import time
 from collections.abc import Iterator, Sized
 from dataclasses import dataclass, field, replace
@@ -37,10 +38,12 @@ from momakitchen.perception.clouds import reuse_freed_memory
 from momakitchen.train.checkpoint import (
     WEIGHTS_FILE,
     dataset_preprocessing,
+    dataset_shards,
     has_checkpoint,
     load_trainer_state,
     load_weights,
     read_run_config,
+    record_train_data,
     require_checkpoint,
     run_preprocessing,
     save_trainer_state,
@@ -323,6 +326,7 @@ def _train(
         torch.set_num_threads(max(1, (os.cpu_count() or 1) // world))
     # The model learns the clouds of its training data: record how they were built.
     preprocessing = dataset_preprocessing(train_set) or Preprocessing()
+    shards = dataset_shards(train_set)  # and which bytes it read
     resumed = _check_resume(config, run_dir, resume, preprocessing)
     resuming = resumed is not None
     if resumed is not None:
@@ -337,7 +341,7 @@ def _train(
     if rank == 0:
         run_dir.mkdir(parents=True, exist_ok=True)
         if not resuming:
-            write_run_config(run_dir, config, preprocessing)
+            write_run_config(run_dir, config, preprocessing, shards)
     _barrier(world)
 
     torch.manual_seed(config.seed)
@@ -350,6 +354,9 @@ def _train(
     if resuming:
         load_weights(run_dir / WEIGHTS_FILE, model)
         progress = load_trainer_state(run_dir, optimizer)
+        note = record_train_data(run_dir, shards, progress["global_step"]) if rank == 0 else None
+        if note:
+            print(f"momakitchen train: warning: {note}", file=sys.stderr)
     elif init is not None:
         load_weights(init / WEIGHTS_FILE, model)
     if world > 1 or not resuming:
