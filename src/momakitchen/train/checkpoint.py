@@ -83,6 +83,10 @@ def write_run_config(
     }
     if shards is not None:
         info["train_data"] = [{"from_step": 0, "shards_sha256": shards}]
+    _write_info(run_dir, info)
+
+
+def _write_info(run_dir: Path, info: dict[str, Any]) -> None:
     atomic_write_text(Path(run_dir) / CONFIG_FILE, json.dumps(info, indent=2) + "\n")
 
 
@@ -99,7 +103,7 @@ def record_train_data(run_dir: Path, shards: str | None, step: int) -> str | Non
     if before == shards:
         return None
     info["train_data"] = [*parts, {"from_step": int(step), "shards_sha256": shards}]
-    atomic_write_text(Path(run_dir) / CONFIG_FILE, json.dumps(info, indent=2) + "\n")
+    _write_info(run_dir, info)
     was = "were not recorded" if before is None else f"were {before[:12]}"
     return (
         f"resuming at step {step} on training shards {shards[:12]}, not the bytes the run "
