@@ -32,7 +32,8 @@
 # committed), and a run found there is restored instead of trained again, so a bare machine
 # needs only the dataset remade (deterministic: the same bytes). Its test.json and msr.json
 # are archived too, keyed by the checksums of the test shards they were measured on, and
-# restored only onto a dataset whose test shards have those checksums. The bundled model
+# restored only onto a dataset whose test shards have those checksums; results measured on
+# other bytes of the same scenes go beside them, in shards-<checksum>/. The bundled model
 # is navaff-12ep's. To train a run again, delete its archive.
 # Smoke runs (TRAIN_OPTS set) archive nothing unless ARCHIVE is given.
 set -euo pipefail
@@ -130,29 +131,41 @@ archived() {  # name: the directory of the run's archived model, if there is one
   [[ -f "$dir/model.safetensors" ]] && echo "$dir"
 }
 
-same_data() {  # archive directory: were its results made on these test shards?
-  [[ "$(cat "$1/test-shards.sha256" 2>/dev/null)" == "$test_sum" ]]
+keyed() {  # archive dir: where results made on these test shards belong. Results made on
+  # other bytes of the same scenes (a machine whose floating point differs in the last bits)
+  # go beside the archived ones, in shards-<checksum>/, so that neither replaces the other.
+  local have
+  have=$(cat "$1/test-shards.sha256" 2>/dev/null || true)
+  if [[ -z "$have" || "$have" == "$test_sum" ]]; then echo "$1"; else echo "$1/shards-${test_sum:0:12}"; fi
 }
 
 restore_results() {  # archive dir, run dir, files: those the run lacks, if made on these shards
-  local from=$1 to=$2 f
+  local from to=$2 f
+  [[ -n "$ARCHIVE" ]] || return 0
+  from=$(keyed "$1")
   shift 2
-  if [[ -z "$ARCHIVE" ]] || ! same_data "$from"; then return 0; fi
+  [[ "$(cat "$from/test-shards.sha256" 2>/dev/null)" == "$test_sum" ]] || return 0
   for f in "$@"; do
     if [[ -f "$from/$f" && ! -f "$to/$f" ]]; then cp "$from/$f" "$to/"; fi
   done
 }
 
+archive_weights() {  # run dir, archive dir: a finished run's model (the same on any data)
+  [[ -n "$ARCHIVE" ]] || return 0
+  mkdir -p "$2"
+  cp "$1/config.json" "$1/model.safetensors" "$2/"
+}
+
 archive_results() {  # run dir, archive dir, files: keep them, keyed by these test shards
-  local from=$1 to=$2 f
+  local from=$1 to f
+  [[ -n "$ARCHIVE" ]] || return 0
+  to=$(keyed "$2")
   shift 2
-  if [[ -z "$ARCHIVE" ]]; then return 0; fi
   mkdir -p "$to"
   for f in "$@"; do
     if [[ -f "$from/$f" ]]; then cp "$from/$f" "$to/"; fi
   done
-  # (a train-only dataset has no test shards: the weights alone are kept)
-  if [[ "$SPLIT" != train ]]; then echo "$test_sum" >"$to/test-shards.sha256"; fi
+  echo "$test_sum" >"$to/test-shards.sha256"
 }
 
 run_one() {  # name, then train options: train (or restore), evaluate, MSR (MSR_RUNS only)
@@ -176,7 +189,7 @@ run_one() {  # name, then train options: train (or restore), evaluate, MSR (MSR_
     [[ -f "$RUNS/$name/trainer_state.json" ]] && resume=(--resume)
     # shellcheck disable=SC2086  # the options are words
     momakitchen train --data "$DATA" --out "$RUNS/$name" "${resume[@]}" --quiet "$@" $TRAIN_OPTS
-    archive_results "$RUNS/$name" "$ARCHIVE/$name" config.json model.safetensors
+    archive_weights "$RUNS/$name" "$ARCHIVE/$name"
   fi
   if [[ "$SPLIT" == train ]]; then return 0; fi  # scoring reads the test scenes
   if stale "$RUNS/$name/test.json" "$RUNS/$name/model.safetensors"; then
