@@ -238,9 +238,13 @@ more_views() {  # dir under RUNS, model they go stale with, msr options: MSR see
 stamp "dataset: $DATA"
 momakitchen generate --out "$DATA" --scenes "$SCENES" --first-scene-id "$FIRST" --workers 2 \
   --quiet ${SPLIT:+--split "$SPLIT"}
-# A full check hashes every shard (minutes); once it passed for this manifest, skip it.
-# (generate rewrites an unchanged manifest on resume, so compare contents, not times.)
-manifest_sum=$(sha256sum "$DATA/manifest.json" | cut -d' ' -f1)
+# A full check hashes every shard (minutes); once it passed for these shards, skip it.
+# (Key on the shards' entries, not the whole manifest: it also records the last request,
+# e.g. SPLIT, so it changes between runs whose shards are the same.)
+manifest_sum=$(python3 -c 'import hashlib, json, sys
+m = json.load(open(sys.argv[1]))
+print(hashlib.sha256(json.dumps([m["shards"], m["splits"]], sort_keys=True).encode()).hexdigest())' \
+  "$DATA/manifest.json")
 if [[ "$(cat "$RUNS/check.ok" 2>/dev/null)" != "$manifest_sum" ]]; then
   momakitchen check "$DATA" --quiet
   echo "$manifest_sum" >"$RUNS/check.ok"
