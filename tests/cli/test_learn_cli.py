@@ -1,6 +1,12 @@
 """`momakitchen train` / `evaluate` on a small synthetic dataset, and their bad input."""
 
 import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
 
 import pytest
 
@@ -188,3 +194,42 @@ def test_a_resume_on_other_bytes_of_the_data_is_recorded(dataset, tmp_path, caps
     assert f"were {sums[0][:12]}" in err
     assert train(other, 4, "--resume") == moved
     assert "warning" not in capsys.readouterr().err
+
+
+def test_sigterm_to_the_process_group_checkpoints_and_exits_143(dataset, tmp_path):
+    """``kill -- -PGID`` (as a batch system or a terminal's Ctrl-C reaches a run and its
+    DataLoader worker): the run writes a checkpoint at the step it reached, says so and
+    exits 128 + 15; ``--resume`` goes on from there."""
+    out = tmp_path / "run"
+    src = Path(__file__).resolve().parents[2] / "src"
+    env = {
+        **os.environ,
+        "PYTHONPATH": os.pathsep.join([str(src), os.environ.get("PYTHONPATH", "")]),
+    }
+    code = "import sys; from momakitchen.cli.main import main; sys.exit(main())"
+    argv = [sys.executable, "-c", code, "train", "--data", str(dataset), "--model", "navaff"]
+    argv += ["--out", str(out), "--batch-size", "2", "--workers", "1", "--quiet"]
+    proc = subprocess.Popen(
+        [*argv, "--max-steps", "100000"],
+        stderr=subprocess.PIPE,
+        text=True,
+        env=env,
+        start_new_session=True,
+    )
+    log = out / "log.csv"
+    deadline = time.monotonic() + 120
+    while not (log.exists() and len(log.read_text().splitlines()) > 2):  # a few steps on
+        assert proc.poll() is None, proc.stderr.read()
+        assert time.monotonic() < deadline, "no training step in 120 s"
+        time.sleep(0.2)
+    os.killpg(proc.pid, signal.SIGTERM)
+    stderr = proc.communicate(timeout=120)[1]
+    assert proc.returncode == 128 + signal.SIGTERM, stderr
+    state = json.loads((out / "trainer_state.json").read_text())["progress"]
+    assert f"stopped by SIGTERM at step {state['global_step']}, checkpoint written" in stderr
+    stopped_at = state["global_step"]
+    assert stopped_at >= 2
+    done = subprocess.run([*argv, "--resume", "--max-steps", str(stopped_at + 1)], env=env)
+    assert done.returncode == 0
+    state = json.loads((out / "trainer_state.json").read_text())["progress"]
+    assert state["global_step"] == stopped_at + 1

@@ -2,6 +2,8 @@ import csv
 import dataclasses
 import json
 import math
+import os
+import signal
 
 import numpy as np
 import pytest
@@ -171,6 +173,49 @@ def test_resume_within_an_epoch_continues_exactly(tmp_path, tiny_sets, make_conf
     assert all(torch.equal(a[k], b[k]) for k in a)
     assert [h["loss"] for h in resumed.history] == [h["loss"] for h in full.history]
     assert [h["samples"] for h in resumed.history] == [8, 8, 8]
+
+
+class _Signalling(torch.utils.data.Dataset):
+    """Sends this process ``signum`` at one item fetch, as ``kill`` or Ctrl-C would."""
+
+    def __init__(self, base, at, signum):
+        self.base, self.at, self.signum, self.count = base, at, signum, 0
+
+    def __len__(self):
+        return len(self.base)
+
+    def __getitem__(self, i):
+        self.count += 1
+        if self.count == self.at:
+            os.kill(os.getpid(), self.signum)
+        return self.base[i]
+
+
+@pytest.mark.parametrize(
+    ("at", "signum", "where"),
+    [
+        (10, signal.SIGTERM, (1, 1, 3)),  # within epoch 2: a checkpoint after its 1st step
+        (6, signal.SIGINT, (1, None, 2)),  # in epoch 1's last batch: the epoch's checkpoint
+    ],
+)
+def test_a_signal_stops_at_a_checkpoint_that_resumes_exactly(
+    tmp_path, tiny_sets, make_config, at, signum, where
+):
+    train_set, _ = tiny_sets  # 8 episodes, 2 steps an epoch
+    cfg = make_config(epochs=3)
+    full = train(cfg, train_set, None, tmp_path / "full")
+    before = signal.getsignal(signum)
+    cut = train(cfg, _Signalling(train_set, at, signum), None, tmp_path / "cut")
+    assert signal.getsignal(signum) is before  # the caller's handler is back
+    assert cut.stopped_by == signal.Signals(signum).name and full.stopped_by is None
+    progress = json.loads((tmp_path / "cut" / "trainer_state.json").read_text())["progress"]
+    assert (progress["epoch"], progress.get("epoch_step"), progress["global_step"]) == where
+    assert cut.global_step == where[2]
+    resumed = train(cfg, train_set, None, tmp_path / "cut", resume=True)
+    assert resumed.stopped_by is None and resumed.global_step == full.global_step == 6
+    a, b = full.model.state_dict(), resumed.model.state_dict()
+    assert all(torch.equal(a[k], b[k]) for k in a)
+    assert [h["loss"] for h in resumed.history] == [h["loss"] for h in full.history]
 
 
 def test_checkpoint_minutes_must_be_a_duration(make_config):

@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import argparse
 import json
+import signal
+import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -251,6 +253,13 @@ def run_train(args: argparse.Namespace) -> int:
     data = _dataset(args.data, "train")
     _probe_plugin(config, data)
     result = train(config, data, None, Path(args.out), resume=args.resume)
+    if result.stopped_by:
+        print(
+            f"momakitchen train: stopped by {result.stopped_by} at step {result.global_step}, "
+            f"checkpoint written: continue with --resume -> {args.out}",
+            file=sys.stderr,
+        )
+        return 128 + signal.Signals[result.stopped_by].value  # the shell's convention
     last = result.history[-1] if result.history else {}
     print(
         f"trained {config.model} ({config.preset} preset) on {len(data)} episodes: "

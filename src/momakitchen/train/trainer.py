@@ -14,7 +14,9 @@ import io
 import itertools
 import math
 import os
+import signal
 import sys
+import threading
 import time
 from collections.abc import Iterator, Sized
 from dataclasses import dataclass, field, replace
@@ -80,6 +82,7 @@ class TrainResult:
     model: AffordanceModel
     history: list[dict[str, Any]] = field(default_factory=list)
     global_step: int = 0
+    stopped_by: str | None = None  # "SIGTERM"/"SIGINT": checkpointed early, not finished
 
 
 def cosine_lr(config: TrainConfig, step: int, total_steps: int) -> float:
@@ -119,14 +122,49 @@ class _SkipSampler(Sampler[int]):
         return max(len(cast(Sized, self.sampler)) - self.skip, 0)
 
 
-def _checkpoint_due(due: bool, world: int) -> bool:
-    """Rank 0's clock decides when a checkpoint within an epoch is written; under DDP every
-    rank learns it (they all take part in summing the loss so far)."""
+def _rank0_flags(world: int, *flags: bool) -> tuple[bool, ...]:
+    """Rank 0's ``flags`` on every rank: its clock and the signals it got decide when a
+    checkpoint is written and when the run stops (every rank takes part in both)."""
     if world == 1:
-        return due
-    flag = torch.tensor([int(due)])
-    dist.broadcast(flag, 0)
-    return bool(flag.item())
+        return flags
+    tensor = torch.tensor([int(f) for f in flags])
+    dist.broadcast(tensor, 0)
+    return tuple(bool(v) for v in tensor.tolist())
+
+
+class _StopSignals:
+    """While entered, the first SIGTERM or SIGINT is recorded (``requested``) instead of
+    killing the run, so the loop can write a checkpoint and return; a second one acts as
+    it would have (the previous handler is back). Outside the main thread, a no-op."""
+
+    SIGNALS = (signal.SIGTERM, signal.SIGINT)
+
+    def __init__(self) -> None:
+        self.requested: str | None = None
+        self._previous: dict[int, Any] = {}
+
+    def _handle(self, signum: int, frame: Any) -> None:
+        self.requested = signal.Signals(signum).name
+        for sig, handler in self._previous.items():
+            signal.signal(sig, handler)
+
+    def __enter__(self) -> _StopSignals:
+        if threading.current_thread() is threading.main_thread():
+            self._previous = {sig: signal.getsignal(sig) for sig in self.SIGNALS}
+            for sig in self.SIGNALS:
+                signal.signal(sig, self._handle)
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        for sig, handler in self._previous.items():
+            signal.signal(sig, handler)
+
+
+def _ignore_stop_signals(worker_id: int) -> None:
+    """DataLoader workers leave a stop to the main process (a terminal's Ctrl-C and
+    ``kill -- -PGID`` reach them too); they end when it shuts them down."""
+    for sig in _StopSignals.SIGNALS:
+        signal.signal(sig, signal.SIG_IGN)
 
 
 def _barrier(world: int) -> None:
@@ -298,14 +336,16 @@ def train(
     ``config.checkpoint_minutes`` within one). With ``resume=True`` a run directory that
     holds a checkpoint continues exactly where it was written (same model
     and sizes required; one without a checkpoint is refused); without it, a directory
-    that holds one is refused.
+    that holds one is refused. A SIGTERM or SIGINT (in the main thread) ends the run after
+    the current step with a checkpoint there; the result's ``stopped_by`` names the signal.
     """
     if len(cast(Sized, train_set)) == 0:  # map-style datasets have a length
         raise MomaError("the training set is empty")
     run_dir = Path(out_dir)
     rank, world, created_group = _dist_setup()
     try:
-        return _train(config, train_set, val_set, run_dir, resume, rank, world)
+        with _StopSignals() as stop:
+            return _train(config, train_set, val_set, run_dir, resume, rank, world, stop)
     finally:
         if created_group:
             dist.destroy_process_group()
@@ -319,6 +359,7 @@ def _train(
     resume: bool,
     rank: int,
     world: int,
+    stop: _StopSignals,
 ) -> TrainResult:
     if config.num_threads:
         torch.set_num_threads(config.num_threads)
@@ -375,6 +416,7 @@ def _train(
         sampler=resumable,
         collate_fn=collate,
         num_workers=config.num_workers,
+        worker_init_fn=_ignore_stop_signals if config.num_workers else None,
     )
     val_loader = None
     if val_set is not None and len(cast(Sized, val_set)) > 0 and rank == 0:
@@ -405,6 +447,7 @@ def _train(
     # Making the loader's iterator draws its worker seed from the torch RNG, which the
     # uninterrupted run did at the epoch's start: restore the saved state after it.
     resume_rng = torch.get_rng_state() if done_in_epoch else None
+    stopped = False
     for epoch in range(progress["epoch"], config.epochs):
         if step >= total_steps:
             break
@@ -464,11 +507,13 @@ def _train(
                 # checkpoint's step).
                 _write_log(log_path, rows)
             done_in_epoch += 1
-            if config.checkpoint_minutes and _checkpoint_due(
+            if done_in_epoch >= steps_per_epoch:
+                continue  # the epoch's end writes its checkpoint
+            timed = bool(config.checkpoint_minutes) and (
                 time.perf_counter() - last_save >= 60 * config.checkpoint_minutes
-                and done_in_epoch < steps_per_epoch,
-                world,
-            ):
+            )
+            due, stopped = _rank0_flags(world, timed, stop.requested is not None)
+            if due or stopped:
                 # Every rank's loss so far goes into the checkpoint (rank 0's share of a
                 # resumed epoch), so the epoch's mean covers all of it.
                 so_far = loss_sum.clone()
@@ -488,6 +533,10 @@ def _train(
                     )
                     _write_log(log_path, rows)
                 last_save = time.perf_counter()
+                if stopped:
+                    break
+        if stopped:
+            break
         done_in_epoch = 0
         seconds = seconds_before + time.perf_counter() - t0
         if world > 1:
@@ -505,12 +554,13 @@ def _train(
             "seconds": seconds,
         }
         last = epoch + 1 == config.epochs or step >= total_steps
+        stopped = _rank0_flags(world, stop.requested is not None)[0] and not last
         if rank == 0:
             if val_loader is not None and ((epoch + 1) % config.val_every == 0 or last):
                 record.update(validate(model, val_loader, progress=show))
             history.append(record)
             rows.append({k: (f"{v:.6g}" if isinstance(v, float) else v) for k, v in record.items()})
-            if (epoch + 1) % config.checkpoint_every == 0 or last:
+            if (epoch + 1) % config.checkpoint_every == 0 or last or stopped:
                 save_weights(run_dir / WEIGHTS_FILE, model)
                 save_trainer_state(
                     run_dir,
@@ -525,5 +575,7 @@ def _train(
                 msg = ", ".join(f"{k} {v:.4g}" for k, v in record.items() if isinstance(v, float))
                 tqdm.write(f"epoch {epoch + 1}: {msg}")
         _barrier(world)
+        if stopped:
+            break
     model.eval()
-    return TrainResult(run_dir, model, history, step)
+    return TrainResult(run_dir, model, history, step, stop.requested if stopped else None)
