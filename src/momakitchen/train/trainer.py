@@ -426,6 +426,7 @@ def _train(
             shuffle=False,
             collate_fn=collate,
             num_workers=config.num_workers,
+            worker_init_fn=_ignore_stop_signals if config.num_workers else None,
         )
     steps_per_epoch = math.ceil(len(sampler) / config.batch_size)
     total_steps = config.epochs * steps_per_epoch
