@@ -4,12 +4,11 @@ import json
 import os
 import signal
 import subprocess
-import sys
 import time
-from pathlib import Path
 
 import pytest
 
+from cli_process import cli_process
 from momakitchen.cli.main import main
 
 
@@ -201,14 +200,10 @@ def test_sigterm_to_the_process_group_checkpoints_and_exits_143(dataset, tmp_pat
     DataLoader worker): the run writes a checkpoint at the step it reached, says so and
     exits 128 + 15; ``--resume`` goes on from there."""
     out = tmp_path / "run"
-    src = Path(__file__).resolve().parents[2] / "src"
-    env = {
-        **os.environ,
-        "PYTHONPATH": os.pathsep.join([str(src), os.environ.get("PYTHONPATH", "")]),
-    }
-    code = "import sys; from momakitchen.cli.main import main; sys.exit(main())"
-    argv = [sys.executable, "-c", code, "train", "--data", str(dataset), "--model", "navaff"]
-    argv += ["--out", str(out), "--batch-size", "2", "--workers", "1", "--quiet"]
+    argv, env = cli_process(
+        *("train", "--data", str(dataset), "--model", "navaff", "--out", str(out)),
+        *("--batch-size", "2", "--workers", "1", "--quiet"),
+    )
     proc = subprocess.Popen(
         [*argv, "--max-steps", "100000"],
         stderr=subprocess.PIPE,

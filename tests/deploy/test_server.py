@@ -5,10 +5,8 @@ from __future__ import annotations
 
 import io
 import json
-import os
 import re
 import subprocess
-import sys
 import threading
 import urllib.error
 import urllib.request
@@ -17,6 +15,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
+from cli_process import cli_process
 
 pytest.importorskip("aiohttp")
 
@@ -39,13 +39,9 @@ def episodes(real_view):
 @pytest.fixture(scope="module")
 def server():
     """``momakitchen serve`` in its own process on a free port of 127.0.0.1."""
-    env = {
-        **os.environ,
-        "PYTHONPATH": os.pathsep.join([str(ROOT / "src"), os.environ.get("PYTHONPATH", "")]),
-    }
-    code = "import sys; from momakitchen.cli.main import main; sys.exit(main())"
+    argv, env = cli_process("serve", "--host", "127.0.0.1", "--port", "0")
     proc = subprocess.Popen(
-        [sys.executable, "-c", code, "serve", "--host", "127.0.0.1", "--port", "0"],
+        argv,
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
