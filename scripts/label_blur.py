@@ -2,8 +2,9 @@
 
 Noise-aware training (``EpisodeDataset.use_sensor_noise``) labels each rebuilt floor point
 with the stored map *where the floor-corrected frame puts it*. The floor fit undoes the
-camera's height, pitch and roll errors but cannot see yaw, so the rebuilt scene is turned
-(and, with depth noise, slightly moved) against the labels: the physical floor point p is
+camera's height and pitch errors but sees no turn about the vertical (yaw, and the part of
+a roll a downward-looking camera makes one), nor a monocular depth's warp, so the rebuilt
+scene is turned or moved against the labels: the physical floor point p is
 taught the label of ``R p``, with ``R`` the residual of the believed camera pose (the
 correction applied to the calibrated one) against the true one. A frame does not show
 ``R``, so a model trained this way can at best learn the mean target over the draws, even
