@@ -8,7 +8,7 @@ scene is turned or moved against the labels: the physical floor point p is
 taught the label of ``R p``, with ``R`` the residual of the believed camera pose (the
 correction applied to the calibrated one) against the true one. A frame does not show
 ``R``, so a model trained this way can at best learn the mean target over the draws, even
-for a clean frame. Per training episode (every ``--every``-th of the train split) and
+for a clean frame. Per episode (every ``--every``-th of the ``--split``) and
 augmentation, this script draws ``--draws`` corruptions exactly as training does and
 reports:
 
@@ -21,7 +21,7 @@ reports:
 It runs no model and no trial; a mask error's move of the target is left out (see
 ``robustness_ceiling.py``).
 
-    python scripts/label_blur.py --data DIR [--every 400] [--draws 8] [--json F]
+    python scripts/label_blur.py --data DIR [--split train] [--every 400] [--draws 8] [--json F]
 """
 
 from __future__ import annotations
@@ -63,7 +63,7 @@ def mixes() -> dict[str, Callable[[np.random.Generator], Any]]:
     }
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
     from scipy.spatial import cKDTree
 
     from momakitchen.data import EpisodeDataset
@@ -77,13 +77,16 @@ def main() -> None:
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--data", type=Path, required=True)
-    ap.add_argument("--every", type=int, default=400, help="every N-th train episode")
+    ap.add_argument("--split", default="train", help="the episodes drawn from")
+    ap.add_argument("--every", type=int, default=400, help="every N-th episode of the split")
     ap.add_argument("--draws", type=int, default=8)
     ap.add_argument("--json", type=Path, default=None)
-    args = ap.parse_args()
+    args = ap.parse_args(argv)
     if args.every < 1 or args.draws < 2:
         raise MomaError(f"--every must be >= 1 and --draws >= 2, got {args.every}, {args.draws}")
-    data = EpisodeDataset(args.data, "train")
+    data = EpisodeDataset(args.data, args.split)
+    if len(data) == 0:
+        raise MomaError(f"{args.data}: no {args.split} episodes")
     data.use_sensor_noise(SensorAugmentation())
     pre = data.preprocessing
     draws = mixes()
