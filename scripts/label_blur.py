@@ -10,7 +10,8 @@ correction applied to the calibrated one) against the true one. A frame does not
 ``R``, so a model trained this way can at best learn the mean target over the draws, even
 for a clean frame. Per episode (every ``--every``-th of the ``--split``) and
 augmentation, this script draws ``--draws`` corruptions exactly as training does and
-reports:
+reports, over the draws whose frame training can use (the rest, served clean, are left
+out):
 
 - ``shift_cm``: how far ``R`` moves the episode's stored floor points (median over
   points, then over draws and episodes);
@@ -68,6 +69,7 @@ def main(argv: list[str] | None = None) -> None:
 
     from momakitchen.data import EpisodeDataset
     from momakitchen.data.episode import stored_frame
+    from momakitchen.data.shard import SceneShard
     from momakitchen.data.torch_dataset import LABEL_RADIUS, NOISE_FIELDS, NOISE_KEEPS
     from momakitchen.errors import MomaError
     from momakitchen.frames import transform
@@ -93,7 +95,8 @@ def main(argv: list[str] | None = None) -> None:
     rows: dict[str, list[dict]] = {name: [] for name in draws}
     for i in range(0, len(data), args.every):
         file, sid, c, e, _ = data.index[i]
-        a = data._shard(file).arrays(c, e, NOISE_KEEPS + NOISE_FIELDS)
+        with SceneShard(args.data / file) as shard:
+            a = shard.arrays(c, e, NOISE_KEEPS + NOISE_FIELDS)
         frame = stored_frame(a)
         floor = a["floor_xyz"].astype(np.float64)
         truth = a["floor_label"].astype(np.float64)
@@ -113,7 +116,7 @@ def main(argv: list[str] | None = None) -> None:
                         pre.cloud, pre.max_depth, metric_depth=corruption.preset.depth.metric,
                     )  # fmt: skip
                 except MomaError:
-                    continue  # training serves the clean sample: taught the truth
+                    continue  # a frame training cannot use (it serves the clean sample)
                 believed = clouds.correction.matrix @ bad.camera_to_base
                 moved = transform(believed @ np.linalg.inv(frame.camera_to_base), floor)
                 dist, near = tree.query(moved[:, :2], distance_upper_bound=LABEL_RADIUS)
