@@ -43,8 +43,7 @@ RECIPES = Path(__file__).resolve().parent / "recipes"
 def mixes() -> dict[str, tuple[Callable[[np.random.Generator], Any], bool]]:
     """What is drawn per episode, and whether the draw is random: the training mixes, then
     single errors that say which part of a mix moves the labels."""
-    import yaml
-
+    from momakitchen.codec import load_config_file
     from momakitchen.perception.sensors import CalibrationError, Corruption, SensorAugmentation
     from momakitchen.train.config import TrainConfig
 
@@ -52,8 +51,7 @@ def mixes() -> dict[str, tuple[Callable[[np.random.Generator], Any], bool]]:
         return (lambda rng: Corruption(calibration=CalibrationError(**kw))), False
 
     default = SensorAugmentation()
-    recipe = yaml.safe_load((RECIPES / "sensor_noise_mild.yaml").read_text())
-    mild = TrainConfig.from_dict(recipe).sensor_augmentation
+    mild = load_config_file(RECIPES / "sensor_noise_mild.yaml", TrainConfig).sensor_augmentation
     return {
         "default mix": (default.draw, True),
         "mild mix": (mild.draw, True),
