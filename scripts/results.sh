@@ -34,7 +34,7 @@
 # are archived too, keyed by the checksums of the test shards they were measured on, and
 # restored only onto a dataset whose test shards have those checksums; results measured on
 # other bytes of the same scenes go beside them, in shards-<checksum>/. The bundled model
-# is navaff-12ep's. To train a run again, delete its archive.
+# is navaff-12ep-noise-mild's. To train a run again, delete its archive.
 # Smoke runs (TRAIN_OPTS set) archive nothing unless ARCHIVE is given.
 set -euo pipefail
 
@@ -87,13 +87,13 @@ RUN_LIST=(
   "lambda-0.7 --model navaff --lambda-zero 0.7 $NODROP"
   "lambda-1.0 --model navaff --lambda-zero 1.0 $NODROP"
   # The 12-epoch pair again, every sample seen through a random real sensor, segmenter
-  # and calibration (train --sensor-noise, docs/SENSORS.md): the candidates to replace the
+  # and calibration (train --sensor-noise, docs/SENSORS.md): the candidates for the
   # bundled model. The sample rebuild dominates (about 3 times the clean runs' CPU time):
   # two DataLoader workers rebuild while one thread trains.
   "navaff-12ep-noise --model navaff --epochs 12 --sensor-noise --workers 2 --threads 1"
   "pointnet2-12ep-noise --model pointnet2 --epochs 12 --sensor-noise --workers 2 --threads 1"
   # The pair with milder noise (half the frames ideal, half the calibrations exact): the
-  # default noise cost the pair 0.012 and 0.015 of clean test PCC.
+  # default noise cost the pair 0.012 and 0.015 of clean test PCC. NavAff's is the bundled model.
   "navaff-12ep-noise-mild --model navaff --config $REPO/scripts/recipes/sensor_noise_mild.yaml --workers 2 --threads 1"
   "pointnet2-12ep-noise-mild --model pointnet2 --config $REPO/scripts/recipes/sensor_noise_mild.yaml --workers 2 --threads 1"
 )
