@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import argparse
 
-import numpy as np
 from script_cli import run_main
 
 import momakitchen
@@ -49,9 +48,8 @@ def main() -> None:
     )
     ids = (sid, a.config_index, a.episode_index)
     frame = corrupt_frame(episode_frame(episode), corruption, corruption_rng(0, ids, "picture"))
-    depth = np.where(frame.depth > 0, frame.depth, np.nan)
     pred = momakitchen.predict(
-        depth,
+        frame.depth,  # 0 where the sensor gave nothing: predict ignores those pixels
         frame.intrinsics,
         frame.camera_to_base,
         frame.target_mask,
@@ -60,8 +58,11 @@ def main() -> None:
         obstacle_masks=list(frame.obstacle_masks),
         checkpoint=a.checkpoint,
         episode_id=ids,
+        metric_depth=corruption.preset.depth.metric,
     )
-    files = write_outputs(pred, a.out, frame.rgb, depth, frame.intrinsics, frame.camera_to_base)
+    files = write_outputs(
+        pred, a.out, frame.rgb, frame.depth, frame.intrinsics, frame.camera_to_base
+    )
     correction = pred.correction.to_dict() if pred.correction else None
     print(f"scene {sid}, {robot}: floor correction {correction}")
     print("wrote " + ", ".join(str(f) for f in files.values()))
