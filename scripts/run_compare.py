@@ -12,20 +12,14 @@ Each RUN directory holds the ``test.json`` of ``evaluate`` and the ``msr.json`` 
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
 from script_cli import run_main
 
 from momakitchen.errors import MomaError
+from momakitchen.eval.msr import merge_msr
 from momakitchen.eval.report import paired_map_table, paired_table
-
-
-def _load(path: Path) -> dict:
-    try:
-        return json.loads(path.read_text())
-    except (OSError, ValueError) as exc:
-        raise MomaError(f"cannot read {path}: {exc}") from exc
+from momakitchen.fileio import read_json_object
 
 
 def main() -> None:
@@ -34,28 +28,25 @@ def main() -> None:
     args = ap.parse_args()
     if len(args.runs) < 2 or any("=" not in r for r in args.runs):
         raise MomaError(f"give two or more NAME=RUN, got {' '.join(args.runs)}")
-    reports, outcomes = [], {}
+    reports, parts = [], []
     for item in args.runs:
         name, run = item.split("=", 1)
-        reports.append({**_load(Path(run) / "test.json"), "model": name})
-        msr = _load(Path(run) / "msr.json")
-        if len(msr["methods"]) != 1:
-            raise MomaError(f"{run}/msr.json holds {len(msr['methods'])} methods, expected 1")
+        reports.append({**read_json_object(Path(run) / "test.json"), "model": name})
+        msr = read_json_object(Path(run) / "msr.json")
+        if len(msr.get("methods", {})) != 1:
+            raise MomaError(
+                f"{run}/msr.json holds {len(msr.get('methods', {}))} methods, expected 1"
+            )
+        # Each run's one method renamed to its NAME, so merge_msr pairs them view by view.
         (method,) = msr["methods"]
-        outcomes[name] = {
-            (r["scene_id"], r["config_index"]): r["methods"][method] for r in msr["records"]
-        }
-    keys = sorted(set.intersection(*(set(o) for o in outcomes.values())))
-    if not keys:
-        raise MomaError("the runs' msr.json share no configuration")
-    # One MSR result holding every run as a method, on the configurations all of them have.
-    merged = {
-        "methods": {name: {} for name in outcomes},
-        "records": [{"methods": {n: o[k] for n, o in outcomes.items()}} for k in keys],
-    }
+        msr["methods"] = {name: msr["methods"][method]}
+        for rec in msr.get("records", []):
+            rec["methods"] = {name: rec["methods"][method]}
+        parts.append((f"{run}/msr.json", msr))
+    merged = merge_msr(parts)
     print("\n".join(paired_map_table(reports)))
     print()
-    print("\n".join(paired_table(merged, next(iter(outcomes)))))
+    print("\n".join(paired_table(merged, next(iter(merged["methods"])))))
 
 
 if __name__ == "__main__":

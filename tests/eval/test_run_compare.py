@@ -18,10 +18,18 @@ def _run(tmp: Path, name: str, pcc: list[float], top1: list[int]) -> Path:
     scenes = {str(s): {"pcc": p, "sim": p, "rmse": 1 - p, "ciou": p} for s, p in enumerate(pcc)}
     (run / "test.json").write_text(json.dumps({"model": "pointnet2", "per_scene": scenes}))
     records = [
-        {"scene_id": 0, "config_index": c, "methods": {"pointnet2": {"outcomes": [o]}}}
+        {
+            "scene_id": 0,
+            "config_index": c,
+            "episode_index": c,
+            "robot": "franka",
+            "target": "cup",
+            "feasible": True,
+            "methods": {"pointnet2": {"outcomes": [o]}},
+        }
         for c, o in enumerate(top1)
     ]
-    msr = {"methods": {"pointnet2": {}}, "records": records}
+    msr = {"dataset": "d", "config": {}, "methods": {"pointnet2": {}}, "records": records}
     (run / "msr.json").write_text(json.dumps(msr))
     return run
 
