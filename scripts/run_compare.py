@@ -33,12 +33,11 @@ def main() -> None:
         name, run = item.split("=", 1)
         reports.append({**read_json_object(Path(run) / "test.json"), "model": name})
         msr = read_json_object(Path(run) / "msr.json")
-        if len(msr.get("methods", {})) != 1:
-            raise MomaError(
-                f"{run}/msr.json holds {len(msr.get('methods', {}))} methods, expected 1"
-            )
+        methods = msr.get("methods", {})
+        if len(methods) != 1:
+            raise MomaError(f"{run}/msr.json holds {len(methods)} methods, expected 1")
         # Each run's one method renamed to its NAME, so merge_msr pairs them view by view.
-        (method,) = msr["methods"]
+        (method,) = methods
         msr["methods"] = {name: msr["methods"][method]}
         for rec in msr.get("records", []):
             rec["methods"] = {name: rec["methods"][method]}
