@@ -38,7 +38,7 @@ def main() -> None:
             raise MomaError(f"{run}/msr.json holds {len(methods)} methods, expected 1")
         # Each run's one method renamed to its NAME, so merge_msr pairs them view by view.
         (method,) = methods
-        msr["methods"] = {name: msr["methods"][method]}
+        msr["methods"] = {name: methods[method]}
         for rec in msr.get("records", []):
             rec["methods"] = {name: rec["methods"][method]}
         parts.append((f"{run}/msr.json", msr))
