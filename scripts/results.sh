@@ -101,10 +101,11 @@ RUN_LIST=(
   "pointnet2-12ep-noise-mild-masks --model pointnet2 --config $REPO/scripts/recipes/sensor_noise_mild_masks.yaml --workers 2 --threads 1"
 )
 MAIN=(navaff pointnet2 votenet h3dnet)  # compared in closed loop
-MSR_RUNS=("${MAIN[@]}" navaff-seed1 navaff-12ep navaff-12ep-seed1
-  pointnet2-seed1 pointnet2-12ep pointnet2-12ep-seed1 votenet-12ep h3dnet-12ep
-  navaff-12ep-noise pointnet2-12ep-noise navaff-12ep-noise-mild pointnet2-12ep-noise-mild
+# The noise-trained runs above: run in closed loop and on the real-sensor track.
+NOISE_RUNS=(navaff-12ep-noise pointnet2-12ep-noise navaff-12ep-noise-mild pointnet2-12ep-noise-mild
   pointnet2-12ep-noise-mild-masks)
+MSR_RUNS=("${MAIN[@]}" navaff-seed1 navaff-12ep navaff-12ep-seed1
+  pointnet2-seed1 pointnet2-12ep pointnet2-12ep-seed1 votenet-12ep h3dnet-12ep "${NOISE_RUNS[@]}")
 # Second seeds of the 12-epoch pair, also judged on four more views per configuration
 # (RUN/views/msr-seed1..4.json, Top-1), as the pair is below ($RUNS/views).
 VIEW_RUNS=(navaff-12ep-seed1 pointnet2-12ep-seed1)
@@ -113,8 +114,7 @@ VIEW_RUNS=(navaff-12ep-seed1 pointnet2-12ep-seed1)
 # --scenes 35 --first-scene-id 450000 --split test), when given: each run's as soon as it
 # is trained, to results/robustness/after-RUN.json (benchmark --robustness merges them).
 ROB_DATA=${ROB_DATA:-}
-ROB_RUNS=(navaff-12ep-noise pointnet2-12ep-noise navaff-12ep-noise-mild pointnet2-12ep-noise-mild
-  pointnet2-12ep-noise-mild-masks)
+ROB_RUNS=("${NOISE_RUNS[@]}")
 # Runs at a time. On a 2-core machine, three one-thread NavAff trainings side by side
 # trained 28 samples/s in total, one two-thread training 23.
 PARALLEL=${PARALLEL:-2}
