@@ -109,12 +109,11 @@ MSR_RUNS=("${MAIN[@]}" navaff-seed1 navaff-12ep navaff-12ep-seed1
 # Second seeds of the 12-epoch pair, also judged on four more views per configuration
 # (RUN/views/msr-seed1..4.json, Top-1), as the pair is below ($RUNS/views).
 VIEW_RUNS=(navaff-12ep-seed1 pointnet2-12ep-seed1)
-# The real-sensor track (robustness, every corruption) of the noise-trained pair on ROB_DATA
+# The real-sensor track (robustness, every corruption) of NOISE_RUNS on ROB_DATA
 # (the held-out scenes of docs/RESULTS.md's robustness section: generate --out ROB_DATA
 # --scenes 35 --first-scene-id 450000 --split test), when given: each run's as soon as it
 # is trained, to results/robustness/after-RUN.json (benchmark --robustness merges them).
 ROB_DATA=${ROB_DATA:-}
-ROB_RUNS=("${NOISE_RUNS[@]}")
 # Runs at a time. On a 2-core machine, three one-thread NavAff trainings side by side
 # trained 28 samples/s in total, one two-thread training 23.
 PARALLEL=${PARALLEL:-2}
@@ -207,7 +206,7 @@ run_one() {  # name, then train options: train (or restore), evaluate, MSR (MSR_
     momakitchen msr --data "$DATA" --checkpoint "$RUNS/$name" --json "$RUNS/$name/msr.json" --quiet
   fi
   archive_results "$RUNS/$name" "$ARCHIVE/$name" test.json msr.json
-  if [[ -n "$ROB_DATA" && " ${ROB_RUNS[*]} " == *" $name "* ]]; then
+  if [[ -n "$ROB_DATA" && " ${NOISE_RUNS[*]} " == *" $name "* ]]; then
     robustness_of "$name"
   fi
   if [[ " ${VIEW_RUNS[*]} " == *" $name "* ]]; then
