@@ -1,16 +1,21 @@
 """The README's set-up installs what it says (the CPU build of PyTorch, from PyTorch's
-index) and its tour is one path: the dataset it generates has both splits, and the
-commands after it read that dataset and the runs the tour trains."""
+index); its tour is one path (the dataset it generates has both splits, and the commands
+after it read that dataset and the runs the tour trains) with a command for every
+subcommand; its results table is the archived runs' figures; it stays a ten-minute read."""
 
 from __future__ import annotations
 
+import json
 import re
 import shlex
 from pathlib import Path
 
+from momakitchen.cli.main import COMMANDS
 from momakitchen.data.manifest import scene_split
 
-README = (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
+ROOT = Path(__file__).resolve().parents[1]
+README = (ROOT / "README.md").read_text(encoding="utf-8")
+RUNS = ROOT / "results" / "runs"
 CPU_INDEX = "--index-url https://download.pytorch.org/whl/cpu"
 
 
@@ -25,9 +30,10 @@ def _commands(text: str) -> list[list[str]]:
     out = []
     for block in re.findall(r"```bash\n(.*?)```", text, re.S):
         for line in block.replace("\\\n", " ").splitlines():
-            line = re.sub(r"\[[^\]]*\]", "", line.split("#")[0]).strip()
-            if line.startswith("momakitchen "):
-                out.append(shlex.split(line))
+            line = re.sub(r"\[[^\]]*\]", "", line.split("#")[0])
+            for part in line.split("&&"):
+                if part.strip().startswith("momakitchen "):
+                    out.append(shlex.split(part))
     return out
 
 
@@ -77,9 +83,99 @@ def test_the_index_url_is_explained_to_users_in_two_sentences():
     assert len(re.findall(r"[.!?](?:\s|$)", paragraph.strip())) == 2, paragraph
 
 
-def test_the_msr_section_keeps_its_table_and_one_paragraph():
-    """The statistics live in docs/RESULTS.md; after its table the README says one thing."""
-    section = _section("## A tour of the commands")
-    msr = section[section.index("### `momakitchen msr`") : section.index("### `momakitchen audit`")]
-    after = msr[msr.rindex("\n|") :].split("\n", 2)[2].strip()
-    assert len(after.split("\n\n")) == 1 and "docs/RESULTS.md" in after, after
+def test_every_subcommand_has_a_command_in_the_readme():
+    used = {argv[1] for argv in _commands(README)}
+    assert set(COMMANDS) <= used, sorted(set(COMMANDS) - used)
+
+
+def _slug(heading: str) -> str:
+    """GitHub's anchor of a heading: lower case, punctuation dropped, spaces to hyphens."""
+    return re.sub(r"[^\w\- ]", "", heading.strip().lower()).replace(" ", "-")
+
+
+def test_the_contents_links_reach_headings():
+    anchors = {_slug(h) for h in re.findall(r"^#+ (.+)$", README, re.M)}
+    contents = _section("## Contents")
+    links = re.findall(r"\]\(#([^)]+)\)", README)
+    assert len(re.findall(r"\]\(#", contents)) >= 10, contents
+    assert not [a for a in links if a not in anchors], sorted(anchors)
+    tour = _section("## A tour of the commands")
+    entries = {_slug(h) for h in re.findall(r"^### (.+)$", tour, re.M)}
+    assert entries <= set(re.findall(r"\]\(#([^)]+)\)", contents)), entries
+
+
+def test_a_ten_minute_read():
+    """Short, narrow, the results and the real robot before the tour, and each tour entry
+    one command block and one short paragraph (the rest lives in docs/)."""
+    lines = README.splitlines()
+    assert len(lines) < 250
+    setup = re.search(r"```bash\n(.*?)\n", _section("## Set-up"), re.S).group(1)
+    wide = [(i, len(line)) for i, line in enumerate(lines, 1) if len(line) > 100 and line != setup]
+    assert not wide, wide
+    order = ["## Set-up", "## Contents", "## Our results beside the paper's", "## On a real robot"]
+    order.append("## A tour of the commands")
+    starts = [README.index(title) for title in order]
+    assert starts == sorted(starts)
+    assert README[: starts[3]].count("\n") < 100  # "On a real robot" within the first 100 lines
+    tour = _section("## A tour of the commands")
+    for entry in re.split(r"\n(?=### )", tour)[1:]:
+        assert entry.count("```bash") == 1, entry
+        prose = re.sub(r"```.*?```", "", entry, flags=re.S)
+        prose = [p for p in prose.split("\n\n")[1:] if p.strip() and not p.startswith("![")]
+        assert len(prose) == 1 and prose[0].strip().count("\n") < 4, entry
+
+
+PAPER = {  # the paper's figures (docs/DESIGN.md)
+    "NavAff RMSE ↓": "0.147",
+    "NavAff logMSE ↓": "0.0115",
+    "NavAff PCC ↑": "0.680",
+    "NavAff SIM ↑": "0.696",
+    "NavAff Top-1 MSR": "72 %",
+    "NavAff Top-5 MSR": "66 %",
+    "PointNet++ Top-1 MSR": "60 %",
+    "VoteNet Top-1 MSR": "56 %",
+    "H3DNet Top-1 MSR": "54 %",
+    "random": "8 %",
+    "oracle": "–",
+}
+
+
+def _figures(run: str) -> dict[str, str]:
+    """A run's figures as the README rounds them, from its archived reports."""
+    metrics = json.loads((RUNS / run / "test.json").read_text())["metrics"]
+    (rates,) = json.loads((RUNS / run / "msr.json").read_text())["methods"].values()
+    return {
+        "RMSE": f"{metrics['rmse']:.3f}",
+        "logMSE": f"{metrics['logmse']:.4f}",
+        "PCC": f"{metrics['pcc']:.3f}",
+        "SIM": f"{metrics['sim']:.3f}",
+        "Top-1": f"{100 * rates['top1']:.1f} %",
+        "Top-5": f"{100 * rates['topk']:.1f} %",
+    }
+
+
+def test_the_results_table_is_the_archived_runs():
+    """Ours: `navaff-12ep`, the bundled model (`navaff-12ep-noise-mild`) and the 12-epoch
+    baselines, each from its test.json / msr.json; the paper's as it reports them."""
+    section = _section("## Our results beside the paper's")
+    rows = [[c.strip() for c in line.strip("|").split("|")] for line in section.splitlines()]
+    rows = [r for r in rows if len(r) == 4 and not r[0].startswith(("---", "figure"))]
+    baselines = json.loads((RUNS / "msr-baselines.json").read_text())["methods"]
+    runs = {
+        f"{m} Top-1 MSR": f"{r}-12ep"
+        for m, r in [("PointNet++", "pointnet2"), ("VoteNet", "votenet"), ("H3DNet", "h3dnet")]
+    }
+    navaff, bundled = _figures("navaff-12ep"), _figures("navaff-12ep-noise-mild")
+    seen = set()
+    for name, paper, ours, ours_bundled in rows:
+        key = next(k for k in PAPER if name.startswith(k))
+        seen.add(key)
+        assert paper == PAPER[key], name
+        metric = next(m for m in navaff if f" {m} " in f" {name} ")
+        if name.startswith("NavAff"):
+            assert (ours, ours_bundled) == (navaff[metric], bundled[metric]), name
+        elif key in runs:
+            assert (ours, ours_bundled) == (_figures(runs[key])[metric], ""), name
+        else:
+            assert (ours, ours_bundled) == (f"{100 * baselines[key]['top1']:.1f} %", ""), name
+    assert seen == set(PAPER)
