@@ -12,7 +12,14 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 T0 = 1_700_000_000 * 10**9  # the recording's clock (ns)
-FRAME_NS = [T0 + 1_000_000_000, T0 + 2_000_000_000]  # the depth frames' stamps
+
+
+def frame_stamps(n: int) -> list[int]:
+    """The stamps of a recording's ``n`` depth frames: one a second from T0 + 1 s."""
+    return [T0 + (i + 1) * 1_000_000_000 for i in range(n)]
+
+
+FRAME_NS = frame_stamps(2)  # the depth frames' stamps of a two-frame recording
 RGB_DELAY_NS = 4_000_000  # colour (and the masks made from it) 4 ms after the depth
 DEPTH = "/camera/aligned_depth_to_color/image_raw"
 INFO = "/camera/color/camera_info"
@@ -20,6 +27,19 @@ RGB = "/camera/color/image_raw"
 MASK = "/segmenter/target_mask"
 OBSTACLES = "/segmenter/obstacle_mask"
 CAMERA = "camera_color_optical_frame"
+# predict --bag's options for the topics write_bag records
+TOPICS = [
+    "--depth-topic",
+    DEPTH,
+    "--camera-info-topic",
+    INFO,
+    "--rgb-topic",
+    RGB,
+    "--target-mask-topic",
+    MASK,
+    "--obstacle-mask-topic",
+    OBSTACLES,
+]
 # camera_link -> optical frame (REP 103: optical z forward, x right, y down)
 LINK_OPTICAL = np.array([[0, 0, 1, 0], [-1, 0, 0, 0], [0, -1, 0, 0], [0, 0, 0, 1]], float)
 HEAD_LINK = np.eye(4)
@@ -29,7 +49,10 @@ HEAD_LINK[:3, 3] = [0.06, 0.0, 0.09]  # head_link -> camera_link: the camera's m
 
 @dataclass
 class Frame:
-    """A frame to record. ``depth`` (H, W) metres; ``rgb`` (H, W, 3); masks (H, W) bool."""
+    """A frame to record. ``depth`` (H, W) metres; ``rgb`` (H, W, 3); masks (H, W) bool.
+
+    ``extra`` may hold ``depth_encoding`` (this frame's, overriding the recording's) and
+    ``no_head_tf`` (True: no /tf sample of the head near this frame)."""
 
     depth: np.ndarray
     rgb: np.ndarray
@@ -38,6 +61,60 @@ class Frame:
     intrinsics: np.ndarray  # fx, fy, cx, cy
     camera_to_base: np.ndarray  # (4, 4)
     extra: dict = field(default_factory=dict)
+
+
+def episode_frames(view_root: Path) -> list[Frame]:
+    """The views of the first episode of a generated dataset's scene 3, as frames to record
+    (the head tilts between them)."""
+    from momakitchen.data.episode import SEMANTIC_CLASSES
+    from momakitchen.data.shard import SceneShard
+
+    target, obstacle = SEMANTIC_CLASSES.index("target"), SEMANTIC_CLASSES.index("obstacle")
+    out = []
+    with SceneShard(view_root / "scenes" / "scene_000003.h5") as shard:
+        for i in shard.episode_indices(0):
+            ep = shard.episode(0, i)
+            out.append(
+                Frame(
+                    ep.depth,
+                    ep.rgb,
+                    ep.semantic == target,
+                    ep.semantic == obstacle,
+                    ep.intrinsics,
+                    ep.camera_to_base,
+                    {"robot": ep.robot},
+                )
+            )
+    return out
+
+
+def quarter(frames: list[Frame]) -> list[Frame]:
+    """The frames at a quarter of their resolution: quick to record and predict on."""
+    return [
+        Frame(
+            f.depth[::4, ::4],
+            f.rgb[::4, ::4],
+            f.target[::4, ::4],
+            f.obstacle[::4, ::4],
+            np.asarray(f.intrinsics) / 4,
+            f.camera_to_base,
+            dict(f.extra),
+        )
+        for f in frames
+    ]
+
+
+def changed(frame: Frame, **fields) -> Frame:
+    """A copy of ``frame`` with some fields replaced (``extra`` merged)."""
+    extra = {**frame.extra, **fields.pop("extra", {})}
+    return Frame(**{**vars(frame), **fields, "extra": extra})
+
+
+def translation(x: float, y: float = 0.0) -> np.ndarray:
+    """(4, 4) moving by ``x, y`` on the floor."""
+    m = np.eye(4)
+    m[:2, 3] = x, y
+    return m
 
 
 def odom_base(stamp_ns: int) -> np.ndarray:
@@ -151,6 +228,25 @@ class BagBuilder:
         return t["tf2_msgs/msg/TFMessage"](transforms=transforms)
 
 
+def predict_cli(*argv) -> int:
+    """``momakitchen predict ARGV`` (values may be paths and numbers)."""
+    from momakitchen.cli.main import main
+
+    return main(["predict", *map(str, argv)])
+
+
+def one_line_error(capsys) -> str:
+    """The command's stderr, checked to be one line without a traceback."""
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
+    return err
+
+
+def hidden_entries(root: Path) -> list[str]:
+    """Hidden names under ``root``: what a failed write would leave behind."""
+    return sorted(str(p.relative_to(root)) for p in root.rglob(".*"))
+
+
 def write_bag(
     path: Path,
     frames: list[Frame],
@@ -162,11 +258,15 @@ def write_bag(
     skip_topics: tuple[str, ...] = (),
     skip_tf: tuple[str, ...] = (),
     mask_delay_ns: int = RGB_DELAY_NS,
+    odom=odom_base,
+    odom_end_ns: int | None = None,
 ) -> Path:
-    """Record ``frames`` (one per stamp of FRAME_NS) into a ROS 2 bag at ``path``.
+    """Record ``frames`` (stamped :func:`frame_stamps`) into a ROS 2 bag at ``path``.
 
     ``rgb_encoding``: an Image encoding (rgb8, bgr8, bgra8) or "png" / "jpeg" for a
     CompressedImage. ``skip_topics`` / ``skip_tf`` (child frames) leave parts out.
+    ``odom``: stamp (ns) -> T_odom_base, the robot's motion; ``odom_end_ns``: odometry
+    stops there (else 0.6 s after the last frame).
     """
     from rosbags.rosbag2 import StoragePlugin, Writer
     from rosbags.typesys import Stores, get_typestore
@@ -187,21 +287,24 @@ def write_bag(
     add(
         "/tf_static", "tf2_msgs/msg/TFMessage", T0, b.tf([s for s in static if s[2] not in skip_tf])
     )
+    stamps = frame_stamps(len(frames))
     # odom -> base_link at 30 Hz over the whole recording
-    for stamp in range(T0 + 500_000_000, T0 + 2_600_000_000, 33_333_333):
+    odom_end = stamps[-1] + 600_000_000 if odom_end_ns is None else odom_end_ns
+    for stamp in range(T0 + 500_000_000, odom_end, 33_333_333):
         if "base_link" not in skip_tf:
             add(
                 "/tf",
                 "tf2_msgs/msg/TFMessage",
                 stamp,
-                b.tf([(stamp, "odom", "base_link", odom_base(stamp))]),
+                b.tf([(stamp, "odom", "base_link", odom(stamp))]),
             )
     img = "sensor_msgs/msg/Image"
     comp = "sensor_msgs/msg/CompressedImage"
-    for frame, stamp in zip(frames, FRAME_NS, strict=False):
+    for frame, stamp in zip(frames, stamps, strict=True):
+        encoding = frame.extra.get("depth_encoding", depth_encoding)
         # The head holds still while the frame is taken (robot_state_publisher rate).
         for dt in (-20_000_000, 20_000_000):
-            if "head_link" not in skip_tf:
+            if "head_link" not in skip_tf and not frame.extra.get("no_head_tf"):
                 add(
                     "/tf",
                     "tf2_msgs/msg/TFMessage",
@@ -212,7 +315,7 @@ def write_bag(
             DEPTH,
             img,
             stamp,
-            b.image(stamp, encode_depth(frame.depth, depth_encoding), depth_encoding, pad=4),
+            b.image(stamp, encode_depth(frame.depth, encoding), encoding, pad=4),
         )
         add(
             INFO,

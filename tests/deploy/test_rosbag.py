@@ -4,6 +4,7 @@ described; bad bags are one-line errors with nothing written."""
 
 from __future__ import annotations
 
+import importlib
 import io
 import json
 import shutil
@@ -22,17 +23,18 @@ from bag_helpers import (
     OBSTACLES,
     RGB,
     T0,
+    TOPICS,
     BagBuilder,
     Frame,
     decoded_depth,
+    episode_frames,
     png_bytes,
+    quarter,
     write_bag,
 )
 
 import momakitchen
 from momakitchen.cli.main import main
-from momakitchen.data.episode import SEMANTIC_CLASSES
-from momakitchen.data.shard import SceneShard
 from momakitchen.deploy.rosbag import (
     TransformBuffer,
     colour_rgb,
@@ -42,42 +44,21 @@ from momakitchen.deploy.rosbag import (
 )
 from momakitchen.errors import MomaError
 
-TARGET = SEMANTIC_CLASSES.index("target")
-OBSTACLE = SEMANTIC_CLASSES.index("obstacle")
-TOPICS = [
-    "--depth-topic",
-    DEPTH,
-    "--camera-info-topic",
-    INFO,
-    "--rgb-topic",
-    RGB,
-    "--target-mask-topic",
-    MASK,
-    "--obstacle-mask-topic",
-    OBSTACLES,
-]
+# The module (momakitchen.deploy.predict is also the name of its function).
+deploy_predict = importlib.import_module("momakitchen.deploy.predict")
 
 
 @pytest.fixture(scope="module")
 def frames(real_view) -> list[Frame]:
     """The two views of a simulated episode (the head tilts between them)."""
-    out = []
-    with SceneShard(real_view / "scenes" / "scene_000003.h5") as shard:
-        for i in shard.episode_indices(0):
-            ep = shard.episode(0, i)
-            out.append(
-                Frame(
-                    ep.depth,
-                    ep.rgb,
-                    ep.semantic == TARGET,
-                    ep.semantic == OBSTACLE,
-                    ep.intrinsics,
-                    ep.camera_to_base,
-                    {"robot": ep.robot},
-                )
-            )
+    out = episode_frames(real_view)
     assert not np.allclose(out[0].camera_to_base, out[1].camera_to_base)
     return out
+
+
+@pytest.fixture(scope="module")
+def small(frames) -> list[Frame]:
+    return quarter(frames)
 
 
 @pytest.fixture(scope="module")
@@ -423,18 +404,7 @@ def _bad(capsys, argv, out) -> str:
     return err
 
 
-def test_bad_bags_are_one_line_errors_with_nothing_written(frames, tmp_path, capsys):
-    small = [
-        Frame(
-            f.depth[::4, ::4],
-            f.rgb[::4, ::4],
-            f.target[::4, ::4],
-            f.obstacle[::4, ::4],
-            np.asarray(f.intrinsics) / 4,
-            f.camera_to_base,
-        )
-        for f in frames
-    ]
+def test_bad_bags_are_one_line_errors_with_nothing_written(small, tmp_path, capsys, monkeypatch):
     out = tmp_path / "out"
     args = ["--every", 1, *TOPICS]
     good = write_bag(tmp_path / "good", small, storage="mcap")
@@ -458,7 +428,8 @@ def test_bad_bags_are_one_line_errors_with_nothing_written(frames, tmp_path, cap
     # the segmenter's masks 0.2 s late: nothing to pair within 0.05 s
     late = write_bag(tmp_path / "late", small, mask_delay_ns=200_000_000)
     err = _bad(capsys, ["--bag", late, *args], out)
-    assert f"no target mask message on {MASK!r} within 0.05 s of the depth frame 0" in err
+    assert f"depth frame 0 at t=1700000001.000 s: no target mask message on {MASK!r}" in err
+    assert "within 0.05 s of the depth image" in err
     assert "nearest is 0.200 s away" in err
     late_ok = tmp_path / "late_ok"
     assert (
@@ -486,10 +457,19 @@ def test_bad_bags_are_one_line_errors_with_nothing_written(frames, tmp_path, cap
         assert f"bag {str(bag)!r} is unreadable (truncated or damaged?)" in err, err
     err = _bad(capsys, ["--bag", tmp_path / "none", *args], out)
     assert "does not exist" in err
-    # the second frame's mask is empty: found only when its turn comes, after the first
+    # the model fails on the second frame: found when its turn comes, after the first
     # frame's outputs were written (into a hidden directory, removed again)
-    blind = [small[0], Frame(**{**vars(small[1]), "target": np.zeros_like(small[1].target)})]
-    err = _bad(capsys, ["--bag", write_bag(tmp_path / "blind", blind), *args], out)
-    assert "depth frame 1 at t=1700000002.000 s: the target mask is empty" in err
+    calls = []
+
+    def second_fails(*args, **kwargs):
+        calls.append(1)
+        if len(calls) == 2:
+            raise MomaError("no floor is visible (no point on the fitted floor plane)")
+        return real_predict(*args, **kwargs)
+
+    real_predict = deploy_predict.predict
+    monkeypatch.setattr(deploy_predict, "predict", second_fails)
+    err = _bad(capsys, ["--bag", good, *args], out)
+    assert "depth frame 1 at t=1700000002.000 s: no floor is visible" in err and len(calls) == 2
     assert not [p.name for p in tmp_path.iterdir() if p.name.startswith(".")]
     shutil.rmtree(late_ok)

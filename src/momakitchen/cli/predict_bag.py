@@ -1,21 +1,20 @@
 """``momakitchen predict --bag``: the frames of a recorded ROS 2 bag.
 
-The options here join ``momakitchen predict``'s; the bag's frames are read, paired and
-checked (topics, encodings, TF) before the model runs, and the output directory is created
-only when every frame has a prediction.
+The options here join ``momakitchen predict``'s; every selected frame of the bag is read,
+paired and checked (topics, encodings, sizes, camera info, masks, TF) before the model
+runs, and the output directory is replaced, whole, only when every frame has a prediction
+(:mod:`momakitchen.deploy.bagoutputs`). With ``--odom-frame`` the frames' maps are also
+fused in the odometry frame into one goal.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
-import shutil
-import tempfile
 import time
 from pathlib import Path
 from typing import Any
 
-from momakitchen.cli.common import non_negative_float, output_dir, positive_float, positive_int
+from momakitchen.cli.common import non_negative_float, positive_float, positive_int
 
 # Bag-only option -> its attribute (checked to be unset without --bag).
 BAG_ONLY = {
@@ -28,6 +27,7 @@ BAG_ONLY = {
     "--time": "time",
     "--every": "every",
     "--max-dt": "max_dt",
+    "--odom-frame": "odom_frame",
 }
 # Options of the frame-from-files form that a bag replaces.
 FILE_ONLY = {
@@ -74,42 +74,26 @@ def add_bag_arguments(p: argparse.ArgumentParser) -> None:
         metavar="SEC",
         help=f"pair colour and masks within SEC of the depth stamp (default {DEFAULT_MAX_DT})",
     )
-
-
-def _stage_dir(out: Path) -> Path:
-    """A hidden directory beside ``out`` (in its nearest existing ancestor, which
-    ``planned_output_dir`` found writable) to write the outputs into until they are all
-    there."""
-    ancestor = out.parent
-    while not ancestor.exists():
-        ancestor = ancestor.parent
-    return Path(tempfile.mkdtemp(prefix=f".{out.name}.partial-", dir=ancestor))
-
-
-def _move_into(stage: Path, out: Path) -> None:
-    """Move every entry of ``stage`` into ``out``, replacing what has the same name."""
-    for entry in sorted(stage.iterdir()):
-        target = out / entry.name
-        if target.is_dir() and not target.is_symlink():
-            shutil.rmtree(target)
-        elif target.exists() or target.is_symlink():
-            target.unlink()
-        shutil.move(str(entry), str(target))
+    g.add_argument(
+        "--odom-frame",
+        default=None,
+        metavar="FRAME",
+        help="also fuse the frames' maps in this odometry frame (e.g. odom; TF FRAME -> the "
+        "base frame at each frame's stamp) into one goal, a PoseStamped in FRAME",
+    )
 
 
 def run_bag(args: argparse.Namespace, robot: Any, out: Path, options: dict[str, Any]) -> int:
     """Predict on the bag's selected frames and write their outputs into ``out``.
 
     Every frame is checked before the model runs; the frames are then read, predicted and
-    written one at a time into a hidden directory beside ``out``, whose contents move into
-    ``out`` when all are there (a failure leaves nothing behind).
+    written one at a time into a hidden directory beside ``out``, which replaces ``out``
+    when all are there (a failure leaves ``out`` as it was).
     """
-    from momakitchen.deploy.predict import write_outputs
+    from momakitchen.deploy.bagoutputs import BagOutputs, check_replaceable
     from momakitchen.deploy.rosbag import BagFrames, BagTopics, check_bag_path, predict_frames
     from momakitchen.deploy.rosbag import typestore as require_robot_extra
-    from momakitchen.deploy.rosout import PredictionBagWriter, StampedPrediction
     from momakitchen.errors import MomaError
-    from momakitchen.fileio import atomic_write_text
 
     for flag, value in FILE_ONLY.items():
         if getattr(args, value) not in (None, []):
@@ -123,6 +107,7 @@ def run_bag(args: argparse.Namespace, robot: Any, out: Path, options: dict[str, 
         raise MomaError("--bag needs either --target-mask FILE or --target-mask-topic")
     check_bag_path(args.bag)
     require_robot_extra()
+    check_replaceable(out)  # before any work: the outputs replace out whole
     topics = BagTopics(
         depth=args.depth_topic,
         camera_info=args.camera_info_topic,
@@ -131,43 +116,40 @@ def run_bag(args: argparse.Namespace, robot: Any, out: Path, options: dict[str, 
         obstacle_masks=tuple(args.obstacle_mask_topic or ()),
         base_frame=args.base_frame or "base_link",
         max_dt=DEFAULT_MAX_DT if args.max_dt is None else args.max_dt,
+        odom_frame=args.odom_frame,
     )
     t0 = time.perf_counter()
-    with BagFrames(args.bag, topics, time=args.time, every=args.every) as frames:
+    with BagFrames(
+        args.bag, topics, time=args.time, every=args.every, target_mask=args.target_mask
+    ) as frames:
         print(f"{len(frames)} frame(s) of {args.bag} checked", flush=True)
-        preds = predict_frames(frames, robot, target_mask=args.target_mask, **options)
-        stage = _stage_dir(out)
-        try:
-            summary = []
-            with PredictionBagWriter(stage / "ros") as bag_out:
-                for frame, pred in preds:
-                    # One frame (--time): the files at the top, as for a frame from files.
-                    name = "." if args.time is not None else f"frame_{frame.index:06d}"
-                    write_outputs(
-                        pred,
-                        stage / name,
-                        frame.rgb,
-                        frame.depth,
-                        frame.intrinsics,
-                        frame.camera_to_base,
-                    )
-                    bag_out.write(StampedPrediction(frame.stamp_ns, frame.base_frame, pred))
-                    poses = pred.to_dict(floor_points=False)["poses"]
-                    summary.append({**frame.summary(), "outputs": name, "poses": poses})
-                    best = poses[0]
-                    print(
-                        f"frame {frame.index} t={frame.stamp:.3f} s: best pose "
-                        f"x={best['x']:.3f} y={best['y']:.3f} yaw={best['yaw']:.3f} "
-                        f"(affordance {best['affordance']:.2f})",
-                        flush=True,
-                    )
-            summary.sort(key=lambda item: item["index"])
-            doc = {"bag": str(Path(args.bag)), "topics": vars(topics), "frames": summary}
-            atomic_write_text(stage / "frames.json", json.dumps(doc, indent=1) + "\n")
-            output_dir(out)  # created only now: a failed run leaves no directory behind
-            _move_into(stage, out)
-        finally:
-            shutil.rmtree(stage, ignore_errors=True)
+        preds = predict_frames(frames, robot, **options)
+        with BagOutputs(
+            out,
+            single=args.time is not None,
+            odom_frame=topics.odom_frame,
+            pick_radius=options.get("pick_radius", 0.0),
+        ) as outputs:
+            for frame, pred in preds:
+                best = outputs.add(frame, pred)["poses"][0]
+                print(
+                    f"frame {frame.index} t={frame.stamp:.3f} s: best pose "
+                    f"x={best['x']:.3f} y={best['y']:.3f} yaw={best['yaw']:.3f} "
+                    f"(affordance {best['affordance']:.2f})",
+                    flush=True,
+                )
+            doc = outputs.finish({"bag": str(Path(args.bag)), "topics": vars(topics)})
     seconds = time.perf_counter() - t0
-    print(f"{len(summary)} frame(s) in {seconds:.2f} s -> {out / 'frames.json'}, {out / 'ros'}/")
+    fused = doc.get("fused")
+    if fused is not None:
+        goal = fused["goal"]
+        where = (
+            "no goal"
+            if goal is None
+            else f"x={goal['x']:.3f} y={goal['y']:.3f} yaw={goal['yaw']:.3f}"
+        )
+        print(f"fused goal of {fused['looks']} frame(s) in {fused['frame']!r}: {where}")
+    print(
+        f"{len(doc['frames'])} frame(s) in {seconds:.2f} s -> {out / 'frames.json'}, {out / 'ros'}/"
+    )
     return 0

@@ -19,6 +19,15 @@ topic                     type                                 content
                                                                floor points
 ========================  ===================================  =================================
 
+With the frames' maps fused in the odometry frame (:class:`StampedFusion`), once, stamped
+with the last fused frame's time and in the odometry frame:
+
+============================  ===============================  =================================
+``PREFIX/fused_goal``         ``geometry_msgs/msg/PoseStamped``  the fused goal, facing the target
+``PREFIX/fused_affordance``   ``sensor_msgs/msg/PointCloud2``    the fused cells (z = 0): float32
+                                                                 x, y, z, affordance, uncertainty
+============================  ===============================  =================================
+
 Poses lie on the floor (z = 0) with the yaw as a rotation about z. Writing needs the
 ``robot`` extra (``rosbags``).
 """
@@ -28,15 +37,18 @@ from __future__ import annotations
 import json
 import os
 import shutil
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from momakitchen.deploy.rosbag import typestore
+from momakitchen.deploy.bagread import typestore
+from momakitchen.deploy.dirswap import stage_beside, swap_in
 from momakitchen.errors import MomaError
+from momakitchen.fileio import DISK_FULL, disk_full_message
 from momakitchen.models.inference import Prediction
 
 POSE_STAMPED = "geometry_msgs/msg/PoseStamped"
@@ -59,15 +71,36 @@ class StampedPrediction:
     prediction: Prediction
 
 
-def topics(prefix: str = "/momakitchen") -> dict[str, str]:
-    """Topic -> message type of the bag :func:`write_prediction_bag` writes."""
-    return {
-        f"{prefix}/goal": POSE_STAMPED,
-        f"{prefix}/poses": POSE_ARRAY,
-        f"{prefix}/affordance": POINT_CLOUD2,
-        f"{prefix}/markers": MARKER_ARRAY,
-        f"{prefix}/prediction": STRING,
-    }
+@dataclass(frozen=True)
+class StampedFusion:
+    """The fused map of several frames in the odometry frame ``frame_id``, stamped with the
+    last fused frame's time. Shapes: ``cells`` (M, 2) xy; ``affordance``, ``uncertainty``
+    (M,); ``goal`` (x, y, yaw) or None (no goal: only the map is written)."""
+
+    stamp_ns: int
+    frame_id: str
+    cells: np.ndarray
+    affordance: np.ndarray
+    uncertainty: np.ndarray
+    goal: tuple[float, float, float] | None
+
+
+# Message type per topic name after the prefix.
+FRAME_TOPICS = {
+    "goal": POSE_STAMPED,
+    "poses": POSE_ARRAY,
+    "affordance": POINT_CLOUD2,
+    "markers": MARKER_ARRAY,
+    "prediction": STRING,
+}
+FUSED_TOPICS = {"fused_goal": POSE_STAMPED, "fused_affordance": POINT_CLOUD2}
+
+
+def topics(prefix: str = "/momakitchen", fused: bool = False) -> dict[str, str]:
+    """Topic -> message type of the bag :class:`PredictionBagWriter` writes (``fused``:
+    with the topics of a :class:`StampedFusion`)."""
+    names = {**FRAME_TOPICS, **(FUSED_TOPICS if fused else {})}
+    return {f"{prefix}/{name}": msgtype for name, msgtype in names.items()}
 
 
 def yaw_quaternion(yaw: float) -> tuple[float, float, float, float]:
@@ -135,16 +168,34 @@ class _Messages:
             mesh_use_embedded_materials=False,
         )
 
-    def frame(self, sp: StampedPrediction) -> dict[str, Any]:
-        """Message type -> message for one prediction."""
-        t, p = self.t, sp.prediction
-        header = self.header(sp.stamp_ns, sp.frame_id)
-        poses = [self.pose(x, y, 0.0, yaw) for x, y, yaw in p.poses]
-        cloud = np.column_stack([p.floor_xyz, p.affordance, p.uncertainty]).astype("<f4")
+    def cloud(
+        self, header: Any, xyz: np.ndarray, affordance: np.ndarray, uncertainty: np.ndarray
+    ) -> Any:
+        """A PointCloud2 of float32 ``x, y, z, affordance, uncertainty`` from (N, 3), (N,)
+        and (N,) arrays."""
+        t = self.t
+        cloud = np.column_stack([xyz, affordance, uncertainty]).astype("<f4")
         fields = [
             t["sensor_msgs/msg/PointField"](name=name, offset=4 * i, datatype=7, count=1)
             for i, name in enumerate(CLOUD_FIELDS)
         ]
+        return t[POINT_CLOUD2](
+            header=header,
+            height=1,
+            width=len(cloud),
+            fields=fields,
+            is_bigendian=False,
+            point_step=4 * len(CLOUD_FIELDS),
+            row_step=4 * len(CLOUD_FIELDS) * len(cloud),
+            data=np.frombuffer(cloud.tobytes(), np.uint8),
+            is_dense=True,
+        )
+
+    def frame(self, sp: StampedPrediction) -> dict[str, Any]:
+        """Topic name (after the prefix) -> message for one prediction."""
+        t, p = self.t, sp.prediction
+        header = self.header(sp.stamp_ns, sp.frame_id)
+        poses = [self.pose(x, y, 0.0, yaw) for x, y, yaw in p.poses]
         markers = [
             self.marker(
                 header, "", 0, ARROW, self.pose(0, 0, 0), (0, 0, 0), (0,) * 4, action=DELETEALL
@@ -184,85 +235,115 @@ class _Messages:
             )
         )
         return {
-            POSE_STAMPED: t[POSE_STAMPED](header=header, pose=poses[0]),
-            POSE_ARRAY: t[POSE_ARRAY](header=header, poses=poses),
-            POINT_CLOUD2: t[POINT_CLOUD2](
-                header=header,
-                height=1,
-                width=len(cloud),
-                fields=fields,
-                is_bigendian=False,
-                point_step=4 * len(CLOUD_FIELDS),
-                row_step=4 * len(CLOUD_FIELDS) * len(cloud),
-                data=np.frombuffer(cloud.tobytes(), np.uint8),
-                is_dense=True,
-            ),
-            MARKER_ARRAY: t[MARKER_ARRAY](markers=markers),
-            STRING: t[STRING](data=json.dumps(p.to_dict(floor_points=False))),
+            "goal": t[POSE_STAMPED](header=header, pose=poses[0]),
+            "poses": t[POSE_ARRAY](header=header, poses=poses),
+            "affordance": self.cloud(header, p.floor_xyz, p.affordance, p.uncertainty),
+            "markers": t[MARKER_ARRAY](markers=markers),
+            "prediction": t[STRING](data=json.dumps(p.to_dict(floor_points=False))),
         }
+
+    def fused(self, sf: StampedFusion) -> dict[str, Any]:
+        """Topic name (after the prefix) -> message for a fused map."""
+        header = self.header(sf.stamp_ns, sf.frame_id)
+        cells = np.asarray(sf.cells, np.float64).reshape(-1, 2)
+        xyz = np.column_stack([cells, np.zeros(len(cells))])
+        msgs = {"fused_affordance": self.cloud(header, xyz, sf.affordance, sf.uncertainty)}
+        if sf.goal is not None:
+            msgs["fused_goal"] = self.t[POSE_STAMPED](
+                header=header, pose=self.pose(*sf.goal[:2], 0.0, sf.goal[2])
+            )
+        return msgs
 
 
 class PredictionBagWriter:
     """Writes predictions, one frame at a time, into a new ROS 2 bag directory at ``path``
     (MCAP storage; the directory must not exist). A context manager: the bag is complete
-    when it closes."""
+    when it closes without an error (an error leaves an incomplete bag behind, for the
+    caller to remove). ``fused``: the bag also gets the topics of :meth:`write_fused`. A
+    full disk is a MomaError naming ``path``."""
 
-    def __init__(self, path: str | os.PathLike, prefix: str = "/momakitchen") -> None:
+    def __init__(
+        self, path: str | os.PathLike, prefix: str = "/momakitchen", fused: bool = False
+    ) -> None:
         if not prefix.startswith("/") or prefix.endswith("/"):
             raise MomaError(
                 f"topic prefix must start with '/' and not end with one, got {prefix!r}"
             )
-        self.path, self.prefix = Path(path), prefix
+        self.path, self.prefix, self.fused = Path(path), prefix, fused
         self.store = typestore()
         self.count = 0
+
+    @contextmanager
+    def _writing(self) -> Iterator[None]:
+        try:
+            yield
+        except OSError as exc:
+            if exc.errno in DISK_FULL:
+                raise MomaError(disk_full_message(self.path, exc)) from None
+            raise
 
     def __enter__(self) -> PredictionBagWriter:
         from rosbags.rosbag2 import StoragePlugin, Writer
 
         self._build = _Messages(self.store)
         self._writer = Writer(self.path, version=9, storage_plugin=StoragePlugin.MCAP)
-        self._writer.open()
-        self._conns = {
-            msgtype: self._writer.add_connection(topic, msgtype, typestore=self.store)
-            for topic, msgtype in topics(self.prefix).items()
-        }
+        with self._writing():
+            self._writer.open()
+            self._conns = {
+                topic: self._writer.add_connection(topic, msgtype, typestore=self.store)
+                for topic, msgtype in topics(self.prefix, self.fused).items()
+            }
         return self
 
+    def _write(self, stamp_ns: int, msgs: dict[str, Any]) -> None:
+        with self._writing():
+            for name, msg in msgs.items():
+                conn = self._conns[f"{self.prefix}/{name}"]
+                self._writer.write(conn, stamp_ns, self.store.serialize_cdr(msg, conn.msgtype))
+
     def write(self, sp: StampedPrediction) -> None:
-        for msgtype, msg in self._build.frame(sp).items():
-            data = self.store.serialize_cdr(msg, msgtype)
-            self._writer.write(self._conns[msgtype], sp.stamp_ns, data)
+        self._write(sp.stamp_ns, self._build.frame(sp))
         self.count += 1
 
-    def __exit__(self, *exc: object) -> None:
-        self._writer.close()
+    def write_fused(self, sf: StampedFusion) -> None:
+        """The fused map and its goal (needs ``fused=True``)."""
+        if not self.fused:
+            raise MomaError("this bag was opened without the fused topics (fused=True)")
+        self._write(sf.stamp_ns, self._build.fused(sf))
+
+    def __exit__(self, exc_type: object, *exc: object) -> None:
+        if exc_type is not None:
+            self._writer.abort()  # no index or metadata for a bag that is not complete
+            return
+        with self._writing():
+            self._writer.close()
 
 
 def write_prediction_bag(
     path: str | os.PathLike,
     predictions: Sequence[StampedPrediction],
     prefix: str = "/momakitchen",
+    fusion: StampedFusion | None = None,
 ) -> Path:
-    """Write ``predictions`` as a ROS 2 bag directory (MCAP storage) at ``path``.
+    """Write ``predictions`` (and a fused map) as a ROS 2 bag directory (MCAP storage) at
+    ``path``.
 
-    The bag is written beside ``path`` and renamed onto it when complete, so a failure
-    leaves no partial bag; an existing bag at ``path`` is replaced.
+    The bag is written beside ``path`` and swapped in when complete, so a failure leaves
+    no partial bag and an existing bag at ``path`` as it was; an existing bag is replaced.
     """
     if not predictions:
         raise MomaError("no prediction to write")
     out = Path(path)
-    tmp = out.with_name(f".{out.name}.{os.getpid()}.tmp")
-    shutil.rmtree(tmp, ignore_errors=True)
+    stage = stage_beside(out)
     try:
         # rosbags names the storage file after the directory: give it the final name.
-        tmp.mkdir(parents=True)
-        inner = tmp / out.name
-        with PredictionBagWriter(inner, prefix) as writer:
+        inner = stage / out.name
+        with PredictionBagWriter(inner, prefix, fused=fusion is not None) as writer:
             for sp in sorted(predictions, key=lambda s: s.stamp_ns):
                 writer.write(sp)
-        if out.is_dir():
-            shutil.rmtree(out)
-        os.replace(inner, out)
+            if fusion is not None:
+                writer.write_fused(fusion)
+        swap_in(inner, out)
     finally:
-        shutil.rmtree(tmp, ignore_errors=True)
+        shutil.rmtree(stage, ignore_errors=True)
     return out
