@@ -33,6 +33,7 @@ COMMANDS = {
     "evaluate": "learn",
     "export-inputs": "export_inputs",
     "msr": "msr",
+    "approach": "approach",
     "robustness": "robustness",
     "audit": "audit",
     "benchmark": "benchmark",

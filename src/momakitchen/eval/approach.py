@@ -215,7 +215,6 @@ class Context:
         from momakitchen.generation.producer import semantic_map
         from momakitchen.generation.render import render
         from momakitchen.perception.sensors import Frame
-
         from momakitchen.sim.trials import PARKING
 
         # The trial robot is a collision probe that stays where the last check put it;
@@ -285,28 +284,40 @@ def run_episode(
     goal_of: Callable[[BaseState], Any] | None = None,
     perceiver: Any = None,
     first_look: LookResult | None = None,
+    capture: bool = False,
 ) -> tuple[dict[str, Any], LookResult | None]:
     """One approach from ``start`` (world = odometry frame at the start) by a model
     method (``perceiver`` and ``policy``) or a baseline (``goal_of``: its goal in the
     odometry frame, or None). Returns the episode's record and its first look (reused
     by the other policies of the same method and start: the same pose, frame and errors).
+    ``capture`` adds what a figure or a recording shows: the odometry path, each look's
+    head transform and the fused map (``record["capture"]``).
     """
     config, motion = ctx.config, ctx.config.motion
     sid, ci = ctx.cfg.scene_id, ctx.cfg.index
     cpu0 = time.process_time()
     rng = np.random.default_rng([config.seed, sid, ci, start_index, 11])
     stop_noise = np.random.default_rng([config.seed, sid, ci, start_index, 12]).standard_normal(3)
-    state = BaseState(true=start, odom=start)
-    record: dict[str, Any] = {"method": method, "policy": policy, "looks": [], "blocked": False}
+    state = BaseState(true=start, odom=start, odom_trace=[start])
+    record: dict[str, Any] = {
+        "method": method,
+        "policy": policy,
+        "looks": [],
+        "blocked": False,
+        "path": [_round(start[:2], 3)],
+    }
     inference = 0.0
     target = ctx.anchor.copy()  # where the robot believes the target is (odometry frame)
     look_policy = replace(config.look, kind=policy) if perceiver is not None else None
     fusion = MapFusion(cell=motion.cell)
     first: LookResult | None = None
 
+    heads: list[list[float]] = []
+
     def look(head: np.ndarray) -> None:
         nonlocal inference, first, target
         k = len(record["looks"])
+        heads.append(np.round(head, 5).ravel().tolist())
         if k == 0 and first_look is not None:
             result = first_look
         else:
@@ -385,6 +396,13 @@ def run_episode(
 
     record["goal"] = None if goal is None else _round(goal)
     record["target_odom"] = _round(target[:2])
+    if capture:
+        xy, value, _ = fusion.fused()
+        record["capture"] = {
+            "odom_path": [_round(p, 4) for p in state.odom_trace],
+            "heads": heads,
+            "fused": {"xy": np.round(xy, 3).tolist(), "value": np.round(value, 4).tolist()},
+        }
     pre_stop = BaseState(state.true, state.odom, state.driven, state.turned)
     if outcome:
         record.update(success=0, stage=outcome, final=None)
@@ -451,7 +469,7 @@ def _drive_path(
     poses, ok = drive(
         state, path, target[:2], ctx.config.motion, rng, check=ctx.base_free, stop_after=stop_after
     )
-    record.setdefault("path", []).extend(_round(p[:2], 3) for p in poses[1:])
+    record["path"].extend(_round(p[:2], 3) for p in poses[1:])
     if not ok:
         record["blocked"] = True
         return None

@@ -260,12 +260,15 @@ def run_approach(
     config: ApproachConfig | None = None,
     progress: bool = False,
     resume: str | os.PathLike | None = None,
+    methods: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
     """The approach track on a dataset split (no method given: the bundled model).
 
-    ``resume``: a JSON-lines file of the configurations done so far (one line each,
-    appended as they finish); a run started again with the same file and settings skips
-    them, so a killed run loses at most the configuration it was in.
+    ``methods``: model methods already loaded (:func:`load_methods`), instead of
+    ``checkpoints`` and ``servers``. ``resume``: a JSON-lines file of the configurations
+    done so far (one line each, appended as they finish); a run started again with the
+    same file and settings skips them, so a killed run loses at most the configuration it
+    was in.
 
     Returns ``{"config", "dataset", "methods", "records", "skipped"}`` (records: one per
     episode; summaries: :func:`momakitchen.eval.approach_report.summarize`).
@@ -286,15 +289,15 @@ def run_approach(
         raise MomaError(f"unknown method {unknown[0]!r}; baselines: {', '.join(BASELINES)}")
     if len(set(baselines)) != len(baselines):
         raise MomaError(f"method named twice: {list(baselines)}")
-    if not checkpoints and not baselines and not servers:
+    if not checkpoints and not baselines and not servers and methods is None:
         from momakitchen.train.checkpoint import default_checkpoint
 
         checkpoints = [default_checkpoint()]
     root = Path(data)
     manifest, gen = dataset_generation(root)
-    methods = load_methods(
-        checkpoints, servers, Preprocessing(gen.cloud, gen.camera.max_depth), root
-    )
+    if methods is None:
+        preprocessing = Preprocessing(gen.cloud, gen.camera.max_depth)
+        methods = load_methods(checkpoints, servers, preprocessing, root)
     todo = judged_configurations(root, manifest, config.split, config.max_configs)
     check_shard_files(root, manifest, {sid for sid, _, _ in todo})
     settings = {

@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -203,6 +203,7 @@ class BaseState:
     odom: Pose
     driven: float = 0.0  # m, along the true path
     turned: float = 0.0  # rad, every turn
+    odom_trace: list[Pose] = field(default_factory=list)  # every step's odometry pose
 
     def trace(self) -> list[list[float]]:
         return [[round(v, 4) for v in self.true], [round(v, 4) for v in self.odom]]
@@ -274,6 +275,7 @@ def drive(
                 return poses, False  # the base stops before the contact
             state.true = true
             state.odom = (new_odom_xy[0], new_odom_xy[1], new_odom_yaw)
+            state.odom_trace.append(state.odom)
             state.driven += float(np.hypot(*real))
             state.turned += abs(dyaw)
             travelled += ds

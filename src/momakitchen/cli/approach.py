@@ -1,0 +1,248 @@
+"""``momakitchen approach``: the last mile as a robot drives it.
+
+For every configuration of a split the robot starts near (the view ``msr`` judges for
+the same seed) or far (3.8-6 m from the target as the room allows, within +-45 deg of
+the direction it faces), looks (a render at its true pose with a perception preset,
+through the real-robot path ``momakitchen.predict``), drives a collision-free path with
+odometry drift, may look again on the way (``--policy``), stops with an error, turns to
+face the target and runs the labelling's trial where it really is. Reports success, SPL,
+looks and time per (method, policy, start), McNemar between every pair, and, with
+``--stop-sweep``, success against the final-stop error. See docs/APPROACH.md.
+
+A killed run resumes: run the same command again (the configurations done so far are
+kept in ``JSON.partial.jsonl`` until the run ends).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+from momakitchen.cli.common import non_negative_int, output_file
+from momakitchen.errors import MomaError
+from momakitchen.fileio import atomic_write_bytes, atomic_write_text
+
+# Spelled out so that building the parser does not import numpy (tests/cli/test_main.py).
+STARTS = ("near", "far")
+POLICIES = ("single", "relook", "uncertain")
+BASELINES = ("oracle", "nearest", "random")
+SPLITS = ("test", "train", "all")
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    ap = sub.add_parser(
+        "approach",
+        help="the last mile as driven: start far, drive with error, look again, manipulate",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    ap.add_argument("--data", required=True, help="dataset directory (momakitchen generate)")
+    ap.add_argument("--json", required=True, help="where to write the results (JSON)")
+    ap.add_argument(
+        "--checkpoint",
+        action="append",
+        default=[],
+        metavar="RUN",
+        help="a trained run or plug-in run (repeatable; with no --checkpoint, --server "
+        "or --method: the bundled model)",
+    )
+    ap.add_argument(
+        "--server",
+        action="append",
+        default=[],
+        metavar="URL",
+        help="a method behind `momakitchen serve`'s HTTP API, asked at every look "
+        "(repeatable; docs/METHODS.md)",
+    )
+    ap.add_argument(
+        "--method",
+        action="append",
+        default=[],
+        metavar="METHOD",
+        help=f"baseline: {', '.join(BASELINES)} (repeatable)",
+    )
+    ap.add_argument(
+        "--start",
+        action="append",
+        default=[],
+        metavar="START",
+        help="near or far (repeatable; default far)",
+    )
+    ap.add_argument(
+        "--policy",
+        action="append",
+        default=[],
+        metavar="POLICY",
+        help=f"look policy of the models: {', '.join(POLICIES)} (repeatable; default all)",
+    )
+    ap.add_argument(
+        "--perception",
+        default="realistic",
+        help="perception preset: realistic (D435 depth, masks shifted 5 px, camera 1 cm / "
+        "1 deg off), ideal, or a corruption of `momakitchen robustness --list`",
+    )
+    ap.add_argument("--seed", type=non_negative_int, default=0)
+    ap.add_argument("--split", default="test", choices=SPLITS)
+    ap.add_argument(
+        "--max-configs", type=non_negative_int, default=0, help="only the first N (0: all)"
+    )
+    ap.add_argument(
+        "--max-looks", type=int, default=3, help="most looks per episode, the first included (3)"
+    )
+    ap.add_argument(
+        "--relook-distance",
+        type=float,
+        default=1.5,
+        help="relook: look again this far from the goal (m, 1.5)",
+    )
+    ap.add_argument(
+        "--max-uncertainty",
+        type=float,
+        default=0.10,
+        help="uncertain: look again while the MC-dropout std at the goal exceeds this (0.10)",
+    )
+    ap.add_argument("--stop-xy", type=float, default=3.0, help="final-stop error, cm per axis (3)")
+    ap.add_argument("--stop-yaw", type=float, default=2.0, help="final-stop yaw error, deg (2)")
+    ap.add_argument(
+        "--drift",
+        type=float,
+        default=2.0,
+        help="odometry error along the path, %% of the distance (2; across: half of it)",
+    )
+    ap.add_argument(
+        "--stop-sweep",
+        action="store_true",
+        help="also run each final trial at stop errors 0, 3, 6, 10 cm (0, 2, 4, 6 deg)",
+    )
+    ap.add_argument("--markdown", metavar="FILE", help="also write the tables as Markdown")
+    ap.add_argument("--figure", metavar="PNG", help="a top-down picture of one episode per robot")
+    ap.add_argument(
+        "--record",
+        action="append",
+        default=[],
+        metavar="SCENE:CONFIG",
+        help="write MCAP recordings (Foxglove) of this configuration's episodes (repeatable)",
+    )
+    ap.add_argument(
+        "--record-dir", metavar="DIR", help="where --record writes (default: beside --json)"
+    )
+    ap.add_argument("--quiet", action="store_true", help="no progress bar")
+    ap.set_defaults(func=run)
+
+
+def _record_ids(values: list[str]) -> list[tuple[int, int]]:
+    out = []
+    for v in values:
+        try:
+            sid, ci = (int(x) for x in v.split(":"))
+        except ValueError:
+            raise MomaError(f"--record wants SCENE:CONFIG (two integers), got {v!r}") from None
+        out.append((sid, ci))
+    return out
+
+
+def run(args: argparse.Namespace) -> int:
+    from momakitchen.deploy.fusion import LookPolicy
+    from momakitchen.eval.approach import ApproachConfig
+    from momakitchen.eval.approach_report import format_table, pairwise, report_markdown, summarize
+    from momakitchen.eval.approach_track import load_methods, run_approach
+    from momakitchen.sim.motion import MotionConfig
+
+    out = output_file(args.json)
+    for f in (args.markdown, args.figure):
+        if f:
+            output_file(f)
+    records = _record_ids(args.record)
+    for name, value, hi in (
+        ("--stop-xy", args.stop_xy, 50),
+        ("--stop-yaw", args.stop_yaw, 45),
+        ("--drift", args.drift, 50),
+    ):
+        if not 0 <= value <= hi:  # NaN fails too
+            unit = {"--stop-xy": "cm", "--stop-yaw": "deg", "--drift": "%"}[name]
+            raise MomaError(f"{name} must be in [0, {hi}] {unit}, got {value:g}")
+    motion = MotionConfig(
+        stop_xy=args.stop_xy / 100.0,
+        stop_yaw=args.stop_yaw,
+        drift_along=args.drift / 100.0,
+        drift_across=args.drift / 200.0,
+    )
+    config = ApproachConfig(
+        starts=tuple(args.start) or ("far",),
+        policies=tuple(args.policy) or POLICIES,
+        perception=args.perception,
+        seed=args.seed,
+        split=args.split,
+        max_configs=args.max_configs,
+        look=LookPolicy(
+            relook_distance=args.relook_distance,
+            max_uncertainty=args.max_uncertainty,
+            max_looks=args.max_looks,
+        ),
+        stop_sweep=((0.0, 0.0), (3.0, 2.0), (6.0, 4.0), (10.0, 6.0)) if args.stop_sweep else (),
+        motion=motion,
+    )
+    unknown = [m for m in args.method if m not in BASELINES]
+    if unknown:
+        raise MomaError(f"unknown method {unknown[0]!r}; baselines: {', '.join(BASELINES)}")
+    checkpoints = list(args.checkpoint)
+    if not checkpoints and not args.server and not args.method:
+        from momakitchen.train.checkpoint import default_checkpoint
+
+        checkpoints = [str(default_checkpoint())]
+    from momakitchen.data.config import Preprocessing
+    from momakitchen.eval.msr import dataset_generation
+
+    _, gen = dataset_generation(Path(args.data))
+    # Servers are asked for /health here: an unreachable one fails before any work.
+    methods = load_methods(
+        checkpoints, args.server, Preprocessing(gen.cloud, gen.camera.max_depth), Path(args.data)
+    )
+    resume = out.with_name(out.name + ".partial.jsonl")
+    t0 = time.perf_counter()
+    result = run_approach(
+        args.data,
+        baselines=args.method,
+        config=config,
+        progress=not args.quiet,
+        resume=resume,
+        methods=methods,
+    )
+    result["results"] = summarize(result)
+    result["pairs"] = pairwise(result)
+    result["seconds"] = round(time.perf_counter() - t0, 1)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    atomic_write_text(out, json.dumps(result, indent=1, allow_nan=False) + "\n")
+    resume.unlink(missing_ok=True)
+    print(format_table(result["results"]))
+    if args.markdown:
+        atomic_write_text(Path(args.markdown), report_markdown(result))
+    if args.figure or records:
+        from momakitchen.eval.approach_figure import (
+            episode_figure,
+            figure_picks,
+            replay,
+            write_mcap,
+        )
+
+        if args.figure:
+            episodes = replay(args.data, result, figure_picks(result), methods)
+            atomic_write_bytes(Path(args.figure), episode_figure(episodes))
+        if records:
+            folder = Path(args.record_dir) if args.record_dir else out.with_name(out.stem + "-mcap")
+            folder.mkdir(parents=True, exist_ok=True)
+            picks = [
+                r for r in result["records"] if (r["scene_id"], r["config_index"]) in set(records)
+            ]
+            missing = set(records) - {(r["scene_id"], r["config_index"]) for r in picks}
+            if missing:
+                raise MomaError(f"--record {sorted(missing)[0]}: no such episode in this run")
+            for rec, _ in replay(args.data, result, picks, methods):
+                name = f"{rec['scene_id']}_{rec['config_index']}_{rec['start']}_{rec['method']}"
+                name = f"{name}_{rec['policy']}.mcap".replace("-.", "baseline.").replace(":", "-")
+                write_mcap(folder / name, rec, config.motion.speed)
+            print(f"recordings -> {folder}")
+    print(f"{result['seconds']:.0f} s -> {out}")
+    return 0
