@@ -157,3 +157,35 @@ def test_markdown_links_resolve_inside_the_repository(path: Path):
         if not resolved.is_relative_to(ROOT) or not resolved.exists():
             bad.append(f"{where(path, text, m.start())}: {target}")
     assert not bad, bad
+
+
+def _anchors(path: Path) -> set[str]:
+    """GitHub's anchors of a Markdown file's headings: lower case, punctuation dropped,
+    spaces to hyphens (outside code blocks)."""
+    text = re.sub(r"```.*?```", "", read(path), flags=re.S)
+    return {
+        re.sub(r"[^\w\- ]", "", h.strip().lower()).replace(" ", "-")
+        for h in re.findall(r"^#+ (.+)$", text, re.M)
+    }
+
+
+# The documents whose sections other files link to by anchor.
+ANCHORED = [
+    ROOT / "README.md",
+    ROOT / "docs" / "RESULTS.md",
+    ROOT / "docs" / "results" / "HISTORY.md",
+]
+
+
+def test_links_into_the_results_and_readme_reach_their_sections():
+    """A link `FILE#anchor` (or `#anchor` within the file) to the README, RESULTS.md or its
+    history names a heading of that file, so moving a section does not strand its links."""
+    anchors = {p.resolve(): _anchors(p) for p in ANCHORED}
+    bad = []
+    for path in (p for p in FILES if p.suffix == ".md"):
+        text = read(path)
+        for m in re.finditer(r"\]\(([^)\s#]*)#([^)\s]+)\)", text):
+            target = (path.parent / m.group(1)).resolve() if m.group(1) else path.resolve()
+            if target in anchors and m.group(2) not in anchors[target]:
+                bad.append(f"{where(path, text, m.start())}: {m.group(1)}#{m.group(2)}")
+    assert not bad, bad
