@@ -75,6 +75,20 @@ def test_train_then_evaluate(run, dataset, tmp_path, capsys):
     assert "| navaff (cpu) |" in capsys.readouterr().out
 
 
+def test_evaluate_defaults_to_the_bundled_model(dataset, tmp_path, capsys):
+    """Without --checkpoint (or --predictions), evaluate scores the bundled model, as msr
+    and robustness do, and its help says so."""
+    from momakitchen.train.checkpoint import default_checkpoint
+
+    assert main(["evaluate", "--help"]) == 0
+    assert "the bundled model" in " ".join(capsys.readouterr().out.split())
+    out = tmp_path / "eval.json"
+    argv = ["evaluate", "--data", str(dataset), "--json", str(out), "--quiet"]
+    assert main(argv) == 0
+    report = json.loads(out.read_text())
+    assert report["checkpoint"] == str(default_checkpoint()) and report["model"] == "navaff"
+
+
 @pytest.mark.parametrize(
     ("argv", "needle"),
     [

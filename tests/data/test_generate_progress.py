@@ -29,7 +29,9 @@ def test_one_scene_advances_per_configuration(tmp_path, capsys):
     assert "generate (1 worker)" in err
     shown = [n for n, _ in _bar_states(err)]
     assert {"0.2", "0.5", "0.8", "1.0"} <= set(shown), shown
-    assert "configurations=1," in err and "configurations=3," in err
+    assert "configurations=1]" in err and "configurations=3]" in err
+    # episodes are shown once known (a written shard), never as a count of 0 before
+    assert "episodes=0" not in err and "episodes written=4" in err
 
 
 def test_workers_report_their_configurations(tmp_path, capsys):

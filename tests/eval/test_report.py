@@ -395,3 +395,39 @@ def test_report_robustness_table(report, tmp_path):
     with pytest.raises(MomaError, match="not a `momakitchen robustness` result"):
         run_benchmark(dataclasses.replace(req, out=tmp_path / "x", robustness=(bad,)))
     assert not (tmp_path / "x").exists()
+
+
+def test_confidence_table_of_a_flat_map_shows_no_empty_bins():
+    """A flat map ties every Top-1 affordance: its terciles hold no configuration, and
+    the table says so instead of printing empty bins."""
+    from momakitchen.eval.report import confidence_table
+
+    def msr(affordance, uncertainty):
+        records = [
+            {"methods": {"m": {"outcomes": [i % 2], "affordance": [a], "uncertainty": [u]}}}
+            for i, (a, u) in enumerate(zip(affordance, uncertainty, strict=True))
+        ]
+        return {"records": records}
+
+    spread = [0.01 * i for i in range(9)]
+    table = confidence_table(msr([0.5] * 9, spread), "m")
+    rows = [line for line in table if line.startswith("| low") or line.startswith("| mid")]
+    assert len(rows) == 2 and all("no configurations" in r for r in rows), table
+    assert "– (0)" not in "\n".join(table)
+    both_flat = confidence_table(msr([0.5] * 9, [0.02] * 9), "m")
+    assert [line.split(" |")[0] for line in both_flat if line.startswith("| ")][-1] == "| high"
+    assert not any(line.startswith(("| low", "| middle")) for line in both_flat)
+    assert "left out: 2" in both_flat[-1]
+
+
+def test_benchmark_takes_the_bundled_model_by_name(real_dataset, tmp_path):
+    """`benchmark --runs bundled` (and no run at all) is the bundled model's run, as in
+    `msr` and `robustness`; another name is still a run directory to check."""
+    from momakitchen.train.checkpoint import default_checkpoint
+
+    named = BenchmarkRequest(data=real_dataset, runs=("bundled",), out=tmp_path / "a")
+    assert named.runs == (default_checkpoint(),)
+    alone = BenchmarkRequest(data=real_dataset, runs=(), out=tmp_path / "b")
+    assert alone.runs == (default_checkpoint(),)
+    with pytest.raises(MomaError, match="'bundle' is not a run directory"):
+        BenchmarkRequest(data=real_dataset, runs=("bundle",), out=tmp_path / "c")

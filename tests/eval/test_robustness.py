@@ -1,5 +1,5 @@
-"""The robustness track: msr's views, corrupted, through the real-robot path, tried in
-physics; the CLI, its files and its bad input."""
+"""The robustness track: msr's views, as msr scores them (clean) and corrupted through the
+real-robot path, tried in physics; the CLI, its files and its bad input."""
 
 from __future__ import annotations
 
@@ -47,11 +47,44 @@ def test_robustness_runs_msr_views_through_the_robot_path(real_dataset, tiny_run
         pitched = record["views"]["navaff"]["pitch+2"]
         assert pitched["status"] == "ok"
         assert abs(pitched["correction"]["pitch_deg"]) == pytest.approx(2.0, abs=0.3)
-        assert record["views"]["navaff"]["clean"]["correction"]["pitch_deg"] == 0.0
+        assert record["views"]["navaff"]["clean"]["correction"] is None  # msr's stored view
     summary = result["models"]["navaff"]["kinect"]
     assert summary["views"] == 2 and 0 <= summary["top1"] <= 1
     table = format_robustness_table(result)
     assert "kinect" in table and "Top-2" in table
+
+
+def test_the_clean_row_is_msrs_figure_on_the_same_views(real_dataset, tiny_run, tmp_path):
+    """The clean row scores msr's view as msr does (the stored clouds, the same settings):
+    the same points tried, the same outcomes, the same Top-1; for a model and for a
+    predictions file (the stored labels, i.e. msr's oracle)."""
+    from momakitchen.data.shard import SceneShard
+    from momakitchen.eval.msr import MsrConfig, run_msr
+    from momakitchen.eval.predictions import write_predictions
+
+    msr = run_msr(real_dataset, [tiny_run], ["oracle"], MsrConfig(top_k=1))
+    labels = {}
+    for r in msr["records"]:
+        with SceneShard(next((real_dataset / "scenes").iterdir())) as shard:
+            ep = shard.episode(r["config_index"], r["episode_index"])
+        labels[f"clean/{r['scene_id']}/{r['config_index']}/{r['episode_index']}"] = ep.floor_label
+    write_predictions(tmp_path / "oracle.npz", labels)
+    result = run_robustness(
+        real_dataset,
+        [tiny_run],
+        RobustnessConfig(top_k=1),
+        predictions=[(tmp_path / "oracle.npz", None)],
+    )
+    assert len(result["records"]) == len(msr["records"]) == 2
+    for rob, ref in zip(result["records"], msr["records"], strict=True):
+        assert rob["episode_index"] == ref["episode_index"]
+        for name in ("navaff", "oracle"):
+            view, picked = rob["views"][name]["clean"], ref["methods"][name]
+            assert view["points"] == picked["points"] and view["outcomes"] == picked["outcomes"]
+        assert rob["views"]["oracle"]["clean"]["pcc"] == 1.0  # the labels against themselves
+    for name in ("navaff", "oracle"):
+        assert result["models"][name]["clean"]["top1"] == round(msr["methods"][name]["top1"], 4)
+    assert result["models"]["oracle"]["clean"]["top1"] > 0  # not a tie of two failures
 
 
 def test_summary_counts_range_apart_and_errors_as_failures():
@@ -95,6 +128,13 @@ def test_robustness_cli(real_dataset, tiny_run, tmp_path, capsys):
     assert main(["robustness", "--list"]) == 0
     listed = capsys.readouterr().out
     assert "d435" in listed and "mono" in listed and "combined" in listed
+    # --data, --json and --out are required, and --help says so (--list needs none)
+    assert main(["robustness", "--help"]) == 0
+    usage = capsys.readouterr().out.split("\n\n")[0]
+    for option in ("--data DATA", "--json JSON", "--out OUT"):
+        assert option in usage and f"[{option}" not in usage, usage
+    assert main(["robustness", "--data", str(real_dataset), "--json", "x.json"]) == 2
+    assert "required: --out" in capsys.readouterr().err
     out = tmp_path / "rb"
     code = main(
         [
@@ -212,7 +252,19 @@ def _score_exported(inputs_file, run_dir, out):
                 correction=None,
             )
             robot = str(f[f"{key}/robot_name"])
-            pred = predict_map(run, clouds, robot, f[f"{key}/robot"], top_k=1, mc_samples=0)
+            # clean is the stored episode, down-sampled as msr does (seeded by its ids)
+            clean = key.startswith("clean/")
+            ids = tuple(int(v) for v in key.split("/")[1:]) if clean else None
+            pred = predict_map(
+                run,
+                clouds,
+                robot,
+                f[f"{key}/robot"],
+                top_k=1,
+                mc_samples=0,
+                episode_id=ids,
+                threads=None if clean else 1,
+            )
             maps[key] = pred.affordance
     write_predictions(out, maps)
     return maps

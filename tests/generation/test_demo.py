@@ -126,3 +126,18 @@ def test_report_region_is_the_floor_around_what_matters():
     # A target beyond the seen floor (e.g. on a counter far ahead) stays in view.
     x0, x1, y0, y1 = report_region(floor, [hot], 1.0, np.array([[6.0, 0.4]]))
     assert x0 < 6.0 < x1 and y0 < 0.4 < y1
+
+
+def test_the_legend_names_the_camera_only_where_the_map_shows_it():
+    """The maps are cropped around the target: the robot's camera (at the origin) is in
+    the legend only when the cropped region shows it."""
+    from momakitchen.generation.demo import _legend_marks
+    from momakitchen.perception.figures import pyplot
+
+    plt = pyplot()
+    for region, shown in (((1.0, 3.0, -1.0, 1.0), False), ((-0.2, 3.0, -1.0, 1.0), True)):
+        fig, ax = plt.subplots()
+        _legend_marks(ax, region)
+        labels = [t.get_text() for t in ax.get_legend().get_texts()]
+        plt.close(fig)
+        assert ("robot (camera)" in labels) is shown and "target" in labels, labels

@@ -198,3 +198,29 @@ def test_a_plugin_without_weights_is_sent_to_predictions_files():
     assert model(_batch())["pred"].shape == (2, 64)  # usable, but not trainable
     with pytest.raises(MomaError, match=r"no parameters to train.*predictions file"):
         probe_plugin("test_plugins:NoWeights", model, _batch())
+
+
+@pytest.mark.parametrize(
+    ("model", "needle"),
+    [
+        ("no_such_package.models:Model", "module 'no_such_package.models' cannot be imported"),
+        ("no_such_entry_point", "model 'no_such_entry_point', not installed here"),
+    ],
+)
+def test_a_run_whose_plugin_is_not_importable_says_so(model, needle, tiny_run, tmp_path, capsys):
+    """A run of a plug-in whose package is not importable where it is loaded is reported
+    as that, in one line naming the module (exit status 2), not as a bad training config."""
+    import shutil
+
+    from momakitchen.cli.main import main
+
+    run = tmp_path / "run"
+    shutil.copytree(tiny_run, run)
+    info = json.loads((run / "config.json").read_text())
+    info["model"] = info["train_config"]["model"] = model
+    (run / "config.json").write_text(json.dumps(info))
+    argv = ["evaluate", "--data", str(tmp_path), "--checkpoint", str(run)]
+    assert main([*argv, "--json", str(tmp_path / "e.json")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and needle in err and "bad training config" not in err, err
+    assert "No module named 'no_such_package'" in err or ":" not in model

@@ -25,7 +25,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         nargs="+",
         default=[],
         metavar="RUN",
-        help="run directories of the compared models (one per model)",
+        help="run directories of the compared models (one per model); 'bundled': the "
+        "bundled model (default with no --predictions: the bundled model alone)",
     )
     p.add_argument(
         "--predictions",

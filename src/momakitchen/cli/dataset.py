@@ -6,6 +6,7 @@ import argparse
 import json
 import sys
 
+from momakitchen.cli.wording import counted
 from momakitchen.errors import MomaError
 
 
@@ -73,7 +74,7 @@ def run_check(args: argparse.Namespace) -> int:
             bar.update(done - bar.n)
 
         report = check_dataset(args.dir, verify_hash=not args.no_hash, progress=progress)
-    counts = f"{report['shards']} shards, {report['episodes']} episodes"
+    counts = f"{counted(report['shards'], 'shard')}, {counted(report['episodes'], 'episode')}"
     if report["incomplete"] and not args.allow_incomplete:
         # A script that gates on `check` must not take an unfinished dataset for a good one.
         raise MomaError(
@@ -150,8 +151,8 @@ def run_export(args: argparse.Namespace) -> int:
     planned_output_dir(args.out)  # an impossible --out fails before any work
     n = export_reference(args.dir, args.out)
     print(
-        f"{args.out}: {n['configurations']} configurations, {n['episodes']} episodes in "
-        "the reference layout"
+        f"{args.out}: {counted(n['configurations'], 'configuration')}, "
+        f"{counted(n['episodes'], 'episode')} in the reference layout"
     )
     return 0
 
@@ -162,7 +163,8 @@ def run_import(args: argparse.Namespace) -> int:
     m = import_reference(args.dir, args.out)
     c = m["counts"]["total"]
     print(
-        f"{args.out}: {c['scenes']} scenes, {c['configurations']} configurations, "
-        f"{c['episodes']} episodes imported"
+        f"{args.out}: {counted(c['scenes'], 'scene')}, "
+        f"{counted(c['configurations'], 'configuration')}, "
+        f"{counted(c['episodes'], 'episode')} imported"
     )
     return 0

@@ -139,11 +139,14 @@ def run(args: argparse.Namespace) -> int:
 
         scene_fn = scene_records
     manifest = generate_dataset(request, scene_fn, config, progress=not args.quiet)
+    from momakitchen.cli.wording import counted
+
     c = manifest["counts"]
+    t = c["total"]
     print(
-        f"{args.out}: {c['total']['scenes']} scenes, {c['total']['configurations']} "
-        f"configurations, {c['total']['episodes']} episodes (train "
-        f"{c['train']['episodes']}, test {c['test']['episodes']})"
+        f"{args.out}: {counted(t['scenes'], 'scene')}, "
+        f"{counted(t['configurations'], 'configuration')}, {counted(t['episodes'], 'episode')} "
+        f"(train {c['train']['episodes']}, test {c['test']['episodes']})"
         + ("" if manifest["complete"] else " - incomplete")
     )
     empty = [s for s in ("train", "test") if not c[s]["scenes"]]

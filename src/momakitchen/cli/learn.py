@@ -38,7 +38,8 @@ MODEL_NAMES = (
 PRESET_NAMES = ("paper", "cpu")
 
 EVALUATE_DESCRIPTION = (
-    "Map metrics of a trained model (a run directory written by `momakitchen train`) on a "
+    "Map metrics of a trained model (a run directory written by `momakitchen train`; "
+    "without --checkpoint or --predictions, the bundled model) on a "
     "split of a dataset, the test split by default: RMSE, logMSE, PCC, SIM, MAE, cosine and "
     "cIoU, printed as a table like the paper's Table 2 and written with per-robot and "
     "per-scene breakdowns as JSON. Every shard read is checked first."
@@ -141,8 +142,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         description=EVALUATE_DESCRIPTION,
     )
     ev.add_argument("--data", required=True, help="dataset directory")
-    which = ev.add_mutually_exclusive_group(required=True)
-    which.add_argument("--checkpoint", help="run directory written by train")
+    which = ev.add_mutually_exclusive_group()
+    which.add_argument(
+        "--checkpoint",
+        metavar="RUN",
+        help="run directory written by train (default, with no --predictions: the bundled model)",
+    )
     which.add_argument(
         "--predictions",
         metavar="FILE",
@@ -179,6 +184,7 @@ def _dataset(root: str, split: str):
 
 def _no_episodes(root: str, split: str, manifest: dict) -> str:
     """Why a dataset has no episodes of ``split``, and what to do about it."""
+    from momakitchen.cli.wording import counted
     from momakitchen.data.manifest import scenes_for_both_splits
 
     scenes = sorted(int(k) for k in manifest["shards"])
@@ -190,7 +196,8 @@ def _no_episodes(root: str, split: str, manifest: dict) -> str:
         return f"{text} (every view of its {split} scenes lacks floor or global points)"
     first = scenes[0]
     return (
-        f"{text}: its {len(scenes)} scene(s) are all {'/'.join(sorted(splits))} scenes "
+        f"{text}: its {counted(len(scenes), 'scene')} {'is' if len(scenes) == 1 else 'are'} "
+        f"all {'/'.join(sorted(splits))} scenes "
         f"(one scene id in 5 is a test scene); `momakitchen generate --scenes "
         f"{scenes_for_both_splits(first)}` or more from scene {first} gives both splits"
     )
@@ -292,7 +299,12 @@ def run_evaluate(args: argparse.Namespace) -> int:
         return _evaluate_predictions(args)
     if args.name is not None:
         raise MomaError("--name names a --predictions file; a checkpoint's name is its model")
-    run_dir = existing_dir(args.checkpoint, "checkpoint directory")
+    if args.checkpoint is None:  # as msr and robustness: the bundled model
+        from momakitchen.train.checkpoint import default_checkpoint
+
+        run_dir = default_checkpoint()
+    else:
+        run_dir = existing_dir(args.checkpoint, "checkpoint directory")
     out = output_file(args.json)  # an unwritable --json fails now, not after the work
     load_checkpoint(run_dir, model=args.model)  # fails early on a checkpoint of another model
     data = _dataset(args.data, args.split)

@@ -61,7 +61,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "--mount-height", type=float, default=None, help="arm mount height (m), if no --robot"
     )
     p.add_argument("--checkpoint", default=None, help="run directory (default: bundled model)")
-    p.add_argument("--top-k", type=positive_int, default=5)
+    p.add_argument("--top-k", type=positive_int, default=5, help="poses to return, best first (5)")
     p.add_argument(
         "--pick-radius",
         type=non_negative_float,

@@ -4,7 +4,9 @@ For every configuration of a split, the view ``msr`` picks for the same seed is 
 as a real depth sensor, segmenter or calibration would (``--list`` names every
 corruption and sensor preset), goes through the real-robot path (``predict``: the floor
 plane fitted to the frame) and the model's Top-k base positions are tried in physics with
-the labelling's own trial. Prints, per model and corruption, closed-loop Top-1 / Top-k,
+the labelling's own trial. The ``clean`` row is that view as ``msr`` scores it (the stored
+episode): with the same ``--seed``, ``--min-spread`` and ``--pick-radius`` its Top-1 is
+``msr``'s Top-1 MSR. Prints, per model and corruption, closed-loop Top-1 / Top-k,
 PCC and SIM against the ground truth at the predicted floor points, views whose target
 lies beyond the sensor's working range (apart, not as failures) and errors by cause;
 writes them as JSON and, under ``--out``, ``robustness.png`` (one view under each
@@ -17,6 +19,7 @@ from __future__ import annotations
 import argparse
 import json
 import time
+from typing import Any
 
 from momakitchen.cli.common import (
     checked_methods,
@@ -25,7 +28,6 @@ from momakitchen.cli.common import (
     output_file,
     positive_int,
 )
-from momakitchen.errors import MomaError
 from momakitchen.fileio import atomic_write_bytes, atomic_write_text, existing_dir
 
 SPLITS = ("test", "train", "all")
@@ -38,8 +40,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    rb.add_argument("--list", action="store_true", help="list the corruptions and sensors")
-    rb.add_argument("--data", help="dataset directory (momakitchen generate)")
+    # --list answers at once, like --help: --data, --json and --out are required otherwise.
+    rb.add_argument(
+        "--list", action=_ListAction, nargs=0, help="list the corruptions and sensors, and exit"
+    )
+    rb.add_argument("--data", required=True, help="dataset directory (momakitchen generate)")
     rb.add_argument(
         "--checkpoint",
         action="append",
@@ -69,17 +74,44 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         metavar="NAME",
         help="a corruption (repeatable; default: every one; 'clean' is always added first)",
     )
-    rb.add_argument("--json", help="where to write the results (JSON)")
-    rb.add_argument("--out", help="directory for robustness.png and robustness.md")
+    rb.add_argument("--json", required=True, help="where to write the results (JSON)")
+    rb.add_argument("--out", required=True, help="directory for robustness.png and robustness.md")
     rb.add_argument("--split", default="test", choices=SPLITS)
     rb.add_argument("--top-k", type=positive_int, default=1, help="points per view (1)")
-    rb.add_argument("--min-spread", type=non_negative_float, default=0.2)
+    rb.add_argument(
+        "--min-spread",
+        type=non_negative_float,
+        default=0.2,
+        help="minimum distance between the Top-k points (m, 0.2; as msr's)",
+    )
+    rb.add_argument(
+        "--pick-radius",
+        type=non_negative_float,
+        default=None,
+        help="rank points by the map averaged over this radius (m; default 0: the raw map, "
+        "as msr's)",
+    )
     rb.add_argument("--seed", type=non_negative_int, default=0, help="as msr's --seed")
     rb.add_argument(
         "--max-configs", type=non_negative_int, default=0, help="only the first N (0: all)"
     )
     rb.add_argument("--quiet", action="store_true", help="no progress bar")
     rb.set_defaults(func=run)
+
+
+class _ListAction(argparse.Action):
+    """``--list``: print the corruptions and sensors and exit, before the required options
+    are checked (as ``--help`` does)."""
+
+    def __call__(
+        self,
+        parser: argparse.ArgumentParser,
+        namespace: argparse.Namespace,
+        values: Any,
+        option_string: str | None = None,
+    ) -> None:
+        print(corruption_list())
+        parser.exit(0)
 
 
 def corruption_list() -> str:
@@ -106,22 +138,18 @@ def run(args: argparse.Namespace) -> int:
     )
     from momakitchen.perception.sensors import CORRUPTIONS
 
-    if args.list:
-        print(corruption_list())
-        return 0
-    for option in ("data", "json", "out"):
-        if getattr(args, option) is None:
-            raise MomaError(f"--{option} is required (or --list)")
     existing_dir(args.data, "dataset directory")
     predictions = checked_methods(args)
     out_json = output_file(args.json)
     planned_output_dir(args.out)
     names = list(args.corruption) or list(CORRUPTIONS)
     names = ["clean", *[n for n in names if n != "clean"]]
+    radius = {} if args.pick_radius is None else {"pick_radius": args.pick_radius}
     config = RobustnessConfig(
         corruptions=tuple(names),
         top_k=args.top_k,
         min_spread=args.min_spread,
+        **radius,
         seed=args.seed,
         split=args.split,
         max_configs=args.max_configs,

@@ -392,9 +392,11 @@ def generate_dataset(
             # total in floating point.
             position = finished + sum(d / t for d, t in running.values())
             in_progress = sum(d for d, _ in running.values())
+            # Episodes are known only once a scene's shard is written (producers report
+            # configurations): shown from then on, as those of the written scenes.
+            written = f", episodes written={episodes}" if episodes else ""
             bar.set_postfix_str(
-                f"configurations={configurations + in_progress}, episodes={episodes}",
-                refresh=False,
+                f"configurations={configurations + in_progress}{written}", refresh=False
             )
             bar.update(position - bar.n)
             bar.n = position

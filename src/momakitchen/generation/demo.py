@@ -246,14 +246,17 @@ def _mark_target(ax: Any, mask: np.ndarray) -> None:
     )
 
 
-def _legend_marks(ax: Any) -> None:
+def _legend_marks(ax: Any, region: tuple[float, float, float, float]) -> None:
     """A legend for the marks of the top-down maps: the target star, the robot's camera
-    and the base poses."""
+    (only when the map's ``region``, (x min, x max, y min, y max) in the base frame, shows
+    the robot at the origin: the maps are cropped around the target) and the base poses."""
     from matplotlib.lines import Line2D
 
+    x0, x1, y0, y1 = region
+    camera = [Line2D([], [], marker="^", ls="", color="black", ms=8, label="robot (camera)")]
     handles = [
         Line2D([], [], marker="*", ls="", color="red", mec="black", ms=12, label="target"),
-        Line2D([], [], marker="^", ls="", color="black", ms=8, label="robot (camera)"),
+        *(camera if x0 <= 0.0 <= x1 and y0 <= 0.0 <= y1 else []),
         Line2D([], [], marker=r"$\rightarrow$", ls="", color="red", ms=12, label="chosen pose"),
         Line2D([], [], marker=r"$\rightarrow$", ls="", color="orange", ms=12, label="Top-2..5"),
     ]
@@ -336,7 +339,7 @@ def report_figure(
     fig.colorbar(
         sc, ax=[axes[1, 0], axes[1, 1]], shrink=0.8, label="affordance = success rate (4 and 5)"
     )
-    _legend_marks(axes[1, 0])
+    _legend_marks(axes[1, 0], region)
     ax = axes[1, 2]
     ax.axis("off")
     x, y, yaw = result["chosen_pose_base_frame"]

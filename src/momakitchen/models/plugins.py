@@ -44,6 +44,39 @@ from momakitchen.models.loss import WeightedMSELoss
 GROUP = "momakitchen.models"
 
 
+class PluginImportError(MomaError):
+    """A plug-in model whose module cannot be imported: ``model`` the name it was asked
+    by, ``module`` the module that failed, ``reason`` the import's error in one line."""
+
+    def __init__(self, message: str, model: str, module: str, reason: str) -> None:
+        super().__init__(message)
+        self.model, self.module, self.reason = model, module, reason
+
+
+def check_loadable(name: str, where: str) -> None:
+    """MomaError, in one line, unless model ``name`` (of a run: ``where`` names it, e.g.
+    ``checkpoint 'runs/mine'``) can be built here: for a plug-in whose module does not
+    import, the module and the import's error; for a name neither built in nor installed,
+    what the registry says. Checked before the run's training config, whose errors would
+    otherwise read as a bad config."""
+    from momakitchen.models.registry import get_model_entry
+
+    try:
+        get_model_entry(name)
+    except PluginImportError as exc:
+        raise MomaError(
+            f"{where} was trained with the plug-in model {name!r}, whose module "
+            f"{exc.module!r} cannot be imported here ({exc.reason}): install the package "
+            "that provides it where the run is loaded"
+        ) from None
+    except MomaError as exc:
+        if "unknown model" not in str(exc):
+            raise
+        raise MomaError(
+            f"{where} was trained with model {name!r}, not installed here: {exc}"
+        ) from None
+
+
 def _one_line(exc: BaseException) -> str:
     text = " ".join(f"{type(exc).__name__}: {exc}".split())
     return text if len(text) < 200 else text[:197] + "..."
@@ -95,8 +128,12 @@ def load_plugin(name: str) -> Any:
         try:
             module = importlib.import_module(module_name)
         except Exception as exc:  # any import-time failure of foreign code
-            raise MomaError(
-                f"model {name!r}: cannot import {module_name!r} ({_one_line(exc)})"
+            reason = _one_line(exc)
+            raise PluginImportError(
+                f"model {name!r}: cannot import {module_name!r} ({reason})",
+                name,
+                module_name,
+                reason,
             ) from None
         obj: Any = module
         for part in attr.split("."):
@@ -115,8 +152,12 @@ def load_plugin(name: str) -> Any:
     try:
         return eps[0].load()
     except Exception as exc:  # any import-time failure of foreign code
-        raise MomaError(
-            f"model {name!r}: {_origin(eps[0])} fails to import ({_one_line(exc)})"
+        reason = _one_line(exc)
+        raise PluginImportError(
+            f"model {name!r}: {_origin(eps[0])} fails to import ({reason})",
+            name,
+            eps[0].value.partition(":")[0],
+            reason,
         ) from None
 
 
