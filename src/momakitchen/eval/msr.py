@@ -548,6 +548,7 @@ def format_msr_table(result: dict[str, Any]) -> str:
     lines.append(
         f"({result['configurations']} configurations of the "
         f"{result['config']['split']} split, {result['feasible_configurations']} "
-        "feasible: some labelling trial succeeded)"
+        "feasible: some labelling trial succeeded; trials: the points each method tried in "
+        f"physics, up to {k} per configuration)"
     )
     return "\n".join(lines)
