@@ -242,6 +242,22 @@ def one_line_error(capsys) -> str:
     return err
 
 
+def read_output_bag(path: Path) -> dict[str, list]:
+    """Topic -> ``(schema name, log time, message)`` of every message in the MCAP of the
+    bag directory ``path``, decoded by the reference MCAP reader (not rosbags, which wrote
+    it)."""
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+
+    (mcap_file,) = path.glob("*.mcap")
+    out: dict[str, list] = {}
+    with mcap_file.open("rb") as f:
+        reader = make_reader(f, decoder_factories=[DecoderFactory()])
+        for schema, channel, message, msg in reader.iter_decoded_messages():
+            out.setdefault(channel.topic, []).append((schema.name, message.log_time, msg))
+    return out
+
+
 def hidden_entries(root: Path) -> list[str]:
     """Hidden names under ``root``: what a failed write would leave behind."""
     return sorted(str(p.relative_to(root)) for p in root.rglob(".*"))

@@ -30,6 +30,7 @@ from bag_helpers import (
     episode_frames,
     png_bytes,
     quarter,
+    read_output_bag,
     write_bag,
 )
 
@@ -100,22 +101,8 @@ def _same_poses(got: np.ndarray, pred) -> None:
     assert np.abs(dyaw).max() <= 1e-3
 
 
-def _read_output(path: Path) -> dict[str, list]:
-    """Every message of the output bag's MCAP, decoded by the reference MCAP reader."""
-    from mcap.reader import make_reader
-    from mcap_ros2.decoder import DecoderFactory
-
-    (mcap_file,) = path.glob("*.mcap")
-    out: dict[str, list] = {}
-    with mcap_file.open("rb") as f:
-        reader = make_reader(f, decoder_factories=[DecoderFactory()])
-        for schema, channel, message, msg in reader.iter_decoded_messages():
-            out.setdefault(channel.topic, []).append((schema.name, message.log_time, msg))
-    return out
-
-
 def _check_output_bag(path: Path, preds: list, stamps: list[int], frame_id: str) -> None:
-    msgs = _read_output(path)
+    msgs = read_output_bag(path)
     assert set(msgs) == {
         f"/momakitchen/{t}" for t in ("goal", "poses", "affordance", "markers", "prediction")
     }

@@ -158,3 +158,39 @@ def test_a_full_disk_names_the_output_and_keeps_the_old_ones(
     assert f"cannot write {str(named)!r}: No space left on device" in err, err
     assert _files(out) == OLD
     assert not hidden_entries(tmp_path)
+
+
+def test_write_prediction_bag_replaces_a_bag_whole(tmp_path, monkeypatch):
+    """The Python writer: a second bag replaces the first; a failed one leaves it."""
+    import numpy as np
+    from bag_helpers import read_output_bag
+
+    from momakitchen.deploy.rosout import StampedFusion, StampedPrediction, write_prediction_bag
+    from momakitchen.errors import MomaError
+    from momakitchen.models.inference import Prediction
+
+    def prediction(x: float) -> Prediction:
+        floor = np.array([[x, 0.0, 0.0], [x + 0.1, 0.2, 0.0]])
+        return Prediction(
+            floor, np.array([0.9, 0.1]), np.zeros(2), np.array([[x, 0.0, 0.5]]),
+            np.array([0.9]), np.zeros(1), np.array([x + 1.0, 0.0, 0.8]), "panda", "navaff",
+        )  # fmt: skip
+
+    path = tmp_path / "bag"
+    write_prediction_bag(path, [StampedPrediction(10, "base_link", prediction(1.0))])
+    fused = StampedFusion(20, "odom", np.array([[3.0, 4.0]]), np.ones(1), np.zeros(1), (3, 4, 1))
+    write_prediction_bag(path, [StampedPrediction(20, "base_link", prediction(2.0))], fusion=fused)
+    msgs = read_output_bag(path)
+    ((_, _, goal),) = msgs["/momakitchen/goal"]
+    assert goal.pose.position.x == 2.0  # the second bag's, alone
+    ((_, _, fused_goal),) = msgs["/momakitchen/fused_goal"]
+    assert fused_goal.header.frame_id == "odom" and fused_goal.pose.position.y == 4.0
+    before = _files(path)
+
+    def refused(src, dst):
+        raise PermissionError(errno.EACCES, os.strerror(errno.EACCES), os.fspath(src))
+
+    monkeypatch.setattr(dirswap.os, "rename", refused)
+    with pytest.raises(MomaError, match="its previous contents are unchanged"):
+        write_prediction_bag(path, [StampedPrediction(30, "base_link", prediction(3.0))])
+    assert _files(path) == before and not hidden_entries(tmp_path)

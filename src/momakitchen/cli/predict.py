@@ -10,8 +10,9 @@ with its affordance and uncertainty) and ``prediction.png``.
 Or, from a recorded ROS 2 bag: --bag PATH with --depth-topic and --camera-info-topic (the
 camera-to-base transform comes from the bag's TF tree), --time SEC or --every N, and the
 target mask as --target-mask FILE or --target-mask-topic; this also writes ``ros/``, a
-ROS 2 bag (MCAP) of the poses, the map and RViz markers, and ``frames.json`` (needs the
-robot extra: pip install -e '.[robot]').
+ROS 2 bag (MCAP) of the poses, the map and RViz markers, and ``frames.json``, replacing
+--out whole, and with --odom-frame FRAME fuses the frames' maps into one goal in FRAME
+(needs the robot extra: pip install -e '.[robot]'; docs/ROBOT_IO.md).
 """
 
 from __future__ import annotations
