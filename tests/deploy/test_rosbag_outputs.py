@@ -59,10 +59,16 @@ def _argv(bag, out, *extra):
     return ["--bag", bag, *TOPICS, *extra, "--robot", "panda", "--mc-samples", 0, "--out", out]
 
 
-def test_success_replaces_the_old_outputs_whole(bag, tmp_path):
+@pytest.mark.parametrize("form", ["directory", "link to a directory"])
+def test_success_replaces_the_old_outputs_whole(form, bag, tmp_path):
     out = tmp_path / "out"
     _seed(out)
-    assert predict_cli(*_argv(bag, out, "--time", 0)) == 0
+    given = out
+    if form == "link to a directory":  # the link stays, pointing at the new outputs
+        given = tmp_path / "latest"
+        given.symlink_to(out, target_is_directory=True)
+    assert predict_cli(*_argv(bag, given, "--time", 0)) == 0
+    assert given.is_symlink() == (form != "directory")
     files = _files(out)
     # one frame: its files at the top; nothing of the earlier run is left to mix in
     assert sorted(files) == [

@@ -140,6 +140,8 @@ def run_bag(args: argparse.Namespace, robot: Any, out: Path, options: dict[str, 
                 )
             doc = outputs.finish({"bag": str(Path(args.bag)), "topics": vars(topics)})
     seconds = time.perf_counter() - t0
+    if outputs.leftover is not None:
+        print(f"warning: the previous outputs could not all be removed: {outputs.leftover}")
     fused = doc.get("fused")
     if fused is not None:
         goal = fused["goal"]

@@ -88,6 +88,7 @@ class BagOutputs:
 
             self.fusion = MapFusion(cell=cell)
         self._last_ns = 0
+        self.leftover: Path | None = None  # the old outputs, if they could not be removed
         self._bag: PredictionBagWriter | None = None
         self.stage: Path | None = None
 
@@ -202,7 +203,7 @@ class BagOutputs:
                 doc["fused"] = fused
             text = json.dumps(doc, indent=1, allow_nan=False) + "\n"
             atomic_write_text(self.stage / "frames.json", text)
-        swap_in(self.stage, self.out)
+        self.leftover = swap_in(self.stage, self.out)
         return doc
 
     def __exit__(self, exc_type: object, *exc: object) -> None:

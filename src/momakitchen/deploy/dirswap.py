@@ -19,6 +19,8 @@ def stage_beside(target: str | os.PathLike) -> Path:
     nothing is created at ``target``'s place before the contents are complete), on the
     same file system, so that :func:`swap_in` needs only renames."""
     target = Path(target)
+    if target.is_symlink():  # beside what the link points to: swap_in replaces that
+        target = target.resolve()
     ancestor = target.parent
     while not ancestor.exists() and ancestor != ancestor.parent:
         ancestor = ancestor.parent
@@ -32,13 +34,14 @@ def stage_beside(target: str | os.PathLike) -> Path:
         ) from None
 
 
-def swap_in(stage: Path, target: str | os.PathLike) -> None:
+def swap_in(stage: Path, target: str | os.PathLike) -> Path | None:
     """Put the directory ``stage`` at ``target``, replacing what is there.
 
     The old ``target`` is renamed aside, ``stage`` renamed onto its place, and the old one
     removed. If the second rename fails the first is undone, so ``target`` keeps its old
     contents; either way a failure is a MomaError. (Between the renames ``target`` is
-    briefly absent: POSIX has no portable atomic exchange of two directories.)
+    briefly absent: POSIX has no portable atomic exchange of two directories.) Returns
+    where the old contents still are if they could not all be removed, else None.
     """
     target = Path(target)
     if target.is_symlink():  # replace what the link points to, and keep the link
@@ -70,3 +73,6 @@ def swap_in(stage: Path, target: str | os.PathLike) -> None:
         raise MomaError(reason) from None
     if moved is not None:
         shutil.rmtree(moved, ignore_errors=True)
+        if os.path.lexists(moved):
+            return moved
+    return None
