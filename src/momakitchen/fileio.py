@@ -1,11 +1,14 @@
 """Atomic file writes (a reader never sees a half-written file), the checks of the
-directories and files that commands read, and reading a JSON object with a clear error."""
+directories and files that commands read, reading a JSON object with a clear error, and
+strict JSON text (never NaN or infinity)."""
 
 from __future__ import annotations
 
 import errno
 import io
 import json
+import math
+import numbers
 import os
 import zipfile
 from collections.abc import Iterator
@@ -113,3 +116,57 @@ def read_json_object(path: str | os.PathLike) -> dict[str, Any]:
     if not isinstance(data, dict):
         raise MomaError(f"{path}: expected a JSON object")
     return data
+
+
+def dumps_strict(obj: Any, *, null_non_finite: bool = False, **kwargs: Any) -> str:
+    """``json.dumps(obj, **kwargs)`` that never writes NaN or infinity, which are not JSON
+    (Python writes them as ``NaN`` / ``Infinity``; strict readers reject the file).
+
+    With ``null_non_finite`` they become null: for documents where a missing value is
+    legitimate (a distance to nothing). Otherwise MomaError names the first one's place
+    (``records[3].target_range``), before anything is written.
+    """
+    if null_non_finite:
+        obj = _null_non_finite(obj)
+    try:
+        return json.dumps(obj, allow_nan=False, **kwargs)
+    except ValueError:
+        where = _first_non_finite(obj, "")
+        if where is None:  # another error (a circular reference): json's own message
+            raise
+        raise MomaError(
+            f"cannot write JSON: {where[0] or 'the value'} is {where[1]}, which JSON cannot "
+            "hold (NaN or infinity)"
+        ) from None
+
+
+def _is_non_finite(value: Any) -> bool:
+    # numbers.Real includes numpy's floats (written through ``default=float``)
+    return (
+        isinstance(value, numbers.Real)
+        and not isinstance(value, numbers.Integral)
+        and not math.isfinite(value)
+    )
+
+
+def _null_non_finite(obj: Any) -> Any:
+    if isinstance(obj, dict):
+        return {k: _null_non_finite(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_null_non_finite(v) for v in obj]
+    return None if _is_non_finite(obj) else obj
+
+
+def _first_non_finite(obj: Any, path: str) -> tuple[str, float] | None:
+    """The place (``a.b[2]``) and value of the first non-finite number in ``obj``."""
+    if isinstance(obj, dict):
+        items: Any = ((f"{path}.{k}" if path else str(k), v) for k, v in obj.items())
+    elif isinstance(obj, (list, tuple)):
+        items = ((f"{path}[{i}]", v) for i, v in enumerate(obj))
+    else:
+        return (path, float(obj)) if _is_non_finite(obj) else None
+    for where, value in items:
+        found = _first_non_finite(value, where)
+        if found is not None:
+            return found
+    return None

@@ -15,33 +15,67 @@ field               required  content
 ``reach``,          these     the arm's reach and mount height (m)
 ``mount_height``
 ``rgb``             no        colour PNG / JPEG or ``.npy``
-``obstacle_mask``   no        PNG or ``.npy``; repeat the field for several
-``top_k``,          no        as in :func:`momakitchen.predict`
-``mc_samples``,
-``pick_radius``,
-``min_spread``
+``obstacle_mask``   no        PNG or ``.npy``; repeat the field for several (at most 16)
+``top_k``           no        number of poses, an integer in [1, 50] (default 5)
+``mc_samples``      no        MC-dropout passes, an integer in [0, 64] (default 8)
+``pick_radius``     no        metres in [0, 1] (default 0), as in :func:`momakitchen.predict`
+``min_spread``      no        metres in [0, 5] between poses (default 0.2)
 ``floor_points``    no        ``0`` leaves the floor points out of the answer (default 1)
 ==================  ========  =========================================================
 
 The answer is the ``prediction.json`` document (:meth:`Prediction.to_dict`); the
 ``X-Predict-Seconds`` header says how long the model took. ``GET /health`` answers
-``{"status", "model", "checkpoint", "version"}``. A bad request gets a 4xx status and a
-one-line JSON ``{"error": ...}`` naming the bad field or value, never a traceback.
+``{"status", "model", "checkpoint", "version"}`` (the checkpoint by its run's name, never
+its path on the server). Every answer that is not a prediction is a one-line JSON
+``{"error": ...}`` naming the bad field or value, never a traceback.
+
+Limits (:class:`Limits`; ``momakitchen serve`` options in brackets):
+
+- a request body is at most 64 MB [--max-body-mb]: 413 beyond;
+- the bodies of all the requests being read, waiting or predicted together are at most
+  256 MB [--max-inflight-mb]: 503 with ``Retry-After`` beyond (counted from each request's
+  ``Content-Length``, or the body limit without one);
+- at most 4 requests wait for the model behind the one it is predicting [--queue]: 503
+  with ``Retry-After`` beyond;
+- a client has 30 s [--read-timeout] to send a request's headers (from its connection, or
+  from the previous answer on a kept-alive one; the connection is then closed), 30 s more
+  for its body (408 and the connection closed) and 30 s to take the answer;
+- each image is at most 4096x4096 = 16 Mpx, checked from its PNG / JPEG / ``.npy`` header
+  before anything is decoded, and every image must have the depth image's size; a
+  ``.npy`` must hold bool, integer or float numbers (no structured, string or object
+  arrays), as (H, W) or (H, W, C) with C <= 4; a body with a ``Content-Encoding`` is
+  refused (415);
+- ``mc_samples`` <= 64 bounds the work of one frame: a frame whose client has gone is not
+  predicted when its turn comes, but one already running finishes (at most 65 forward
+  passes, a few seconds) before the model moves on;
+- with a token (``--token`` or ``MOMAKITCHEN_SERVE_TOKEN``) every request must carry
+  ``Authorization: Bearer <token>`` (401 otherwise, before its body is read); serving an
+  address other than a loopback one without a token is refused.
+
+A prediction that is not finite (a checkpoint whose weights overflow) is a 500 with a
+one-line JSON naming the checkpoint; no answer ever holds NaN.
 
 The server is `aiohttp` (asyncio): requests are read and answered concurrently while the
 model runs on one worker thread, one frame at a time, so a prediction never shares torch
-with another and ``/health`` answers while a frame is being predicted. Needs the ``robot``
-extra.
+with another and ``/health`` answers while a frame is being predicted. The memory it holds
+is the in-flight bodies (their cap) plus one frame's work (about 0.3 GB for 640x480, 2 GB
+for a 16 Mpx frame). Needs the ``robot`` extra.
 """
 
 from __future__ import annotations
 
 import asyncio
+import hmac
 import io
+import ipaddress
 import logging
+import math
 import time
-from collections.abc import Mapping
+import warnings
+from collections.abc import Callable, Mapping
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -50,9 +84,21 @@ from momakitchen.errors import MomaError
 
 LOG = logging.getLogger("momakitchen.serve")
 MAX_BODY_MB = 64  # a 640x480 float32 depth .npy is 1.2 MB; a 4K frame's fits too
+MAX_INFLIGHT_MB = 256  # four full-size bodies at once
+QUEUE = 4  # requests waiting for the model behind the one it predicts
+READ_TIMEOUT = 30.0  # s; a 64 MB body at 20 Mbit/s takes 27 s
+MAX_PIXELS = 4096 * 4096  # per image; a 16 Mpx frame takes about 2 GB to predict
+MAX_OBSTACLE_MASKS = 16
+TOKEN_ENV = "MOMAKITCHEN_SERVE_TOKEN"
 REQUIRED = ("depth", "target_mask", "intrinsics", "camera_to_base")
 FILES = ("depth", "target_mask", "rgb", "obstacle_mask")
-NUMBERS = {"top_k": int, "mc_samples": int, "pick_radius": float, "min_spread": float}
+# name -> (type, least, greatest); the top_k and pick_radius ranges are predict's own
+NUMBERS: dict[str, tuple[type, float, float]] = {
+    "top_k": (int, 1, 50),
+    "mc_samples": (int, 0, 64),
+    "pick_radius": (float, 0.0, 1.0),
+    "min_spread": (float, 0.0, 5.0),
+}
 TEXT = ("intrinsics", "camera_to_base", "robot", "reach", "mount_height", "floor_points")
 FIELDS = (*FILES, *NUMBERS, *TEXT)
 
@@ -65,24 +111,131 @@ def _require_aiohttp() -> Any:
     return web
 
 
+@dataclass(frozen=True)
+class Limits:
+    """What one server accepts (see the module docstring); MomaError names a bad one."""
+
+    queue: int = QUEUE
+    max_body_mb: int = MAX_BODY_MB
+    max_inflight_mb: int = MAX_INFLIGHT_MB
+    read_timeout: float = READ_TIMEOUT
+
+    def __post_init__(self) -> None:
+        if self.queue < 0:
+            raise MomaError(f"the queue must be >= 0 requests, got {self.queue}")
+        if self.max_body_mb < 1:
+            raise MomaError(f"the body limit must be >= 1 MB, got {self.max_body_mb}")
+        if self.max_inflight_mb < self.max_body_mb:
+            raise MomaError(
+                f"the in-flight limit ({self.max_inflight_mb} MB) must be at least the body "
+                f"limit ({self.max_body_mb} MB), or a full-size request could never be read"
+            )
+        if not (math.isfinite(self.read_timeout) and self.read_timeout > 0):
+            raise MomaError(f"the read timeout must be > 0 s, got {self.read_timeout}")
+
+
+def is_loopback(host: str) -> bool:
+    """Whether ``host`` (an address or ``localhost``) serves this machine only."""
+    if host.lower() == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host.strip("[]")).is_loopback
+    except ValueError:  # another name: it may resolve to any interface
+        return False
+
+
+def checkpoint_label(run_dir: str | Path) -> str:
+    """A run directory as the server shows it: its name (``navaff (bundled)`` for the
+    bundled model), never the path on the server's disk."""
+    from momakitchen.train.checkpoint import DEFAULT_CHECKPOINT
+
+    path = Path(run_dir)
+    bundled = path.resolve() == DEFAULT_CHECKPOINT.resolve()
+    return f"{path.name} (bundled)" if bundled else path.name
+
+
 # ---------------------------------------------------------------------------- decoding
+def _npy_header(data: bytes, name: str) -> tuple[tuple[int, ...], np.dtype, int]:
+    """Shape, dtype and data offset of an uploaded ``.npy``, from its header only."""
+    fmt = np.lib.format
+    f = io.BytesIO(data)
+    try:
+        version = fmt.read_magic(f)
+        if version == (1, 0):
+            shape, _, dtype = fmt.read_array_header_1_0(f)
+        elif version == (2, 0):
+            shape, _, dtype = fmt.read_array_header_2_0(f)
+        else:  # 3.0 only adds UTF-8 field names, i.e. structured arrays
+            raise ValueError(f"unsupported .npy format version {version}")
+    except (ValueError, OSError, EOFError, SyntaxError) as exc:
+        raise MomaError(f"field {name!r} is not a readable .npy array ({exc})") from None
+    if dtype.kind not in "biuf" or dtype.fields is not None or dtype.subdtype is not None:
+        raise MomaError(
+            f"field {name!r} is a .npy of dtype {str(dtype)[:60]}: give a bool, integer or "
+            "float array"
+        )
+    return tuple(shape), dtype, f.tell()
+
+
+def array_header(data: bytes, name: str) -> tuple[tuple[int, ...], str]:
+    """The shape ((H, W) or (H, W, C)) and format (``"npy"`` or ``"image"``) of an uploaded
+    ``.npy``, PNG or JPEG file, read from its header without decoding it; MomaError names
+    a file that is unreadable, of another kind, not numbers, or over :data:`MAX_PIXELS`."""
+    if data.startswith(b"\x93NUMPY"):
+        shape, dtype, offset = _npy_header(data, name)
+        kind = "npy"
+    elif data.startswith((b"\x89PNG", b"\xff\xd8")):
+        from PIL import Image, UnidentifiedImageError
+
+        try:
+            with warnings.catch_warnings():  # the size is checked below, against a lower limit
+                warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+                with Image.open(io.BytesIO(data)) as img:  # reads the header only
+                    w, h = img.size
+                    shape = (h, w) if len(img.getbands()) == 1 else (h, w, len(img.getbands()))
+        except (UnidentifiedImageError, Image.DecompressionBombError, OSError, SyntaxError) as exc:
+            raise MomaError(f"field {name!r} is not a readable image ({exc})") from None
+        except ValueError as exc:
+            raise MomaError(f"field {name!r} is not a readable image ({exc})") from None
+        kind = "image"
+    else:
+        raise MomaError(f"field {name!r} must be a PNG, JPEG or .npy file")
+    if len(shape) not in (2, 3) or (len(shape) == 3 and not 1 <= shape[2] <= 4):
+        raise MomaError(f"field {name!r} must be an (H, W) or (H, W, C) image, got {shape}")
+    h, w = shape[:2]
+    if h * w > MAX_PIXELS:
+        raise MomaError(
+            f"field {name!r} is {w}x{h} = {h * w / 1e6:.1f} Mpx, over the limit of "
+            f"{MAX_PIXELS / 1e6:.1f} Mpx (4096x4096)"
+        )
+    if kind == "npy" and len(data) < offset + math.prod(shape) * dtype.itemsize:
+        raise MomaError(
+            f"field {name!r} is a truncated .npy: its header says {shape} {dtype}, "
+            f"{offset + math.prod(shape) * dtype.itemsize} bytes; the upload has {len(data)}"
+        )
+    return shape, kind
+
+
 def decode_array(data: bytes, name: str) -> tuple[np.ndarray, str]:
     """An array and its format (``"npy"`` or ``"image"``) from an uploaded ``.npy``, PNG
-    or JPEG file."""
-    if data.startswith(b"\x93NUMPY"):
+    or JPEG file, after :func:`array_header`'s checks."""
+    kind = array_header(data, name)[1]
+    if kind == "npy":
         try:
             return np.load(io.BytesIO(data), allow_pickle=False), "npy"
         except (ValueError, OSError, EOFError) as exc:
             raise MomaError(f"field {name!r} is not a readable .npy array ({exc})") from None
-    if data.startswith((b"\x89PNG", b"\xff\xd8")):
-        from PIL import Image, UnidentifiedImageError
+    from PIL import Image, UnidentifiedImageError
 
-        try:
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", Image.DecompressionBombWarning)
             with Image.open(io.BytesIO(data)) as img:
                 return np.array(img), "image"
-        except (UnidentifiedImageError, Image.DecompressionBombError, OSError, SyntaxError) as exc:
-            raise MomaError(f"field {name!r} is not a readable image ({exc})") from None
-    raise MomaError(f"field {name!r} must be a PNG, JPEG or .npy file")
+    except (UnidentifiedImageError, Image.DecompressionBombError, OSError, SyntaxError) as exc:
+        raise MomaError(f"field {name!r} is not a readable image ({exc})") from None
+    except ValueError as exc:
+        raise MomaError(f"field {name!r} is not a readable image ({exc})") from None
 
 
 def _numbers(text: str, name: str, count: int) -> list[float]:
@@ -95,13 +248,27 @@ def _numbers(text: str, name: str, count: int) -> list[float]:
     return values
 
 
-def predict_arguments(
+def _option(name: str, text: str) -> int | float:
+    """A numeric option's value, checked against :data:`NUMBERS`."""
+    kind, lo, hi = NUMBERS[name]
+    try:
+        value: int | float = kind(text)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and lo <= value <= hi):
+        what = "an integer" if kind is int else "a finite number (m)"
+        raise MomaError(f"field {name!r} must be {what} in [{lo:g}, {hi:g}], got {text[:40]!r}")
+    return value
+
+
+def check_fields(
     files: Mapping[str, list[bytes]], text: Mapping[str, str]
 ) -> tuple[dict[str, Any], bool]:
-    """The keyword arguments of :func:`momakitchen.predict` from a request's fields, and
-    whether the answer includes the floor points. MomaError names a bad field."""
-    from momakitchen.deploy.predict import load_depth
-
+    """Every check of a request that needs no decoding: the field names and counts, the
+    numbers, and each file's header (:func:`array_header`: format, dtype, size, the depth
+    image's size). Returns the keyword arguments of :func:`momakitchen.predict` other
+    than the arrays, and whether the answer includes the floor points. MomaError names a
+    bad field."""
     unknown = sorted((set(files) | set(text)) - set(FIELDS))
     if unknown:
         raise MomaError(f"unknown field {unknown[0]!r}; the fields are {', '.join(FIELDS)}")
@@ -116,26 +283,26 @@ def predict_arguments(
             raise MomaError(f"field {name!r} must be a file upload")
         if name != "obstacle_mask" and len(files.get(name, [])) > 1:
             raise MomaError(f"field {name!r} is given more than once")
-
-    depth, kind = decode_array(files["depth"][0], "depth")
-    if kind == "image":
-        if depth.dtype != np.uint16:
-            raise MomaError(f"depth PNG must be 16-bit (millimetres), got {depth.dtype}")
-        depth = depth.astype(np.float32) / 1000.0
+    if len(files.get("obstacle_mask", [])) > MAX_OBSTACLE_MASKS:
+        raise MomaError(
+            f"field 'obstacle_mask' is given {len(files['obstacle_mask'])} times, more than "
+            f"{MAX_OBSTACLE_MASKS}: merge some of the masks"
+        )
+    size = array_header(files["depth"][0], "depth")[0][:2]
+    for name, data in _images(files):
+        if name != "depth":
+            shape = array_header(data, name)[0]
+            if shape[:2] != size:
+                raise MomaError(
+                    f"field {name!r} is {shape[1]}x{shape[0]}: it does not match the depth "
+                    f"image ({size[1]}x{size[0]})"
+                )
     kwargs: dict[str, Any] = {
-        "depth": load_depth(depth),
         "intrinsics": _numbers(text["intrinsics"], "intrinsics", 4),
         "camera_to_base": np.reshape(
             _numbers(text["camera_to_base"], "camera_to_base", 16), (4, 4)
         ),
-        "target_mask": decode_array(files["target_mask"][0], "target_mask")[0],
-        "obstacle_masks": [
-            decode_array(b, f"obstacle_mask {i}")[0]
-            for i, b in enumerate(files.get("obstacle_mask", []))
-        ],
     }
-    if "rgb" in files:
-        kwargs["rgb"] = decode_array(files["rgb"][0], "rgb")[0]
     if "robot" in text:
         if "reach" in text or "mount_height" in text:
             raise MomaError("give either 'robot' or 'reach' and 'mount_height', not both")
@@ -147,33 +314,75 @@ def predict_arguments(
         }
     else:
         raise MomaError("missing field 'robot' (or both 'reach' and 'mount_height')")
-    for name, kind_ in NUMBERS.items():
+    for name in NUMBERS:
         if name in text:
-            try:
-                kwargs[name] = kind_(text[name])
-            except ValueError:
-                raise MomaError(
-                    f"field {name!r} must be {'an integer' if kind_ is int else 'a number'}, "
-                    f"got {text[name][:40]!r}"
-                ) from None
+            kwargs[name] = _option(name, text[name])
     floor = text.get("floor_points", "1")
     if floor not in ("0", "1"):
         raise MomaError(f"field 'floor_points' must be 0 or 1, got {floor[:40]!r}")
     return kwargs, floor == "1"
 
 
+def _images(files: Mapping[str, list[bytes]]) -> list[tuple[str, bytes]]:
+    """The uploaded files with the names errors give them."""
+    out = [(name, files[name][0]) for name in ("depth", "target_mask", "rgb") if name in files]
+    return out + [(f"obstacle_mask {i}", b) for i, b in enumerate(files.get("obstacle_mask", []))]
+
+
+def predict_arguments(
+    files: Mapping[str, list[bytes]], text: Mapping[str, str]
+) -> tuple[dict[str, Any], bool]:
+    """The keyword arguments of :func:`momakitchen.predict` from a request's fields, and
+    whether the answer includes the floor points (:func:`check_fields`, then the images
+    decoded). MomaError names a bad field."""
+    from momakitchen.deploy.predict import load_depth
+
+    kwargs, floor = check_fields(files, text)
+    depth, kind = decode_array(files["depth"][0], "depth")
+    if kind == "image":
+        if depth.dtype != np.uint16:
+            raise MomaError(f"depth PNG must be 16-bit (millimetres), got {depth.dtype}")
+        depth = depth.astype(np.float32) / 1000.0
+    kwargs["depth"] = load_depth(depth)
+    kwargs["target_mask"] = decode_array(files["target_mask"][0], "target_mask")[0]
+    kwargs["obstacle_masks"] = [
+        decode_array(b, f"obstacle_mask {i}")[0]
+        for i, b in enumerate(files.get("obstacle_mask", []))
+    ]
+    if "rgb" in files:
+        kwargs["rgb"] = decode_array(files["rgb"][0], "rgb")[0]
+    return kwargs, floor
+
+
 # ---------------------------------------------------------------------------- the app
+class _ClientGone(Exception):
+    """The client of a queued frame left before the model got to it."""
+
+
 class ModelServer:
-    """The loaded model and the one worker thread that runs it.
+    """The loaded model, the one worker thread that runs it, and the limits.
 
     ``predict_defaults`` go to every :func:`momakitchen.predict` call (a request's own
-    fields override them).
+    fields override them). ``token``: the bearer token every request must carry (None:
+    none needed).
     """
 
-    def __init__(self, run: Any, predict_defaults: Mapping[str, Any] | None = None) -> None:
+    def __init__(
+        self,
+        run: Any,
+        predict_defaults: Mapping[str, Any] | None = None,
+        limits: Limits | None = None,
+        token: str | None = None,
+    ) -> None:
         self.run = run
         self.defaults = dict(predict_defaults or {})
+        self.limits = limits or Limits()
+        self.token = token
         self.pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="momakitchen-model")
+        self.queued = 0  # requests handed to the model thread, the running one included
+        self.inflight = 0  # bytes reserved by the requests being read, queued or predicted
+        self.seconds = 1.0  # a running mean of the model's time, for Retry-After
+        self.unseen: set[Any] = set()  # connections that have sent no request head yet
 
     def health(self) -> dict[str, Any]:
         from momakitchen.version import __version__
@@ -181,7 +390,7 @@ class ModelServer:
         return {
             "status": "ok",
             "model": self.run.config.model,
-            "checkpoint": str(self.run.run_dir),
+            "checkpoint": checkpoint_label(self.run.run_dir),
             "version": __version__,
         }
 
@@ -196,25 +405,112 @@ class ModelServer:
         pred = predict(**{**self.defaults, **kwargs}, checkpoint=self.run)
         return pred.to_dict(floor_points=floor), time.perf_counter() - t0
 
+    def _job(
+        self, files: Mapping[str, list[bytes]], text: Mapping[str, str], alive: Callable
+    ) -> tuple[str, float]:
+        """On the model thread: the answer's JSON text, unless the client has left."""
+        from momakitchen.fileio import dumps_strict
+
+        if not alive():  # its client gave up while it waited: do not spend the model on it
+            raise _ClientGone
+        doc, seconds = self.predict(files, text)
+        return dumps_strict(doc), seconds
+
+    def retry_after(self) -> str:
+        """Seconds until the queue has likely moved on (for a 503's Retry-After)."""
+        return str(max(1, math.ceil(self.seconds * max(self.queued, 1))))
+
     def app(self) -> Any:
         """The aiohttp application."""
-        web = _require_aiohttp()
+        from momakitchen.fileio import dumps_strict
+        from momakitchen.models.inference import NonFiniteOutput
 
-        def error(status: int, message: str) -> Any:
-            return web.json_response({"error": " ".join(message.split())}, status=status)
+        web = _require_aiohttp()
+        limits = self.limits
+        max_body = limits.max_body_mb * 1024 * 1024
+
+        def error(status: int, message: str, **headers: str) -> Any:
+            doc = {"error": " ".join(message.split())}
+            return web.json_response(doc, status=status, headers=headers, dumps=dumps_strict)
+
+        def busy(why: str) -> Any:
+            headers = {"Retry-After": self.retry_after()}
+            return error(503, f"the server is busy ({why}); retry later", **headers)
+
+        async def send(request: Any, resp: Any) -> Any:
+            """Write the answer here, so that a client that does not read it is cut off."""
+            try:
+                await asyncio.wait_for(_write(request, resp), limits.read_timeout)
+            except asyncio.TimeoutError:
+                request.protocol.force_close()
+            except ConnectionError:  # the client left: nothing to tell anyone
+                pass
+            if resp.status == 408 and request.protocol is not None:
+                # now, rather than after aiohttp's wait for the rest of the body (10 s)
+                request.protocol.force_close()
+            return resp
+
+        async def _write(request: Any, resp: Any) -> None:
+            await resp.prepare(request)
+            await resp.write_eof()
+
+        @web.middleware
+        async def guard(request: Any, handler: Any) -> Any:
+            self.unseen.discard(request.protocol)
+            given = request.headers.get("Authorization", "")
+            if self.token is not None and not hmac.compare_digest(
+                given.encode(), f"Bearer {self.token}".encode()
+            ):
+                resp = error(
+                    401,
+                    "this server needs 'Authorization: Bearer <token>'"
+                    + (" (the token given is wrong)" if given else ""),
+                    **{"WWW-Authenticate": "Bearer"},
+                )
+            else:
+                try:
+                    resp = await handler(request)
+                except web.HTTPException as exc:  # 404, 405: one line of JSON as well
+                    allow = {"Allow": exc.headers["Allow"]} if "Allow" in exc.headers else {}
+                    why = f"{exc.reason}: {request.method} {request.path}"
+                    resp = error(exc.status, why, **allow)
+            return await send(request, resp)
 
         async def health(_: Any) -> Any:
-            return web.json_response(self.health())
+            return web.json_response(self.health(), dumps=dumps_strict)
 
         async def predict(request: Any) -> Any:
             if not request.content_type.startswith("multipart/"):
                 return error(415, "send the frame as multipart/form-data")
+            encoding = request.headers.get("Content-Encoding", "identity").lower()
+            if encoding != "identity":
+                return error(415, f"Content-Encoding {encoding!r} is not accepted: send it plain")
+            size = request.content_length
+            if size is not None and size > max_body:
+                return error(413, f"the request is larger than {limits.max_body_mb} MB")
+            # Refused before the body is read, so that a busy server reads nothing it drops.
+            if self.queued > limits.queue:
+                return busy(f"{limits.queue} requests are waiting for the model")
+            reserve = max_body if size is None else size
+            if self.inflight + reserve > limits.max_inflight_mb * 1024 * 1024:
+                return busy(f"{limits.max_inflight_mb} MB of requests are in flight")
+            self.inflight += reserve
+            try:
+                return await receive_and_predict(request)
+            finally:
+                self.inflight -= reserve
+
+        async def receive_and_predict(request: Any) -> Any:
             files: dict[str, list[bytes]] = {}
             text: dict[str, str] = {}
             try:
-                form = await request.post()
+                form = await asyncio.wait_for(request.post(), limits.read_timeout)
+            except asyncio.TimeoutError:
+                return error(408, f"the body did not arrive within {limits.read_timeout:g} s")
             except web.HTTPRequestEntityTooLarge:
-                return error(413, f"the request is larger than {MAX_BODY_MB} MB")
+                return error(413, f"the request is larger than {limits.max_body_mb} MB")
+            except ConnectionError:  # the client left mid-body
+                return error(400, "the connection was lost")
             except (ValueError, AssertionError, RuntimeError) as exc:
                 return error(400, f"malformed multipart body: {exc}")
             for name, value in form.items():
@@ -224,17 +520,46 @@ class ModelServer:
                     return error(400, f"field {name!r} is given more than once")
                 else:
                     text[name] = str(value)
-            loop = asyncio.get_running_loop()
             try:
-                doc, seconds = await loop.run_in_executor(self.pool, self.predict, files, text)
+                check_fields(files, text)  # here, so that a bad request does not wait its turn
+            except MomaError as exc:
+                return error(400, str(exc))
+            if self.queued > limits.queue:
+                return busy(f"{limits.queue} requests are waiting for the model")
+
+            def alive() -> bool:
+                transport = request.transport
+                return transport is not None and not transport.is_closing()
+
+            loop = asyncio.get_running_loop()
+            self.queued += 1
+            try:
+                body, seconds = await loop.run_in_executor(self.pool, self._job, files, text, alive)
+            except _ClientGone:
+                return error(400, "the client left before its turn")
+            except NonFiniteOutput as exc:
+                LOG.error("%s", " ".join(str(exc).split()))
+                return error(
+                    500,
+                    f"checkpoint {checkpoint_label(exc.checkpoint)!r} gave non-finite "
+                    "affordances (NaN or infinity) for this frame: its weights are broken; "
+                    "serve another checkpoint",
+                )
             except MomaError as exc:
                 return error(400, str(exc))
             except Exception as exc:  # a bug, not the client's fault: log it, answer one line
                 LOG.exception("prediction failed")
                 return error(500, f"internal error: {type(exc).__name__}: {exc}")
-            return web.json_response(doc, headers={"X-Predict-Seconds": f"{seconds:.4f}"})
+            finally:
+                self.queued -= 1
+            self.seconds = 0.8 * self.seconds + 0.2 * seconds
+            return web.Response(
+                text=body,
+                content_type="application/json",
+                headers={"X-Predict-Seconds": f"{seconds:.4f}"},
+            )
 
-        app = web.Application(client_max_size=MAX_BODY_MB * 1024 * 1024)
+        app = web.Application(client_max_size=max_body, middlewares=[guard])
         app.router.add_get("/health", health)
         app.router.add_post("/predict", predict)
 
@@ -244,6 +569,44 @@ class ModelServer:
         app.on_cleanup.append(close)
         return app
 
+    async def start(self, host: str, port: int) -> Any:
+        """Listen on ``host:port`` (0: any free port); returns the aiohttp runner (its
+        ``addresses`` say where; ``cleanup()`` stops it)."""
+        web = _require_aiohttp()
+        # keepalive_timeout: an idle connection, or one trickling its next request's
+        # head, is closed after the read timeout
+        runner = web.AppRunner(
+            self.app(), access_log=None, keepalive_timeout=self.limits.read_timeout
+        )
+        await runner.setup()
+        self.watch(runner.server)
+        site = web.TCPSite(runner, host, port)
+        try:
+            await site.start()
+        except OSError as exc:
+            await runner.cleanup()
+            raise MomaError(f"cannot listen on {host}:{port}: {exc.strerror or exc}") from None
+        return runner
+
+    def watch(self, server: Any) -> None:
+        """Close each connection of aiohttp's ``server`` that has not sent a complete
+        request head within the read timeout (aiohttp's keep-alive timer covers the time
+        between requests, and not, before 3.14, a connection's first request)."""
+        loop = asyncio.get_running_loop()
+        made = server.connection_made
+
+        def expire(handler: Any) -> None:
+            if handler in self.unseen:
+                self.unseen.discard(handler)
+                handler.force_close()
+
+        def connection_made(handler: Any, transport: Any) -> None:
+            made(handler, transport)
+            self.unseen.add(handler)
+            loop.call_later(self.limits.read_timeout, expire, handler)
+
+        server.connection_made = connection_made
+
 
 def serve(
     host: str = "127.0.0.1",
@@ -251,28 +614,31 @@ def serve(
     checkpoint: Any = None,
     predict_defaults: Mapping[str, Any] | None = None,
     ready: Any = None,
+    limits: Limits | None = None,
+    token: str | None = None,
 ) -> None:
     """Load the model and serve until interrupted. ``ready(host, port)`` is called once
-    the socket listens."""
+    the socket listens. A ``host`` that is not a loopback address needs a ``token``."""
     from momakitchen.train.checkpoint import LoadedRun, default_checkpoint, load_checkpoint
 
-    web = _require_aiohttp()
+    _require_aiohttp()
+    if token is not None and not token.strip():
+        raise MomaError("the token is empty: give a secret, or no token on a loopback address")
+    if token is None and not is_loopback(host):
+        raise MomaError(
+            f"refusing to serve {host} without a token: anyone who reaches it could use the "
+            f"model; give --token or set {TOKEN_ENV} (or serve 127.0.0.1 only)"
+        )
+    limits = limits or Limits()
     run = (
         checkpoint
         if isinstance(checkpoint, LoadedRun)
         else load_checkpoint(checkpoint if checkpoint is not None else default_checkpoint())
     )
-    server = ModelServer(run, predict_defaults)
+    server = ModelServer(run, predict_defaults, limits, token)
 
     async def main() -> None:
-        runner = web.AppRunner(server.app(), access_log=None)
-        await runner.setup()
-        site = web.TCPSite(runner, host, port)
-        try:
-            await site.start()
-        except OSError as exc:
-            await runner.cleanup()
-            raise MomaError(f"cannot listen on {host}:{port}: {exc.strerror or exc}") from None
+        runner = await server.start(host, port)
         try:
             if ready is not None:
                 bound = runner.addresses[0][1] if runner.addresses else port

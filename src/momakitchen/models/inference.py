@@ -22,6 +22,7 @@ from scipy.spatial import cKDTree
 
 from momakitchen.data.batch import EpisodeCollator
 from momakitchen.data.torch_dataset import episode_sample
+from momakitchen.errors import MomaError
 from momakitchen.models.base import AffordanceModel
 from momakitchen.models.navaff import target_centroid
 from momakitchen.perception.floor import FloorCorrection
@@ -142,9 +143,25 @@ def run_model(
     ``mc_samples`` is 0)."""
     batch = inference_collator(run.config)([sample])
     affordance = predict_batch(run.model, batch)[0].numpy().astype(np.float64)
-    if not mc_samples:
-        return batch, affordance, np.zeros_like(affordance)
-    return batch, affordance, mc_dropout_std(run.model, batch, mc_samples)
+    std = mc_dropout_std(run.model, batch, mc_samples) if mc_samples else np.zeros_like(affordance)
+    if not (np.isfinite(affordance).all() and np.isfinite(std).all()):
+        raise NonFiniteOutput(getattr(run, "run_dir", "?"))
+    return batch, affordance, std
+
+
+class NonFiniteOutput(MomaError):
+    """A model gave NaN or infinite affordances: its weights are broken (they overflow),
+    whatever the input. Every prediction passes :func:`run_model`, so no map, pose or
+    JSON document ever holds NaN."""
+
+    fatal = True  # not one bad frame: a loop over frames stops (eval.approach's convention)
+
+    def __init__(self, checkpoint: Any) -> None:
+        self.checkpoint = checkpoint
+        super().__init__(
+            f"checkpoint {str(checkpoint)!r} gives non-finite affordances (NaN or infinity): "
+            "its weights are broken or overflow; retrain it or use another checkpoint"
+        )
 
 
 def mc_dropout_std(model: Any, batch: dict[str, Any], samples: int) -> np.ndarray:
