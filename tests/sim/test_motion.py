@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -72,7 +73,7 @@ def test_drive_without_drift_ends_where_odometry_says(space):
     np.testing.assert_allclose(state.true, state.odom, atol=1e-9)
     np.testing.assert_allclose(state.odom[:2], goal, atol=1e-9)
     assert state.driven == pytest.approx(
-        sum(math.dist(a[:2], b[:2]) for a, b in zip(poses, poses[1:]))
+        sum(math.dist(a[:2], b[:2]) for a, b in itertools.pairwise(poses))
     )
 
 
@@ -94,7 +95,7 @@ def test_drift_moves_the_truth_not_the_belief_and_is_seeded(space):
 
 
 def test_drive_stops_before_a_collision(space):
-    scene, cfg, free = space
+    scene, cfg, _free = space
     start_xy = (scene.layout.room.width / 2, scene.layout.room.depth - 0.6)
     path = np.array([start_xy, (start_xy[0], start_xy[1] - 1.0)])
     state = BaseState((*start_xy, 0.0), (*start_xy, 0.0))

@@ -1,0 +1,247 @@
+"""The approach track: episodes driven in PyBullet, determinism, resume, outside methods
+through serve's HTTP API, the command line and its bad input."""
+
+from __future__ import annotations
+
+import json
+import re
+import subprocess
+import threading
+from http.server import BaseHTTPRequestHandler, HTTPServer
+
+import pytest
+
+from cli_process import cli_process
+from momakitchen.cli.main import main
+from momakitchen.errors import MomaError
+from momakitchen.eval import approach_track
+from momakitchen.eval.approach import ApproachConfig
+from momakitchen.eval.approach_report import pairwise, summarize
+from momakitchen.eval.approach_track import run_approach
+
+# What a run measures on the clock differs between runs; everything else may not.
+CLOCKS = ("cpu_seconds", "seconds", "looks")
+
+
+def _stable(records):
+    out = []
+    for r in records:
+        r = {k: v for k, v in r.items() if k not in CLOCKS}
+        out.append(r)
+    return out
+
+
+def test_episodes_are_deterministic_and_end_in_a_real_trial(real_dataset, tiny_run, monkeypatch):
+    from momakitchen.sim.trials import TrialRunner
+
+    outcomes = []
+    run = TrialRunner.run
+
+    def spy(self, x, y, yaw=None):
+        result = run(self, x, y, yaw)
+        outcomes.append(int(result.success))
+        return result
+
+    monkeypatch.setattr(TrialRunner, "run", spy)
+    cfg = ApproachConfig(starts=("near",), policies=("single",), max_configs=1)
+    a = run_approach(real_dataset, [tiny_run], ["oracle", "random"], config=cfg)
+    tried = [r for r in a["records"] if r["final"] is not None]  # not "unreachable_goal"
+    assert [r["success"] for r in tried] == outcomes  # the trial's own outcome
+    assert {r["method"] for r in a["records"]} == {"navaff", "oracle", "random"}
+    for r in a["records"]:
+        assert r["start"] == "near" and r["start_distance"] > 1.0
+        assert r["n_looks"] == (1 if r["method"] == "navaff" else 0)
+        assert 0.0 <= r["spl"] <= r["success"]
+        assert r["seconds"]["total"] > 0 or r["stage"] == "unreachable_goal"
+        assert r["path"][0] == pytest.approx(r["start_pose"][:2], abs=1e-3)
+    monkeypatch.setattr(TrialRunner, "run", run)
+    b = run_approach(real_dataset, [tiny_run], ["oracle", "random"], config=cfg)
+    assert _stable(a["records"]) == _stable(b["records"])
+    rows = summarize(a)
+    assert {(r["method"], r["policy"], r["start"]) for r in rows} == {
+        ("navaff", "single", "near"),
+        ("oracle", "-", "near"),
+        ("random", "-", "near"),
+    }
+    assert len(pairwise(a)) == 3
+
+
+@pytest.mark.slow
+def test_far_starts_relook_and_resume(real_dataset, tiny_run, tmp_path, monkeypatch):
+    cfg = ApproachConfig(starts=("far",), policies=("single", "relook"), max_configs=2)
+    resume = tmp_path / "run.partial.jsonl"
+    a = run_approach(real_dataset, [tiny_run], ["oracle"], config=cfg, resume=resume)
+    far = [r for r in a["records"] if r["method"] == "oracle"]
+    assert far and all(r["start_distance"] >= 2.5 for r in far)
+    relook = [r for r in a["records"] if r["policy"] == "relook"]
+    assert any(r["n_looks"] == 2 for r in relook)  # far starts look again near the goal
+    assert len(resume.read_text().splitlines()) == 1 + 2  # settings, then a line a config
+
+    def no_work(*args, **kwargs):
+        raise AssertionError("a configuration of the resume file ran again")
+
+    monkeypatch.setattr(approach_track, "run_configuration", no_work)
+    b = run_approach(real_dataset, [tiny_run], ["oracle"], config=cfg, resume=resume)
+    assert b["records"] == a["records"]
+    with pytest.raises(MomaError, match="other settings"):
+        run_approach(
+            real_dataset,
+            [tiny_run],
+            ["oracle"],
+            config=ApproachConfig(max_configs=2),
+            resume=resume,
+        )
+
+
+@pytest.fixture(scope="module")
+def server():
+    """The bundled model behind ``momakitchen serve`` (a tiny test model's flat map would
+    make the pick hinge on the answer's 4-decimal rounding)."""
+    argv, env = cli_process("serve", "--host", "127.0.0.1", "--port", "0")
+    proc = subprocess.Popen(
+        argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env
+    )
+    line: list[str] = []
+    reader = threading.Thread(target=lambda: line.append(proc.stdout.readline()), daemon=True)
+    reader.start()
+    reader.join(60)
+    match = re.search(r"http://127\.0\.0\.1:(\d+)", line[0] if line else "")
+    if not match:
+        proc.kill()
+        pytest.fail(f"the server did not start: {line} {proc.stderr.read()}")
+    yield f"http://127.0.0.1:{match.group(1)}"
+    proc.terminate()
+    proc.wait(10)
+
+
+@pytest.mark.slow
+def test_a_server_method_drives_as_the_local_model_does(real_dataset, server):
+    pytest.importorskip("aiohttp")
+    cfg = ApproachConfig(starts=("near",), policies=("single",), max_configs=1)
+    local = run_approach(real_dataset, config=cfg)["records"]
+    remote = run_approach(real_dataset, servers=[server], config=cfg)["records"]
+    assert remote[0]["method"].startswith("server:")
+    for a, b in zip(local, remote, strict=True):
+        # The answer's numbers are rounded to 4 decimals in prediction.json: the same goal.
+        assert b["goal"] == pytest.approx(a["goal"], abs=0.06)
+        assert b["success"] == a["success"]
+
+
+class _Garbage(BaseHTTPRequestHandler):
+    def do_GET(self):  # /health answers as serve does
+        body = json.dumps({"status": "ok", "model": "navaff"}).encode()
+        self.send_response(200)
+        self.send_header("Content-Type", "application/json")
+        self.end_headers()
+        self.wfile.write(body)
+
+    def do_POST(self):
+        self.rfile.read(int(self.headers["Content-Length"]))
+        self.send_response(200)
+        self.end_headers()
+        self.wfile.write(b'{"floor_points": "not rows"}')
+
+    def log_message(self, *args):
+        pass
+
+
+def test_a_server_that_answers_garbage_stops_the_run_and_keeps_what_was_done(
+    real_dataset, tmp_path
+):
+    httpd = HTTPServer(("127.0.0.1", 0), _Garbage)
+    threading.Thread(target=httpd.serve_forever, daemon=True).start()
+    url = f"http://127.0.0.1:{httpd.server_address[1]}"
+    out = tmp_path / "a.json"
+    try:
+        code = main(
+            [
+                "approach",
+                "--data",
+                str(real_dataset),
+                "--json",
+                str(out),
+                "--server",
+                url,
+                "--start",
+                "near",
+                "--policy",
+                "single",
+                "--max-configs",
+                "1",
+                "--quiet",
+            ]
+        )
+    finally:
+        httpd.shutdown()
+    assert code == 2 and not out.exists()
+    assert (tmp_path / "a.json.partial.jsonl").exists()  # the resume file stays
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--start", "middle"], "unknown start 'middle'"),
+        (["--policy", "often"], "unknown policy 'often'"),
+        (["--perception", "x-ray"], "unknown perception preset 'x-ray'"),
+        (["--stop-xy", "-1"], "--stop-xy must be in"),
+        (["--method", "teleport"], "unknown method 'teleport'"),
+        (["--server", "http://127.0.0.1:9"], "cannot reach server"),
+        (["--record", "7"], "--record wants SCENE:CONFIG"),
+    ],
+)
+def test_bad_input_is_one_line_before_any_work(real_dataset, tmp_path, capsys, argv, message):
+    out = tmp_path / "sub" / "a.json"
+    code = main(["approach", "--data", str(real_dataset), "--json", str(out), *argv])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and message in err and "\n" not in err
+    assert not out.parent.exists()
+
+
+@pytest.mark.slow
+def test_approach_cli_writes_tables_figure_and_recordings(real_dataset, tiny_run, tmp_path, capsys):
+    from mcap.reader import make_reader
+
+    out = tmp_path / "a.json"
+    code = main(
+        [
+            "approach",
+            "--data",
+            str(real_dataset),
+            "--json",
+            str(out),
+            "--checkpoint",
+            str(tiny_run),
+            "--method",
+            "oracle",
+            "--start",
+            "near",
+            "--policy",
+            "single",
+            "--max-configs",
+            "1",
+            "--stop-sweep",
+            "--markdown",
+            str(tmp_path / "a.md"),
+            "--figure",
+            str(tmp_path / "a.png"),
+            "--record",
+            "0:0",
+            "--quiet",
+        ]
+    )
+    assert code == 0
+    result = json.loads(out.read_text())
+    row = result["results"][0]
+    assert {"method", "policy", "start", "episodes", "success", "spl", "looks", "seconds"} <= set(
+        row
+    )
+    assert len(row["stop_sweep"]["success"]) == 6
+    assert "| start | method (policy) |" in (tmp_path / "a.md").read_text()
+    assert (tmp_path / "a.png").read_bytes()[:4] == b"\x89PNG"
+    files = sorted((tmp_path / "a-mcap").glob("*.mcap"))
+    assert len(files) == 2
+    with open(files[0], "rb") as f:
+        topics = {c.topic for _, c, _ in make_reader(f).iter_messages()}
+    assert {"/approach/base", "/approach/odom", "/approach/fused_map"} <= topics
+    assert not (tmp_path / "a.json.partial.jsonl").exists()
+    assert "navaff (single)" in capsys.readouterr().out
