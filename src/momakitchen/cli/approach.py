@@ -45,8 +45,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         action="append",
         default=[],
         metavar="RUN",
-        help="a trained run or plug-in run (repeatable; with no --checkpoint, --server "
-        "or --method: the bundled model)",
+        help="a trained run or plug-in run, or `bundled` (repeatable; with no --checkpoint, "
+        "--server or --method: the bundled model)",
     )
     ap.add_argument(
         "--server",
@@ -114,7 +114,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     ap.add_argument(
         "--stop-sweep",
         action="store_true",
-        help="also run each final trial at stop errors 0, 3, 6, 10 cm (0, 2, 4, 6 deg)",
+        help="also run each final trial at stop errors 0, 3, 6, 10, 20, 30 cm "
+        "(0, 2, 4, 6, 10, 15 deg) from the same pre-stop pose",
     )
     ap.add_argument("--markdown", metavar="FILE", help="also write the tables as Markdown")
     ap.add_argument("--figure", metavar="PNG", help="a top-down picture of one episode per robot")
@@ -145,7 +146,7 @@ def _record_ids(values: list[str]) -> list[tuple[int, int]]:
 
 def run(args: argparse.Namespace) -> int:
     from momakitchen.deploy.fusion import LookPolicy
-    from momakitchen.eval.approach import ApproachConfig
+    from momakitchen.eval.approach import STOP_SWEEP, ApproachConfig
     from momakitchen.eval.approach_report import format_table, pairwise, report_markdown, summarize
     from momakitchen.eval.approach_track import load_methods, run_approach
     from momakitchen.sim.motion import MotionConfig
@@ -181,7 +182,7 @@ def run(args: argparse.Namespace) -> int:
             max_uncertainty=args.max_uncertainty,
             max_looks=args.max_looks,
         ),
-        stop_sweep=((0.0, 0.0), (3.0, 2.0), (6.0, 4.0), (10.0, 6.0)) if args.stop_sweep else (),
+        stop_sweep=STOP_SWEEP if args.stop_sweep else (),
         motion=motion,
     )
     unknown = [m for m in args.method if m not in BASELINES]

@@ -114,7 +114,7 @@ class MapFusion:
         if not (np.isfinite(value).all() and np.isfinite(std).all()):
             raise MomaError("a look's affordance or uncertainty is not finite")
         weight = 1.0 / np.maximum(np.hypot(xy[:, 0], xy[:, 1]), self.min_range) ** 2
-        odom = base_to_world_xy(xy, pose)
+        odom = base_to_world_xy(xy, tuple(pose))
         keys = np.floor(odom / self.cell).astype(np.int64)
         # One row per cell: the sums of w, w*value, w*std over this look's points.
         uniq, inverse = np.unique(keys, axis=0, return_inverse=True)
@@ -129,7 +129,7 @@ class MapFusion:
             else:
                 self._sum[key] = row
         target = np.asarray(prediction.target_xyz, np.float64)[:2]
-        self.target_xy = base_to_world_xy(target[None], pose)[0]
+        self.target_xy = base_to_world_xy(target[None], tuple(pose))[0]
         self.last_target_distance = float(np.hypot(*target))
         self.looks += 1
 

@@ -35,7 +35,15 @@ import numpy as np
 from momakitchen.deploy.fusion import POLICIES, LookPolicy, MapFusion
 from momakitchen.errors import MomaError
 from momakitchen.models.inference import MC_SAMPLES, PICK_RADIUS
-from momakitchen.sim.motion import BaseState, FreeSpace, MotionConfig, drive, face, stop_and_face
+from momakitchen.sim.motion import (
+    BaseState,
+    FreeSpace,
+    MotionConfig,
+    Vec,
+    drive,
+    face,
+    stop_and_face,
+)
 
 STARTS = ("near", "far")
 BASELINES = ("oracle", "nearest", "random")
@@ -45,7 +53,8 @@ SPLITS = ("test", "train", "all")
 # corruption name of ``momakitchen robustness --list`` works too.
 PERCEPTION = {"realistic": "combined-d435", "ideal": "clean"}
 # Final-stop errors of the sweep: (cm, deg) standard deviations.
-STOP_SWEEP = ((0.0, 0.0), (3.0, 2.0), (6.0, 4.0), (10.0, 6.0))
+# 0-10 cm (a docking-grade controller), then two coarser stops: where success halves.
+STOP_SWEEP = ((0.0, 0.0), (3.0, 2.0), (6.0, 4.0), (10.0, 6.0), (20.0, 10.0), (30.0, 15.0))
 
 
 def perception_corruption(name: str) -> str:
@@ -198,17 +207,23 @@ class Context:
     def camera_height(self) -> float:
         return float(self.spec.mount_height + self.gen.camera.above_mount)
 
-    def head(self, odom: Sequence[float], target_xyz: Sequence[float]) -> np.ndarray:
+    def head(self, odom: Vec, target_xyz: Vec) -> np.ndarray:
         """The head camera's transform to the base (4, 4), turned toward ``target_xyz``
         (odometry frame) from the base at ``odom``, as the dataset's views look."""
         from momakitchen.frames import base_to_world
         from momakitchen.perception.camera import look_toward
 
         eye = np.array([odom[0], odom[1], self.camera_height])
-        cam = look_toward(eye, target_xyz, self.gen.camera.intrinsics, self.gen.views.target_row)
-        return np.linalg.inv(base_to_world(tuple(odom))) @ cam
+        cam = look_toward(
+            eye,
+            np.asarray(target_xyz, float),
+            self.gen.camera.intrinsics,
+            self.gen.views.target_row,
+        )
+        x, y, yaw = (float(v) for v in odom)
+        return np.linalg.inv(base_to_world((x, y, yaw))) @ cam
 
-    def render(self, true: Sequence[float], camera_to_base: np.ndarray) -> Any:
+    def render(self, true: Vec, camera_to_base: np.ndarray) -> Any:
         """The perfect frame of the head at ``camera_to_base`` on the base at ``true``."""
         from momakitchen.data.episode import SEMANTIC_CLASSES
         from momakitchen.frames import base_to_world
@@ -223,7 +238,7 @@ class Context:
         cam = self.gen.camera
         r = render(
             self.world.client,
-            base_to_world(tuple(true)) @ camera_to_base,
+            base_to_world((float(true[0]), float(true[1]), float(true[2]))) @ camera_to_base,
             cam.intrinsics,
             cam.near,
             cam.far,
@@ -270,7 +285,7 @@ def take_look(
     return LookResult(pred, "", time.perf_counter() - t0)
 
 
-def _round(values: Sequence[float], n: int = 4) -> list[float]:
+def _round(values: Vec, n: int = 4) -> list[float]:
     return [round(float(v), n) for v in values]
 
 

@@ -224,8 +224,9 @@ _SCHEMAS = {
 
 
 def _schema(name: str) -> bytes:
-    props = {k: {} for k in _SCHEMAS[name]}
-    return json.dumps({"title": name, "type": "object", "properties": props}).encode()
+    props: dict[str, dict] = {k: {} for k in _SCHEMAS[name]}
+    doc = {"title": name, "type": "object", "properties": props}
+    return json.dumps(doc, allow_nan=False).encode()
 
 
 def _pose(x: float, y: float, yaw: float) -> dict[str, Any]:

@@ -88,8 +88,11 @@ def _front_cells(ctx: Context) -> np.ndarray:
 # --------------------------------------------------------------------------- baselines
 def baseline_goal(ctx: Context, name: str) -> Callable[[BaseState], Pose | None]:
     """A baseline's goal from where the base is (odometry frame = world at the start):
-    ``oracle`` the successful grid cell with the highest ground-truth map value,
-    ``nearest`` the free cell nearest the target, ``random`` a free cell within reach."""
+    ``oracle`` the successful grid cell with the highest ground-truth map value (the
+    first reachable one), ``nearest`` the reachable free cell nearest the target,
+    ``random`` a floor cell drawn within the arm's reach in front of the target, free or
+    not, as ``msr``'s random (the paper's Random): one the base cannot reach is a
+    failure."""
     from momakitchen.sim.labels import dense_map
 
     anchor = ctx.anchor
@@ -103,10 +106,20 @@ def baseline_goal(ctx: Context, name: str) -> Callable[[BaseState], Pose | None]
             candidates = np.zeros((0, 2))
     elif name == "nearest":
         candidates = ctx.free.cells[_front_cells(ctx)]
-    else:
-        front = _front_cells(ctx)
+    else:  # as msr's: any floor cell within reach, where the base may not even fit
+        rel = ctx.free.cells - anchor[:2]
+        within = np.flatnonzero(
+            (np.hypot(rel[:, 0], rel[:, 1]) <= ctx.spec.reach) & (rel[:, 1] > 0)
+        )
         rng = np.random.default_rng([ctx.config.seed, ctx.cfg.scene_id, ctx.cfg.index, 1])
-        candidates = ctx.free.cells[front[rng.permutation(len(front))]]
+        pick = ctx.free.cells[within[rng.integers(len(within))]] if len(within) else None
+
+        def random_goal(state: BaseState) -> Pose | None:
+            if pick is None:
+                return None
+            return (float(pick[0]), float(pick[1]), face(pick, anchor))
+
+        return random_goal
 
     def goal(state: BaseState) -> Pose | None:
         reach = ctx.free.reachable(state.odom[:2])
@@ -233,13 +246,18 @@ def _finish(head: dict[str, Any], rec: dict[str, Any], shortest: float) -> dict[
 def load_methods(
     checkpoints: Sequence[str | os.PathLike], servers: Sequence[str], preprocessing: Any, root: Path
 ) -> dict[str, Any]:
-    """The model methods: trained runs (or plug-ins) and servers, by unique name."""
+    """The model methods: trained runs (or plug-ins; ``bundled``: the bundled model) and
+    servers, by unique name."""
     from momakitchen.deploy.client import ServerPerceiver
     from momakitchen.train.checkpoint import check_preprocessing, load_checkpoint
 
     methods: dict[str, Any] = {}
     for run_dir in checkpoints:
-        run = load_checkpoint(run_dir)
+        if str(run_dir) == "bundled":
+            from momakitchen.train.checkpoint import default_checkpoint
+
+            run_dir = default_checkpoint()
+        run = load_checkpoint(Path(run_dir))
         check_preprocessing(run, preprocessing, f"dataset {str(root)!r}")
         name = run.config.model
         if name in methods:

@@ -39,6 +39,8 @@ import numpy as np
 from momakitchen.errors import MomaError
 
 Pose = tuple[float, float, float]
+# Points and poses come as tuples or NumPy arrays.
+Vec = Sequence[float] | np.ndarray
 
 
 @dataclass(frozen=True)
@@ -209,14 +211,14 @@ class BaseState:
         return [[round(v, 4) for v in self.true], [round(v, 4) for v in self.odom]]
 
 
-def face(xy: Sequence[float], target: Sequence[float]) -> float:
+def face(xy: Vec, target: Vec) -> float:
     return math.atan2(target[1] - xy[1], target[0] - xy[0])
 
 
 def drive(
     state: BaseState,
     waypoints: np.ndarray,
-    target_xy: Sequence[float],
+    target_xy: Vec,
     motion: MotionConfig,
     rng: np.random.Generator,
     check: Callable[[Pose], bool] | None = None,
@@ -285,10 +287,10 @@ def drive(
 
 def stop_and_face(
     state: BaseState,
-    target_odom: Sequence[float],
+    target_odom: Vec,
     sigma_xy: float,
     sigma_yaw: float,
-    noise: Sequence[float],
+    noise: Vec,
 ) -> Pose:
     """The controller stops with an error, then the base turns by odometry to face
     ``target_odom``; returns the true final pose (``state`` is not changed).
