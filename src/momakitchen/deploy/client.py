@@ -6,7 +6,9 @@ an error before any work), then posts each frame to ``POST /predict`` as
 ``multipart/form-data`` (depth, masks and colour as ``.npy``) and turns the answer back
 into a :class:`~momakitchen.models.inference.Prediction`. An answer that is not the
 documented ``prediction.json`` (bad JSON, missing or non-finite fields, affordance outside
-[0, 1]) is a fatal error naming the server: the run stops and keeps what it has done.
+[0, 1]), a 5xx, a refused token or a timeout is a fatal error naming the server: the run
+stops and keeps what it has done. A 4xx for a frame is a failed look; a 503 (the server's
+queue is full) is waited out as its ``Retry-After`` asks, up to five times.
 Standard library only (``urllib``).
 """
 
@@ -15,6 +17,7 @@ from __future__ import annotations
 import io
 import json
 import os
+import time
 import urllib.error
 import urllib.request
 import uuid
@@ -25,6 +28,15 @@ import numpy as np
 from momakitchen.errors import MomaError
 
 TOKEN_ENV = "MOMAKITCHEN_SERVE_TOKEN"
+BUSY_RETRIES = 5  # 503 answers (a full queue) waited out before giving up
+
+
+def _retry_after(value: str | None) -> float:
+    """Seconds to wait from a Retry-After header (1 s when absent or a date), at most 30."""
+    try:
+        return min(max(float(value or 1), 0.0), 30.0)
+    except ValueError:
+        return 1.0
 
 
 class ServerError(MomaError):
@@ -80,26 +92,33 @@ class ServerPerceiver:
             req.add_header("Content-Type", ctype)
         if self.token:
             req.add_header("Authorization", f"Bearer {self.token}")
-        try:
-            with urllib.request.urlopen(req, timeout=timeout) as resp:
-                raw = resp.read()
-        except urllib.error.HTTPError as exc:
-            detail = exc.read()[:300].decode("utf-8", "replace")
-            if 400 <= exc.code < 500 and path == "/predict":
-                # The server refused this frame (e.g. an empty mask): a failed look.
-                raise MomaError(f"server {self.url!r} refused the frame: {detail}") from None
-            raise ServerError(
-                f"server {self.url!r}{path} answered HTTP {exc.code}: {detail}"
-            ) from None
-        except (urllib.error.URLError, OSError, TimeoutError) as exc:
-            reason = getattr(exc, "reason", exc)
-            raise ServerError(f"cannot reach server {self.url!r}{path}: {reason}") from None
+        for attempt in range(BUSY_RETRIES + 1):
+            try:
+                with urllib.request.urlopen(req, timeout=timeout) as resp:
+                    raw = resp.read()
+                break
+            except urllib.error.HTTPError as exc:
+                if exc.code == 503 and attempt < BUSY_RETRIES:
+                    # Busy (its queue is full): wait as it asks, then try again.
+                    time.sleep(_retry_after(exc.headers.get("Retry-After")))
+                    continue
+                raise self._refusal(exc, path) from None
+            except (urllib.error.URLError, OSError, TimeoutError) as exc:
+                reason = getattr(exc, "reason", exc)
+                raise ServerError(f"cannot reach server {self.url!r}{path}: {reason}") from None
         try:
             return json.loads(raw)
         except (json.JSONDecodeError, UnicodeDecodeError):
             raise ServerError(
                 f"server {self.url!r}{path} answered something that is not JSON"
             ) from None
+
+    def _refusal(self, exc: urllib.error.HTTPError, path: str) -> MomaError:
+        """A refused frame (4xx but authentication: a failed look), else a fatal error."""
+        detail = exc.read()[:300].decode("utf-8", "replace")
+        if 400 <= exc.code < 500 and exc.code not in (401, 403) and path == "/predict":
+            return MomaError(f"server {self.url!r} refused the frame: {detail}")
+        return ServerError(f"server {self.url!r}{path} answered HTTP {exc.code}: {detail}")
 
     def __call__(self, frame: Any, robot: str, metric: bool, config: Any) -> Any:
         fields: list[tuple[str, str | bytes]] = [
