@@ -130,8 +130,9 @@ def dumps_strict(obj: Any, *, null_non_finite: bool = False, **kwargs: Any) -> s
         obj = _null_non_finite(obj)
     try:
         return json.dumps(obj, allow_nan=False, **kwargs)
-    except ValueError:
-        where = _first_non_finite(obj, "")
+    except ValueError as exc:
+        # json stops at the first bad value, in the order the walk below takes
+        where = _first_non_finite(obj, "") if "Out of range float" in str(exc) else None
         if where is None:  # another error (a circular reference): json's own message
             raise
         raise MomaError(

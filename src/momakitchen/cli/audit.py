@@ -24,6 +24,7 @@ from typing import Any
 
 from momakitchen.cli.common import non_negative_int, positive_int
 from momakitchen.errors import MomaError
+from momakitchen.fileio import dumps_strict
 from momakitchen.scene.ids import scene_range_problem
 
 _RANGE = re.compile(r"^(\d+)(?:-(\d+))?$")
@@ -196,7 +197,7 @@ def run(args: argparse.Namespace) -> int:
             sid = job[1]
             by_scene[sid] = records
             payload = {"config": audit_dict, "generation": gen_dict, "records": records}
-            atomic_write_text(records_dir / f"scene_{sid:06d}.json", json.dumps(payload) + "\n")
+            atomic_write_text(records_dir / f"scene_{sid:06d}.json", dumps_strict(payload) + "\n")
             bar.update(1)
     finally:
         bar.close()
@@ -216,7 +217,7 @@ def run(args: argparse.Namespace) -> int:
     }
     json_path = Path(args.json) if args.json else out / "audit.json"
     json_path.parent.mkdir(parents=True, exist_ok=True)
-    atomic_write_text(json_path, json.dumps(result, indent=1) + "\n")
+    atomic_write_text(json_path, dumps_strict(result, indent=1) + "\n")
     atomic_write_text(out / "audit.md", table + "\n")
     atomic_write_bytes(out / "audit.png", audit_figure(summary, config))
     print(table)

@@ -3,11 +3,11 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 
 from momakitchen.cli.wording import counted
 from momakitchen.errors import MomaError
+from momakitchen.fileio import dumps_strict
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -93,7 +93,7 @@ def run_stats(args: argparse.Namespace) -> int:
 
     s = dataset_stats(args.dir)
     if args.json:
-        print(json.dumps(s, indent=1))
+        print(dumps_strict(s, indent=1))
         return 0
     print(
         f"{s['root']}: producer {s['producer']}, momakitchen {s['generator_version']}"

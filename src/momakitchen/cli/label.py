@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
 
 from momakitchen.cli.common import (
     add_robot_yaml,
@@ -21,7 +20,13 @@ from momakitchen.cli.common import (
     positive_float,
     scene_id,
 )
-from momakitchen.fileio import atomic_path, atomic_write_bytes, atomic_write_text, npz_bytes
+from momakitchen.fileio import (
+    atomic_path,
+    atomic_write_bytes,
+    atomic_write_text,
+    dumps_strict,
+    npz_bytes,
+)
 from momakitchen.version import __version__
 
 
@@ -121,7 +126,7 @@ def run(args: argparse.Namespace) -> int:
         "trial_config": dataclasses.asdict(trial_cfg),
         "dense_map": dataclasses.asdict(DenseMapConfig()),
     }
-    atomic_write_text(out / "labels.json", json.dumps(summary, indent=1) + "\n")
+    atomic_write_text(out / "labels.json", dumps_strict(summary, indent=1) + "\n")
     with atomic_path(out / "labels.png") as tmp:
         save_label_figure(scene.layout, cfg, labels, tmp)
     s = labels.summary()

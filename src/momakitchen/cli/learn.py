@@ -10,7 +10,6 @@ paper's Table 2 and writes them (with per-robot and per-scene breakdowns) as JSO
 from __future__ import annotations
 
 import argparse
-import json
 import signal
 import sys
 from pathlib import Path
@@ -18,7 +17,7 @@ from typing import TYPE_CHECKING
 
 from momakitchen.cli.common import non_negative_float, non_negative_int, output_file, positive_int
 from momakitchen.errors import MomaError
-from momakitchen.fileio import atomic_write_text, existing_dir
+from momakitchen.fileio import atomic_write_text, dumps_strict, existing_dir
 
 if TYPE_CHECKING:
     from momakitchen.train.config import TrainConfig
@@ -331,6 +330,6 @@ def _write_report(report: dict, out: Path, split: str) -> None:
 
     if out.parent and not out.parent.exists():
         out.parent.mkdir(parents=True, exist_ok=True)
-    atomic_write_text(out, json.dumps(report, indent=1, default=float) + "\n")
+    atomic_write_text(out, dumps_strict(report, indent=1, default=float) + "\n")
     print(format_table({f"{report['model']} ({report['preset']})": report["metrics"]}))
     print(f"{report['episodes']} {split} episodes -> {out}")

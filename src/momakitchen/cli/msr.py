@@ -9,7 +9,6 @@ robot, per target category) and every trial's point and outcome as JSON.
 from __future__ import annotations
 
 import argparse
-import json
 import time
 
 from momakitchen.cli.common import (
@@ -19,7 +18,7 @@ from momakitchen.cli.common import (
     output_file,
     positive_int,
 )
-from momakitchen.fileio import atomic_write_text
+from momakitchen.fileio import atomic_write_text, dumps_strict
 
 # momakitchen.eval.msr's BASELINES and SPLITS, spelled out so that building the parser
 # (``momakitchen --help``) does not import numpy and h5py; tests/cli/test_main.py checks.
@@ -111,7 +110,7 @@ def run(args: argparse.Namespace) -> int:
     )
     result["seconds"] = round(time.perf_counter() - t0, 1)
     out.parent.mkdir(parents=True, exist_ok=True)
-    atomic_write_text(out, json.dumps(result, indent=1) + "\n")
+    atomic_write_text(out, dumps_strict(result, indent=1) + "\n")
     print(format_msr_table(result))
     print(f"{result['seconds']:.0f} s -> {out}")
     return 0

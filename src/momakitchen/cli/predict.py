@@ -18,7 +18,6 @@ ROS 2 bag (MCAP) of the poses, the map and RViz markers, and ``frames.json``, re
 from __future__ import annotations
 
 import argparse
-import json
 import time
 
 from momakitchen.cli.common import (
@@ -30,6 +29,7 @@ from momakitchen.cli.common import (
     positive_int,
 )
 from momakitchen.cli.predict_bag import BAG_ONLY, add_bag_arguments, run_bag
+from momakitchen.fileio import dumps_strict
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -141,7 +141,7 @@ def run(args: argparse.Namespace) -> int:
     best = pred.to_dict(floor_points=False)["poses"]
     doc = pred.to_dict(floor_points=False)
     print(
-        json.dumps(
+        dumps_strict(
             {
                 "poses": best,
                 "floor_points": len(pred.floor_xyz),

@@ -11,10 +11,10 @@ a robot (demo, label, predict); so does the environment variable ``MOMAKITCHEN_R
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
 from momakitchen.errors import MomaError
+from momakitchen.fileio import dumps_strict
 
 
 def add_parser(subparsers) -> None:
@@ -87,7 +87,7 @@ def run(args: argparse.Namespace) -> int:
         return _export(args)
     rows = robot_rows()
     if args.json:
-        print(json.dumps(rows, indent=2))
+        print(dumps_strict(rows, indent=2))
         return 0
     header = ("name", "reach (m)", "mount height (m)", "DoF", "end-effector")
     table = [header] + [

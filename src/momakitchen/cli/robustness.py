@@ -17,7 +17,6 @@ through ``export-inputs --robustness`` and ``--predictions`` (docs/METHODS.md).
 from __future__ import annotations
 
 import argparse
-import json
 import time
 from typing import Any
 
@@ -28,7 +27,7 @@ from momakitchen.cli.common import (
     output_file,
     positive_int,
 )
-from momakitchen.fileio import atomic_write_bytes, atomic_write_text, existing_dir
+from momakitchen.fileio import atomic_write_bytes, atomic_write_text, dumps_strict, existing_dir
 
 SPLITS = ("test", "train", "all")
 
@@ -168,7 +167,8 @@ def run(args: argparse.Namespace) -> int:
     table = format_robustness_table(result)
     out = output_dir(args.out)
     out_json.parent.mkdir(parents=True, exist_ok=True)
-    atomic_write_text(out_json, json.dumps(result, indent=1) + "\n")
+    # a target without a valid depth pixel has an infinite target_range: null in the JSON
+    atomic_write_text(out_json, dumps_strict(result, indent=1, null_non_finite=True) + "\n")
     atomic_write_text(out / "robustness.md", "```\n" + table + "\n```\n")
     if maps and result["records"]:
         first = result["records"][0]

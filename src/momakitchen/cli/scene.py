@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 import time
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -16,7 +15,7 @@ from momakitchen.cli.common import (
     positive_int,
     scene_id,
 )
-from momakitchen.fileio import atomic_path, atomic_write_text
+from momakitchen.fileio import atomic_path, atomic_write_text, dumps_strict
 from momakitchen.version import __version__
 
 if TYPE_CHECKING:
@@ -97,7 +96,7 @@ def run(args: argparse.Namespace) -> int:
                 world.client, camera, Intrinsics.for_renderer(800, 600, 62.0), shadows=True
             ).rgb
     output_dir(out)  # created only now: a failed run leaves no empty directory
-    atomic_write_text(out / "scene.json", json.dumps(record, indent=1) + "\n")
+    atomic_write_text(out / "scene.json", dumps_strict(record, indent=1) + "\n")
     png = out / "overview.png"
     with atomic_path(png) as tmp:
         save_overview(scene, args.config, view, tmp)

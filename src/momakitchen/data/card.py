@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import os
 from pathlib import Path
 from typing import Any
@@ -13,7 +12,7 @@ from momakitchen.data import manifest as mf
 from momakitchen.data.coverage import COVERAGE_RADIUS
 from momakitchen.data.episode import Episode
 from momakitchen.data.shard import SceneShard, list_shards
-from momakitchen.fileio import atomic_path, atomic_write_text
+from momakitchen.fileio import atomic_path, atomic_write_text, dumps_strict
 
 CARD_NAME = "README.md"
 FIGURE_NAME = "example.png"
@@ -186,7 +185,7 @@ def render_card(manifest: dict[str, Any], stats: dict[str, Any] | None, figure: 
         "## Generation config",
         "",
         "```json",
-        json.dumps(manifest["config"], indent=1),
+        dumps_strict(manifest["config"], indent=1),
         "```",
         "",
     ]

@@ -52,6 +52,7 @@ from momakitchen.data.shard import (
     write_shard_bytes,
 )
 from momakitchen.errors import MomaError
+from momakitchen.fileio import dumps_strict
 from momakitchen.registry import Registry
 from momakitchen.scene.ids import check_scene_range
 from momakitchen.version import __version__
@@ -89,7 +90,7 @@ def config_dict(config: Any) -> dict[str, Any]:
     """The config as plain JSON data (tuples become lists), as stored in the manifest."""
     if not dataclasses.is_dataclass(config) or isinstance(config, type):
         raise MomaError(f"generation config must be a dataclass, got {type(config).__name__}")
-    return json.loads(json.dumps(dataclasses.asdict(config)))
+    return json.loads(dumps_strict(dataclasses.asdict(config)))
 
 
 def config_class(config: Any) -> str:

@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from momakitchen.errors import MomaError
-from momakitchen.fileio import atomic_write_text, existing_dir
+from momakitchen.fileio import atomic_write_text, dumps_strict, existing_dir
 from momakitchen.robots.spec import DESCRIPTOR_NAMES, DESCRIPTOR_VERSION
 from momakitchen.version import __version__
 
@@ -267,7 +267,7 @@ def load_manifest(root: str | os.PathLike) -> dict[str, Any]:
 
 
 def save_manifest(root: str | os.PathLike, manifest: dict[str, Any]) -> None:
-    atomic_write_text(manifest_path(root), json.dumps(manifest, indent=1) + "\n")
+    atomic_write_text(manifest_path(root), dumps_strict(manifest, indent=1) + "\n")
 
 
 # Config classes that :func:`generation_config` may rebuild (never an arbitrary import).

@@ -26,7 +26,6 @@ and writes a dataset of shards with a manifest.
 
 from __future__ import annotations
 
-import json
 import os
 import re
 from pathlib import Path
@@ -39,7 +38,7 @@ from momakitchen.data.episode import ConfigurationLabels, Episode
 from momakitchen.data.ply import read_ply, write_ply
 from momakitchen.data.shard import SCENES_DIR, SceneShard, list_shards, write_shard
 from momakitchen.errors import MomaError
-from momakitchen.fileio import existing_dir, read_json_object
+from momakitchen.fileio import dumps_strict, existing_dir, read_json_object
 from momakitchen.frames import float3
 from momakitchen.robots.spec import get_robot_spec, robot_descriptor
 
@@ -102,7 +101,7 @@ def export_reference(root: str | os.PathLike, out: str | os.PathLike) -> dict[st
                     "trial_stages": lab.trial_stages.tolist(),
                     "trial_moved": lab.trial_moved.astype(float).tolist(),
                 }
-                (info_dir / TRIAL_INFO).write_text(json.dumps(info) + "\n")
+                (info_dir / TRIAL_INFO).write_text(dumps_strict(info) + "\n")
                 n_cfg += 1
                 for e in episodes:
                     ep = shard.episode(c, e)
@@ -153,7 +152,7 @@ def _export_episode(ep: Episode, folder: Path, image_module: Any) -> None:
         "frames": "camera_pose: camera-to-world (OpenCV axes); camera_to_base: camera "
         "to the viewpoint's robot base frame; clouds are in that base frame",
     }
-    (folder / "camera.json").write_text(json.dumps(camera) + "\n")
+    (folder / "camera.json").write_text(dumps_strict(camera) + "\n")
 
 
 def _discover(src: Path) -> list[tuple[str, str | None]]:

@@ -31,7 +31,6 @@ final name. Readers accept only files with the final name *and* the completion m
 from __future__ import annotations
 
 import hashlib
-import json
 import os
 import re
 from collections.abc import Iterator, Sequence
@@ -44,7 +43,7 @@ import numpy as np
 from momakitchen.data.coverage import COVERAGE_RADIUS, sees_near
 from momakitchen.data.episode import SEMANTIC_CLASSES, ConfigurationLabels, Episode
 from momakitchen.errors import MomaError
-from momakitchen.fileio import DISK_FULL
+from momakitchen.fileio import DISK_FULL, dumps_strict
 from momakitchen.frames import float3
 from momakitchen.robots.spec import DESCRIPTOR_NAMES, DESCRIPTOR_VERSION
 from momakitchen.sim.config import STAGE_NAMES
@@ -270,9 +269,9 @@ def _write_records(f: h5py.File, scene_id: int, records: SceneRecords) -> None:
     f.attrs["num_configurations"] = len(records)
     f.attrs["num_episodes"] = sum(len(eps) for _, eps in records)
     f.attrs["descriptor_version"] = DESCRIPTOR_VERSION
-    f.attrs["descriptor_names"] = json.dumps(list(DESCRIPTOR_NAMES))
-    f.attrs["semantic_classes"] = json.dumps(list(SEMANTIC_CLASSES))
-    f.attrs["stage_names"] = json.dumps(list(STAGE_NAMES))
+    f.attrs["descriptor_names"] = dumps_strict(list(DESCRIPTOR_NAMES))
+    f.attrs["semantic_classes"] = dumps_strict(list(SEMANTIC_CLASSES))
+    f.attrs["stage_names"] = dumps_strict(list(STAGE_NAMES))
     for labels, episodes in records:
         g = f.create_group(config_key(labels.config_index))
         g.attrs["scene_id"] = int(labels.scene_id)

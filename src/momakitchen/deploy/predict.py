@@ -15,7 +15,6 @@ uncertainty is high or its affordance low.
 
 from __future__ import annotations
 
-import json
 import os
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -24,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from momakitchen.errors import MomaError
-from momakitchen.fileio import existing_file
+from momakitchen.fileio import dumps_strict, existing_file
 from momakitchen.models.inference import MC_SAMPLES, PICK_RADIUS, Prediction
 from momakitchen.perception.camera import Intrinsics
 
@@ -332,7 +331,7 @@ def write_outputs(
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     paths = {"json": out / "prediction.json", "png": out / "prediction.png"}
-    atomic_write_text(paths["json"], json.dumps(pred.to_dict(), indent=1) + "\n")
+    atomic_write_text(paths["json"], dumps_strict(pred.to_dict(), indent=1) + "\n")
     atomic_write_bytes(
         paths["png"], prediction_figure(pred, rgb, depth, intrinsics, camera_to_base)
     )

@@ -34,7 +34,6 @@ Poses lie on the floor (z = 0) with the yaw as a rotation about z. Writing needs
 
 from __future__ import annotations
 
-import json
 import os
 import shutil
 from collections.abc import Iterator, Sequence
@@ -48,7 +47,7 @@ import numpy as np
 from momakitchen.deploy.bagread import typestore
 from momakitchen.deploy.dirswap import stage_beside, swap_in
 from momakitchen.errors import MomaError
-from momakitchen.fileio import DISK_FULL, disk_full_message
+from momakitchen.fileio import DISK_FULL, disk_full_message, dumps_strict
 from momakitchen.models.inference import Prediction
 
 POSE_STAMPED = "geometry_msgs/msg/PoseStamped"
@@ -239,7 +238,7 @@ class _Messages:
             "poses": t[POSE_ARRAY](header=header, poses=poses),
             "affordance": self.cloud(header, p.floor_xyz, p.affordance, p.uncertainty),
             "markers": t[MARKER_ARRAY](markers=markers),
-            "prediction": t[STRING](data=json.dumps(p.to_dict(floor_points=False))),
+            "prediction": t[STRING](data=dumps_strict(p.to_dict(floor_points=False))),
         }
 
     def fused(self, sf: StampedFusion) -> dict[str, Any]:

@@ -209,7 +209,7 @@ def episode_figure(episodes: Sequence[tuple[dict[str, Any], Any]]) -> bytes:
     if scatter is not None:
         fig.colorbar(scatter, ax=axes.ravel().tolist(), shrink=0.6, label="fused affordance")
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110)
+    fig.savefig(buf, format="png", dpi=110, bbox_inches="tight")
     plt.close(fig)
     return buf.getvalue()
 

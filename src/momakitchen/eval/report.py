@@ -52,6 +52,7 @@ from momakitchen.eval.report_tables import (
 from momakitchen.fileio import (
     atomic_write_bytes,
     atomic_write_text,
+    dumps_strict,
     existing_file,
     read_json_object,
 )
@@ -188,7 +189,7 @@ def run_metrics(
             "checkpoint": str(run),
             **evaluate(run, EpisodeDataset(data, "test"), progress=progress),
         }
-    text = json.dumps(report, indent=1, default=float) + "\n"
+    text = dumps_strict(report, indent=1, default=float) + "\n"
     out_dir.mkdir(parents=True, exist_ok=True)
     atomic_write_text(out_dir / f"{run.name}.json", text)
     return json.loads(text)  # as read back from a file (string keys), whatever its source
@@ -263,7 +264,7 @@ def run_benchmark(req: BenchmarkRequest, log: Callable[[str], None] = print) -> 
             **evaluate_predictions(path, test_data, name, progress=req.progress),
         }
         (out / "metrics").mkdir(parents=True, exist_ok=True)
-        text = json.dumps(report, indent=1, default=float) + "\n"
+        text = dumps_strict(report, indent=1, default=float) + "\n"
         atomic_write_text(out / "metrics" / f"{name}.json", text)
         metrics[path] = json.loads(text)
     if msr is None:
@@ -276,7 +277,7 @@ def run_benchmark(req: BenchmarkRequest, log: Callable[[str], None] = print) -> 
             progress=req.progress,
             predictions=[(p, name) for name, p in named.items()],
         )
-        atomic_write_text(out / "msr.json", json.dumps(msr, indent=1) + "\n")
+        atomic_write_text(out / "msr.json", dumps_strict(msr, indent=1) + "\n")
     for r, m in seed_msr.items():
         check_same_views(("MSR", msr), (str(r / "msr.json"), m))
 
@@ -355,5 +356,5 @@ def run_benchmark(req: BenchmarkRequest, log: Callable[[str], None] = print) -> 
         "msr_configurations": msr["configurations"],
         "seconds": round(time.perf_counter() - t0, 1),
     }
-    atomic_write_text(out / "benchmark.json", json.dumps(result, indent=1, default=float) + "\n")
+    atomic_write_text(out / "benchmark.json", dumps_strict(result, indent=1, default=float) + "\n")
     return result

@@ -4,7 +4,6 @@ affordance map, the chosen base pose executed as a trial in physics, and a repor
 from __future__ import annotations
 
 import dataclasses
-import json
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -13,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from momakitchen.errors import MomaError
+from momakitchen.fileio import dumps_strict
 
 DEMO_VIEWS = 4  # viewpoints sampled; the demo uses the farthest
 DEFAULT_SCENE_ID = 900_001  # far above the ids of generated datasets: a kitchen no model saw
@@ -196,7 +196,7 @@ def run_demo(
     atomic_write_bytes(out / "report.png", png)
     seconds["report"] = round(time.perf_counter() - started["step"], 2)
     seconds["total"] = round(time.perf_counter() - started["total"], 2)
-    atomic_write_text(out / "result.json", json.dumps(result, indent=1) + "\n")
+    atomic_write_text(out / "result.json", dumps_strict(result, indent=1) + "\n")
     report_step(STEPS[5], seconds["report"])
     return result
 

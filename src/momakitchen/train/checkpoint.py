@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import struct
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -37,7 +38,7 @@ from momakitchen import codec
 from momakitchen.data.config import Preprocessing, manifest_preprocessing
 from momakitchen.data.manifest import split_checksum
 from momakitchen.errors import MomaError
-from momakitchen.fileio import atomic_write_bytes, atomic_write_text, existing_dir
+from momakitchen.fileio import atomic_write_bytes, atomic_write_text, dumps_strict, existing_dir
 from momakitchen.models.base import AffordanceModel
 from momakitchen.models.registry import build_model
 from momakitchen.robots.spec import DESCRIPTOR_NAMES, DESCRIPTOR_VERSION
@@ -87,7 +88,7 @@ def write_run_config(
 
 
 def _write_info(run_dir: Path, info: dict[str, Any]) -> None:
-    atomic_write_text(Path(run_dir) / CONFIG_FILE, json.dumps(info, indent=2) + "\n")
+    atomic_write_text(Path(run_dir) / CONFIG_FILE, dumps_strict(info, indent=2) + "\n")
 
 
 def record_train_data(run_dir: Path, shards: str | None, step: int) -> str | None:
@@ -316,7 +317,10 @@ def save_trainer_state(
         groups.append({k: (list(v) if isinstance(v, tuple) else v) for k, v in g.items()})
     atomic_write_bytes(Path(run_dir) / STATE_FILE, safetensors_bytes(tensors, {}))
     body = {"progress": progress, "param_groups": groups, "scalars": scalars}
-    atomic_write_text(Path(run_dir) / STATE_JSON, json.dumps(body, indent=1) + "\n")
+    # a diverged loss is null in the file (load_trainer_state restores it as NaN)
+    atomic_write_text(
+        Path(run_dir) / STATE_JSON, dumps_strict(body, indent=1, null_non_finite=True) + "\n"
+    )
 
 
 def load_trainer_state(run_dir: Path, optimizer: torch.optim.Optimizer) -> dict[str, Any]:
@@ -341,7 +345,12 @@ def load_trainer_state(run_dir: Path, optimizer: torch.optim.Optimizer) -> dict[
         ]
         optimizer.load_state_dict({"state": state, "param_groups": groups})
         torch.set_rng_state(tensors["rng.torch"])
-        return body["progress"]
+        progress = body["progress"]
+        if "epoch_loss_sum" in progress:  # a diverged loss is saved as null (strict JSON)
+            progress["epoch_loss_sum"] = [
+                math.nan if v is None else v for v in progress["epoch_loss_sum"]
+            ]
+        return progress
     except (KeyError, TypeError, ValueError, RuntimeError) as exc:
         raise MomaError(
             f"cannot resume from {str(run_dir)!r}: the trainer state does not fit this "

@@ -11,12 +11,12 @@ rank 0 validates, writes the checkpoint and prints a one-line summary.
 from __future__ import annotations
 
 import argparse
-import json
 import os
 
 import torch.distributed as dist
 
 from momakitchen.data.synthetic import SyntheticConfig, SyntheticEpisodes
+from momakitchen.fileio import dumps_strict
 from momakitchen.models.config import TINY_MODEL
 from momakitchen.train.config import TrainConfig
 from momakitchen.train.trainer import train
@@ -76,7 +76,7 @@ def main(argv: list[str] | None = None) -> int:
             "val_loss": round(last["val_loss"], 6),
             "run_dir": str(result.run_dir),
         }
-        print(json.dumps(summary))
+        print(dumps_strict(summary, null_non_finite=True))  # a diverged loss: null
     if dist.is_initialized():
         dist.destroy_process_group()
     return 0
