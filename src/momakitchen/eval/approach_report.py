@@ -248,3 +248,36 @@ def format_table(rows: Sequence[dict[str, Any]]) -> str:
         "shortest free path to a successful grid cell; time: driving, turning, looks, inference)"
     )
     return "\n".join(lines)
+
+
+def merge_results(parts: Sequence[tuple[str, dict[str, Any]]]) -> dict[str, Any]:
+    """One approach result from runs of other methods on the same dataset and settings
+    (e.g. the baselines in one run, each model in its own): valid because an episode
+    depends only on its configuration, start, method, policy and seed. The tables are
+    computed again; MomaError when the parts' settings or datasets differ, or they share
+    a method."""
+    from momakitchen.errors import MomaError
+
+    if not parts:
+        raise MomaError("no approach results to merge")
+    (label0, first), *rest = parts
+    merged = {k: v for k, v in first.items() if k not in ("results", "pairs", "seconds")}
+    merged["methods"] = list(first["methods"])
+    merged["records"] = list(first["records"])
+    for label, part in rest:
+        for key in ("dataset", "configurations"):
+            if part.get(key) != first.get(key):
+                raise MomaError(f"{label!r} differs from {label0!r} in {key}")
+        mine = {k: v for k, v in part["config"].items() if k not in ("starts", "policies")}
+        theirs = {k: v for k, v in first["config"].items() if k not in ("starts", "policies")}
+        if mine != theirs:
+            raise MomaError(f"{label!r} was run with other settings than {label0!r}")
+        shared = sorted(set(part["methods"]) & set(merged["methods"]))
+        if shared:
+            raise MomaError(f"{label!r} repeats methods {shared}")
+        merged["methods"] += part["methods"]
+        merged["records"] += part["records"]
+        merged["skipped"] = merged.get("skipped", []) + part.get("skipped", [])
+    merged["results"] = summarize(merged)
+    merged["pairs"] = pairwise(merged)
+    return merged
