@@ -11,6 +11,8 @@ import pytest
 
 SRC = Path(__file__).resolve().parents[1] / "src" / "momakitchen"
 # Pipeline order: a package may import only from packages before it (and from itself).
+# Evaluation comes last: the approach track renders new frames (generation) and scores
+# what a robot runs (deploy's predict and map fusion), so it sits after both.
 LAYERS = (
     "assets",
     "robots",
@@ -20,9 +22,9 @@ LAYERS = (
     "data",
     "models",
     "train",
-    "eval",
     "generation",
     "deploy",
+    "eval",
     "cli",
 )
 # Modules directly under momakitchen/ that import nothing of the package but each other.

@@ -178,3 +178,27 @@ for _entry in (
 
 # The names shipped with the package (a plug-in may not reuse one).
 BUILTIN_MODELS = MODELS.names()
+
+
+def check_loadable(name: str, where: str) -> None:
+    """MomaError, in one line, unless model ``name`` (of a run: ``where`` names it, e.g.
+    ``checkpoint 'runs/mine'``) can be built here: for a plug-in whose module does not
+    import, the module and the import's error; for a name neither built in nor installed,
+    what the registry says. Checked before the run's training config, whose errors would
+    otherwise read as a bad config."""
+    from momakitchen.models.plugins import PluginImportError
+
+    try:
+        get_model_entry(name)
+    except PluginImportError as exc:
+        raise MomaError(
+            f"{where} was trained with the plug-in model {name!r}, whose module "
+            f"{exc.module!r} cannot be imported here ({exc.reason}): install the package "
+            "that provides it where the run is loaded"
+        ) from None
+    except MomaError as exc:
+        if "unknown model" not in str(exc):
+            raise
+        raise MomaError(
+            f"{where} was trained with model {name!r}, not installed here: {exc}"
+        ) from None

@@ -151,7 +151,7 @@ def read_run_config(run_dir: Path) -> tuple[TrainConfig, dict[str, Any]]:
     train_config = info.get("train_config")
     model = train_config.get("model") if isinstance(train_config, dict) else None
     if isinstance(model, str) and model:  # a plug-in not importable here is not a bad config
-        from momakitchen.models.plugins import check_loadable
+        from momakitchen.models.registry import check_loadable
 
         check_loadable(model, f"checkpoint {str(run_dir)!r}")
     try:
