@@ -58,7 +58,7 @@ one-line JSON naming the checkpoint; no answer ever holds NaN.
 The server is `aiohttp` (asyncio): requests are read and answered concurrently while the
 model runs on one worker thread, one frame at a time, so a prediction never shares torch
 with another and ``/health`` answers while a frame is being predicted. The memory it holds
-is the in-flight bodies (their cap) plus one frame's work (about 0.3 GB for 640x480, 2 GB
+is the in-flight bodies (their cap) plus one frame's work (about 0.4 GB for 640x480, 2 GB
 for a 16 Mpx frame). Needs the ``robot`` extra.
 """
 
