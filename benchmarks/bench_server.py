@@ -7,7 +7,8 @@ Usage::
 
 The frame is the last view of the first test scene of ``--data`` (default: a one-scene
 dataset generated into a temporary folder, a few seconds). The server runs in its own
-process (``momakitchen serve --port 0`` on 127.0.0.1, the bundled model); the client
+process (``momakitchen serve --port 0`` on 127.0.0.1, the bundled model, its default
+limits; with ``MOMAKITCHEN_SERVE_TOKEN`` set, both sides use it); the client
 encodes depth (16-bit PNG), colour and masks (PNG) per request, as a robot's node would,
 and reads the JSON answer. Reported per repetition: median and 90th percentile wall
 milliseconds of the client's call (encode + POST + answer), the server's model time
@@ -94,11 +95,11 @@ def _post(url: str, ep, mc: int, floor: bool) -> float:
         body.write(value if isinstance(value, bytes) else value.encode())
         body.write(b"\r\n")
     body.write(f"--{boundary}--\r\n".encode())
-    req = urllib.request.Request(
-        f"{url}/predict",
-        data=body.getvalue(),
-        headers={"Content-Type": f"multipart/form-data; boundary={boundary}"},
-    )
+    headers = {"Content-Type": f"multipart/form-data; boundary={boundary}"}
+    token = os.environ.get("MOMAKITCHEN_SERVE_TOKEN")  # the server inherits it
+    if token:
+        headers["Authorization"] = f"Bearer {token}"
+    req = urllib.request.Request(f"{url}/predict", data=body.getvalue(), headers=headers)
     with urllib.request.urlopen(req, timeout=120) as r:
         json.loads(r.read())
         return float(r.headers["X-Predict-Seconds"])

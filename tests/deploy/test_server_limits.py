@@ -73,7 +73,7 @@ def no_tracebacks(caplog):
 
 def test_a_full_queue_answers_503_with_retry_after(no_tracebacks):
     server = SleepyServer(queue=1)
-    server.delay = 1.0
+    server.delay = 2.0
     answers: dict[int, tuple] = {}
     with running(server) as addr:
 
@@ -83,7 +83,7 @@ def test_a_full_queue_answers_503_with_retry_after(no_tracebacks):
         threads = [threading.Thread(target=send, args=(i,)) for i in range(5)]
         for t in threads:
             t.start()
-            time.sleep(0.05)  # in this order: the first runs, the second waits
+            time.sleep(0.2)  # in this order: the first runs, the second waits
         for t in threads:
             t.join(30)
         statuses = [answers[i][0] for i in range(5)]
@@ -91,7 +91,7 @@ def test_a_full_queue_answers_503_with_retry_after(no_tracebacks):
         assert statuses[:2] == [200, 200] and statuses[2:] == [503, 503, 503], statuses
         for i in range(2, 5):
             _, doc, headers = answers[i]
-            assert "1 requests are waiting for the model" in one_line_error(doc)
+            assert "the model's queue is full: 1 waiting" in one_line_error(doc)
             assert int(headers["Retry-After"]) >= 1
         assert server.calls == ["r0", "r1"]
         # and once the queue has drained, the server takes requests again
@@ -174,7 +174,7 @@ def test_slow_clients_are_cut_off(no_tracebacks):
 
 def test_clients_that_leave_cost_no_traceback_and_no_prediction(no_tracebacks):
     server = SleepyServer()
-    server.delay = 1.0
+    server.delay = 1.5
     with running(server) as addr:
         first = threading.Thread(target=post, args=(addr, *form("first")))
         first.start()
@@ -233,10 +233,10 @@ def test_headers_are_checked_before_decoding(no_tracebacks):
     with running(server) as addr:
         cases = {
             # over 16 Mpx: a tiny PNG (1-bit) and a .npy that is only a header
-            "is 4097x4097 = 16.8 Mpx, over the limit of 16.8 Mpx": {
+            "is 4097x4097 = 16785409 pixels, over the limit of 16777216 (4096x4096)": {
                 "depth": png(np.zeros((big, big), bool))
             },
-            "'target_mask' is 5000x5000 = 25.0 Mpx": {
+            "'target_mask' is 5000x5000 = 25000000 pixels": {
                 "target_mask": npy(np.zeros((1, 1), np.uint8))[:-1].replace(
                     b"(1, 1)", b"(5000, 5000)"
                 )

@@ -205,7 +205,7 @@ def test_serve_under_load(server, frame):
     # one predicted and six waiting; more when the first are done before the last arrive
     assert set(codes) <= {200, 503} and codes.count(200) >= 7, codes
     busy = [a for a in answers if a[0] == 503]
-    assert busy and all("6 requests are waiting for the model" in a[1]["error"] for a in busy)
+    assert busy and all("the model's queue is full: 6 waiting" in a[1]["error"] for a in busy)
     retry = [int(a[2]["Retry-After"]) for a in busy]
     assert min(retry) >= 1
     model = statistics.median(float(a[2]["X-Predict-Seconds"]) for a in answers if a[0] == 200)

@@ -205,8 +205,8 @@ def array_header(data: bytes, name: str) -> tuple[tuple[int, ...], str]:
     h, w = shape[:2]
     if h * w > MAX_PIXELS:
         raise MomaError(
-            f"field {name!r} is {w}x{h} = {h * w / 1e6:.1f} Mpx, over the limit of "
-            f"{MAX_PIXELS / 1e6:.1f} Mpx (4096x4096)"
+            f"field {name!r} is {w}x{h} = {h * w} pixels, over the limit of {MAX_PIXELS} "
+            "(4096x4096)"
         )
     if kind == "npy" and len(data) < offset + math.prod(shape) * dtype.itemsize:
         raise MomaError(
@@ -490,7 +490,7 @@ class ModelServer:
                 return error(413, f"the request is larger than {limits.max_body_mb} MB")
             # Refused before the body is read, so that a busy server reads nothing it drops.
             if self.queued > limits.queue:
-                return busy(f"{limits.queue} requests are waiting for the model")
+                return busy(f"the model's queue is full: {limits.queue} waiting")
             reserve = max_body if size is None else size
             if self.inflight + reserve > limits.max_inflight_mb * 1024 * 1024:
                 return busy(f"{limits.max_inflight_mb} MB of requests are in flight")
@@ -525,7 +525,7 @@ class ModelServer:
             except MomaError as exc:
                 return error(400, str(exc))
             if self.queued > limits.queue:
-                return busy(f"{limits.queue} requests are waiting for the model")
+                return busy(f"the model's queue is full: {limits.queue} waiting")
 
             def alive() -> bool:
                 transport = request.transport
