@@ -24,7 +24,7 @@ from momakitchen.data.batch import episode_maps
 from momakitchen.eval.evaluate import predicted_maps
 from momakitchen.metrics import episode_metrics
 from momakitchen.models.inference import predict_batch
-from momakitchen.robots.spec import ROBOTS, robot_descriptor
+from momakitchen.robots.spec import DEFAULT_ROBOTS, ROBOTS, robot_descriptor
 from momakitchen.train.checkpoint import load_checkpoint
 
 
@@ -37,7 +37,7 @@ def swap_rows(run_dir: Path, data: Subset) -> list[tuple[str, float, float, floa
     run = load_checkpoint(run_dir)
     descs = {
         n: torch.tensor(robot_descriptor(ROBOTS.get_entry(n)), dtype=torch.float32)
-        for n in ROBOTS.names()
+        for n in DEFAULT_ROBOTS  # the robots datasets are made with by default
     }
     rows = []
     for batch, preds, labels in predicted_maps(run, data):
@@ -73,7 +73,7 @@ def main() -> None:
     print("| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: |")
     for run in args.checkpoint:
         rows = swap_rows(run, subset)
-        for robot in ("all", *ROBOTS.names()):
+        for robot in ("all", *DEFAULT_ROBOTS):
             sel = np.array([r[1:] for r in rows if robot in ("all", r[0])], dtype=float)
             if len(sel):
                 m = sel.mean(0)

@@ -1,6 +1,8 @@
 """One codec for every config dataclass: plain JSON data out, checked dataclasses back in.
 
-:func:`to_dict` turns a (nested) dataclass into JSON-ready data (tuples become lists).
+:func:`to_dict` turns a (nested) dataclass into JSON-ready data (tuples become lists); a
+field declared with ``metadata=OMIT_IF_DEFAULT`` is left out while it holds its default
+(a field added to a config later: records written before it existed stay the same).
 :func:`from_dict` builds a dataclass from such data by its type hints: nested dataclasses,
 ``tuple[...]`` fields, ``int`` / ``float`` / ``str`` / ``bool`` and ``Optional``. Unknown
 keys and wrong types raise :class:`~momakitchen.errors.MomaError` naming the dotted field
@@ -27,13 +29,20 @@ from momakitchen.fileio import existing_file
 T = TypeVar("T")
 
 CONFIG_SUFFIXES = (".yaml", ".yml", ".json")
+# Field metadata: to_dict leaves the field out while it holds its default.
+OMIT_IF_DEFAULT = types.MappingProxyType({"omit_if_default": True})
 
 
 def to_dict(obj: Any) -> dict[str, Any]:
-    """The fields of dataclass ``obj`` as plain data (nested dicts, lists, scalars)."""
+    """The fields of dataclass ``obj`` as plain data (nested dicts, lists, scalars), without
+    the ``OMIT_IF_DEFAULT`` fields that hold their default."""
     if not dataclasses.is_dataclass(obj) or isinstance(obj, type):
         raise MomaError(f"expected a dataclass instance, got {type(obj).__name__}")
-    return {f.name: _plain(getattr(obj, f.name)) for f in dataclasses.fields(obj)}
+    return {
+        f.name: _plain(getattr(obj, f.name))
+        for f in dataclasses.fields(obj)
+        if not (f.metadata.get("omit_if_default") and getattr(obj, f.name) == f.default)
+    }
 
 
 def _plain(value: Any) -> Any:

@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from momakitchen.data.generator import GenerateRequest, generate_dataset
 from momakitchen.data.synthetic_scene import SyntheticSceneConfig, synthetic_scene_records
+from momakitchen.scene.configuration import SceneConfig
 
 SMALL = SyntheticSceneConfig(configs_per_scene=2, episodes_per_config=3)
 
@@ -35,3 +37,52 @@ def slow_scene_records(scene_id: int, config: SyntheticSceneConfig):
     if scene_id > 0:
         time.sleep(60)
     return synthetic_scene_records(scene_id, config)
+
+
+PYBULLET_PANDA = "franka_panda/panda.urdf"
+
+
+def write_panda_yaml(folder: Path, name: str = "pandalow", mount_height: object = 0.6) -> Path:
+    """A user robot: the Panda URDF shipped with pybullet_data (its hand and fingers), at
+    ``mount_height`` (a number or ``[lo, hi]``)."""
+    import pybullet_data
+
+    urdf = Path(pybullet_data.getDataPath()) / PYBULLET_PANDA
+    path = folder / f"{name}.yaml"
+    path.write_text(
+        f"name: {name}\nurdf: {urdf}\nmount_height: {mount_height}\n"
+        "end_effector_link: panda_grasptarget\nend_effector: parallel_gripper\nreach: 0.85\n"
+    )
+    return path
+
+
+@dataclass(frozen=True)
+class RobotRecordsConfig:
+    """Config of :func:`robot_records`: synthetic records labelled with ``scene``'s robots."""
+
+    scene: SceneConfig = field(default_factory=SceneConfig)
+    configs_per_scene: int = 2
+
+
+def robot_records(scene_id: int, config: RobotRecordsConfig):
+    """Synthetic records whose configurations name ``config.scene``'s robots, with their
+    descriptors: only a process where those robots are registered can make them."""
+    import dataclasses
+
+    import numpy as np
+
+    from momakitchen.robots.spec import get_robot_spec, robot_descriptor
+
+    small = SyntheticSceneConfig(configs_per_scene=config.configs_per_scene, episodes_per_config=1)
+    names = config.scene.robot_names
+    out = []
+    for c, (labels, episodes) in enumerate(synthetic_scene_records(scene_id, small)):
+        name = names[c % len(names)]
+        desc = np.asarray(robot_descriptor(get_robot_spec(name)), np.float32)
+        out.append(
+            (
+                dataclasses.replace(labels, robot=name),
+                [dataclasses.replace(e, robot=name, descriptor=desc) for e in episodes],
+            )
+        )
+    return out

@@ -14,7 +14,7 @@ from momakitchen.data.manifest import (
 )
 from momakitchen.data.synthetic_scene import SyntheticSceneConfig, synthetic_scene_records
 from momakitchen.errors import MomaError
-from momakitchen.robots.spec import ROBOTS
+from momakitchen.robots.spec import DEFAULT_ROBOTS, ROBOTS
 
 
 def test_split_is_deterministic_and_80_20():
@@ -35,7 +35,9 @@ def test_all_six_robots_in_both_splits_for_20_scenes(tmp_path):
     assert m["counts"]["test"]["scenes"] == 4 and m["counts"]["train"]["scenes"] == 16
     for split in ("train", "test"):
         present = {r for r, row in m["counts"]["robots"].items() if row[split].get("episodes")}
-        assert present == set(ROBOTS) - {n for n in ROBOTS if n.startswith("user")}, split
+        # The paper's six, not the other arms nor any user robot registered by now.
+        assert present == set(DEFAULT_ROBOTS), split
+    assert {"ur10e", "gen3"} <= set(ROBOTS) and not {"ur10e", "gen3"} & set(DEFAULT_ROBOTS)
 
 
 def test_synthetic_robot_assignment_is_the_scene_samplers():

@@ -12,7 +12,7 @@ from momakitchen.errors import MomaError
 from momakitchen.robots.ik import build_seed_library
 from momakitchen.robots.robot import Robot, quaternion_angle
 
-NAMES = ["panda", "flexiv", "ur5e", "xarm6", "realman", "elephant"]
+NAMES = ["panda", "flexiv", "ur5e", "xarm6", "realman", "elephant", "ur10e", "gen3"]
 
 
 @pytest.mark.parametrize("name", NAMES)

@@ -77,6 +77,41 @@ def ur5e_dh_fk(q) -> np.ndarray:
     return m
 
 
+def dh_fk(d, a, alpha, theta, q, base=None) -> np.ndarray:
+    """Standard DH chain (``d``, ``a``, ``alpha``, ``theta`` offsets per joint) at ``q``,
+    after the fixed ``base`` transform (4, 4); returns the last frame's pose (4, 4)."""
+    m = np.eye(4) if base is None else np.asarray(base, float)
+    for i, qi in enumerate(q):
+        ct, st = math.cos(qi + theta[i]), math.sin(qi + theta[i])
+        ca, sa = math.cos(alpha[i]), math.sin(alpha[i])
+        m = m @ np.array(
+            [
+                [ct, -st * ca, st * sa, a[i] * ct],
+                [st, ct * ca, -ct * sa, a[i] * st],
+                [0, sa, ca, d[i]],
+                [0, 0, 0, 1],
+            ]
+        )
+    return m
+
+
+def ur10e_dh_fk(q) -> np.ndarray:
+    """Universal Robots' DH table for the UR10e (frame 6 = flange)."""
+    d = (0.1807, 0, 0, 0.17415, 0.11985, 0.11655)
+    a = (0, -0.6127, -0.57155, 0, 0, 0)
+    return dh_fk(d, a, (PI / 2, 0, 0, PI / 2, -PI / 2, 0), (0,) * 6, q)
+
+
+def gen3_dh_fk(q) -> np.ndarray:
+    """The Kinova Gen3 user guide's classic DH table (7 DoF): base -> frame 0 is a turn by
+    pi about x; frame 7 = the interface module's tool frame."""
+    d = (-(0.1564 + 0.1284), -(0.0054 + 0.0064), -(0.2104 + 0.2104), -(0.0064 + 0.0064))
+    d += (-(0.2084 + 0.1059), 0.0, -(0.1059 + 0.0615))
+    alpha = (PI / 2,) * 6 + (PI,)
+    theta = (0.0,) + (PI,) * 6
+    return dh_fk(d, (0,) * 7, alpha, theta, q, np.diag([1.0, -1.0, -1.0, 1.0]))
+
+
 Z, Y, NZ, NX = (0, 0, 1), (0, 1, 0), (0, 0, -1), (-1, 0, 0)
 
 FLEXIV = [
@@ -130,6 +165,8 @@ XARM6 = [
 
 REFERENCE = {
     "ur5e": ("arm_base", ur5e_dh_fk),
+    "ur10e": ("arm_base", ur10e_dh_fk),
+    "gen3": ("arm_base", gen3_dh_fk),
     "flexiv": ("arm_base", lambda q: chain_fk(FLEXIV, q, FLEXIV_FLANGE)),
     "realman": ("arm_base", lambda q: chain_fk(REALMAN, q)),
     "elephant": ("arm_base", lambda q: chain_fk(ELEPHANT, q)),
@@ -163,6 +200,7 @@ def test_flange_fk_matches_published_figures(client, name):
             flange = pose_matrix(*robot.flange_pose())
             got = np.linalg.inv(base) @ flange
             want = reference(q)
+            # 1 mm: Kinova's joint origins carry 0.2 mm offsets that its DH table rounds away.
             assert np.linalg.norm(got[:3, 3] - want[:3, 3]) < 1e-3, (name, q)
             # Rotation agreement: angle of got^T want.
             cos = (np.trace(got[:3, :3].T @ want[:3, :3]) - 1) / 2
@@ -191,7 +229,7 @@ def test_ur5e_chain_and_dh_agree_in_world(client):
 @pytest.mark.parametrize("name", sorted(REFERENCE))
 def test_tcp_is_beyond_flange_along_z(client, name):
     """TCP = flange + offset along the flange's z axis (the published TCP distance)."""
-    expected = {"panda": 0.1034, "xarm6": 0.172, "ur5e": 0.134}
+    expected = {"panda": 0.1034, "xarm6": 0.172, "ur5e": 0.134, "ur10e": 0.15, "gen3": 0.15}
     robot = Robot(client, name)
     try:
         fpos, forn = robot.flange_pose()
@@ -204,3 +242,27 @@ def test_tcp_is_beyond_flange_along_z(client, name):
             assert float(d @ z) == pytest.approx(expected[name], abs=1e-4)
     finally:
         robot.remove()
+
+
+@pytest.mark.parametrize(
+    ("name", "reach", "dh"),
+    [("ur10e", 1.30, ur10e_dh_fk), ("gen3", 0.902, gen3_dh_fk)],
+)
+def test_published_reach_of_the_tables_and_of_the_built_model(client, name, reach, dh):
+    """The manufacturer's reach is the stretched arm's shoulder-to-flange distance of its
+    table (UR: |a2| + |a3| + the wrist; Kinova: d3 + d5 + d7), and the built model's
+    measured flange workspace agrees with it within 5 %."""
+    spec = get_robot_spec(name)
+    assert spec.reach == reach
+    robot = Robot(client, name)
+    try:
+        flange_reach, _ = robot.workspace()
+        assert 1.0 <= flange_reach / reach <= 1.05, (name, flange_reach)
+    finally:
+        robot.remove()
+    if name == "gen3":  # straight up at q = 0: joint 2 to the tool frame is the reach
+        assert 0.4208 + 0.3143 + 0.1674 == pytest.approx(reach, abs=1e-3)
+        assert dh(np.zeros(7))[2, 3] == pytest.approx(0.2848 + 0.0 + reach, abs=1e-3)
+    else:  # stretched out along the table's x axis: a2 + a3, and the wrist beyond
+        q = np.array([0.0, 0.0, 0.0, -PI / 2, 0.0, 0.0])
+        assert np.linalg.norm(dh(q)[:3, 3] - [0, 0, 0.1807]) >= reach

@@ -9,7 +9,7 @@ from momakitchen.robots import get_robot_spec
 from momakitchen.robots.reach import measure_workspace
 from momakitchen.robots.robot import Robot
 
-NAMES = ["panda", "flexiv", "ur5e", "xarm6", "realman", "elephant"]
+NAMES = ["panda", "flexiv", "ur5e", "xarm6", "realman", "elephant", "ur10e", "gen3"]
 
 
 @pytest.mark.parametrize("name", NAMES)

@@ -13,7 +13,7 @@ from momakitchen.robots import get_robot_spec
 from momakitchen.robots.robot import Robot, quaternion_angle
 from momakitchen.robots.tools import ParallelGripperTool, SuctionTool
 
-NAMES = ["panda", "flexiv", "ur5e", "xarm6", "realman", "elephant"]
+NAMES = ["panda", "flexiv", "ur5e", "xarm6", "realman", "elephant", "ur10e", "gen3"]
 
 
 def test_unknown_robot_is_a_moma_error(client):

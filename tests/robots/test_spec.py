@@ -77,3 +77,39 @@ def test_the_registry_does_not_import_pybullet(module):
         [sys.executable, "-c", code], capture_output=True, text=True, check=True
     ).stdout
     assert out.strip() == "False"
+
+
+def test_more_arms_are_registered_but_not_generated_by_default():
+    from momakitchen.robots.spec import DEFAULT_ROBOTS
+
+    assert DEFAULT_ROBOTS == tuple(NAMES)
+    ur10e, gen3 = get_robot_spec("ur10e"), get_robot_spec("gen3")
+    assert (ur10e.reach, ur10e.mount_height, ur10e.dof) == (1.30, 0.80, 6)
+    assert (gen3.reach, gen3.mount_height, gen3.dof) == (0.902, 0.60, 7)
+    # They widen the reach range beyond the paper's six (0.63-0.90 m).
+    assert max(get_robot_spec(n).reach for n in NAMES) < gen3.reach < ur10e.reach
+    assert not {"ur10e", "gen3"} & set(DEFAULT_ROBOTS)
+
+
+def test_mount_heights_are_checked_against_the_documented_range():
+    from momakitchen.robots.spec import MOUNT_RANGE
+
+    assert MOUNT_RANGE == (0.30, 1.30)
+    panda = get_robot_spec("panda")
+    for bad, message in [
+        (dict(mount_height=1.31), r"mount_height must be in \[0.3, 1.3\] m, got 1.31"),
+        (dict(mount_height=0.2), r"got 0.2"),
+        (dict(mount_range=(0.6, 1.4)), r"got 1.4 \(in the range \[0.6, 1.4\]\)"),
+        (dict(mount_range=(1.0, 0.6)), r"lo <= hi, got \[1.0, 0.6\]"),
+        (dict(mount_range=(0.6, 0.9)), r"mount_height 1.03 lies outside its mount_range"),
+    ]:
+        with pytest.raises(MomaError, match=message):
+            dataclasses.replace(panda, name="bad", **bad)
+    ranged = dataclasses.replace(panda, name="ranged", mount_range=(0.6, 1.3))
+    assert ranged.mount_heights == (0.6, 1.3) and panda.mount_heights == (1.03, 1.03)
+
+
+def test_descriptor_takes_a_configurations_mount_height():
+    ur5e = get_robot_spec("ur5e")
+    assert robot_descriptor(ur5e, None) == robot_descriptor(ur5e)
+    assert robot_descriptor(ur5e, 0.62) == (0.85, 0.62, 6 / 7, 1.0)

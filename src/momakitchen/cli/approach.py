@@ -20,7 +20,7 @@ import json
 import time
 from pathlib import Path
 
-from momakitchen.cli.common import non_negative_int, output_file
+from momakitchen.cli.common import add_robot_yaml, non_negative_int, output_file
 from momakitchen.errors import MomaError
 from momakitchen.fileio import atomic_write_bytes, atomic_write_text
 
@@ -130,6 +130,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "--record-dir", metavar="DIR", help="where --record writes (default: beside --json)"
     )
     ap.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_robot_yaml(ap)
     ap.set_defaults(func=run)
 
 

@@ -22,7 +22,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from momakitchen.cli.common import non_negative_int, positive_int
+from momakitchen.cli.common import add_robot_yaml, non_negative_int, positive_int
 from momakitchen.errors import MomaError
 from momakitchen.fileio import dumps_strict
 from momakitchen.scene.ids import scene_range_problem
@@ -79,16 +79,21 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     parser.add_argument("--seed", type=non_negative_int, default=0, help="MSR seed (0)")
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
+    add_robot_yaml(parser)
     parser.set_defaults(func=run)
 
 
-def _audit_scene(job: tuple[str, int, str, dict[str, Any], dict[str, Any]]) -> list[dict]:
-    """Pool task: the audit records of one shard."""
-    root, sid, file, gen_dict, audit_dict = job
+def _audit_scene(job: tuple[str, int, str, dict[str, Any], dict[str, Any], list]) -> list[dict]:
+    """Pool task: the audit records of one shard (the dataset's user robots registered
+    first, as in the driver)."""
+    root, sid, file, gen_dict, audit_dict, robot_files = job
     from momakitchen import codec
     from momakitchen.data.config import GenerationConfig
     from momakitchen.eval.audit import AuditConfig, audit_shard
+    from momakitchen.robots.user import UserRobotFile, register_recorded
     from momakitchen.scene.configuration import sample_scene
+
+    register_recorded(UserRobotFile.from_dict(r) for r in robot_files)
 
     gen = GenerationConfig.from_dict(gen_dict)
     config = codec.from_dict(AuditConfig, audit_dict)
@@ -155,6 +160,12 @@ def run(args: argparse.Namespace) -> int:
             f"{manifest.get('producer')!r}): the audit rebuilds its worlds"
         )
     gen_dict = manifest["config"]
+    mf.check_user_robots(manifest, root)  # its user robots must be registered here
+    from momakitchen.robots.user import user_robot_files
+
+    # The workers register the same files as this process (wherever they are now).
+    recorded = [r["name"] for r in mf.manifest_user_robots(manifest, root)]
+    robot_files = [f.to_dict() for f in user_robot_files(recorded)]
     GenerationConfig.from_dict(gen_dict)  # unreadable configs fail before any work
     shards = {int(k): v["file"] for k, v in manifest["shards"].items()}
     ids = sorted(s for s in shards if wanted is None or s in wanted)
@@ -183,7 +194,7 @@ def run(args: argparse.Namespace) -> int:
     for sid in ids:
         records = cached(sid)
         if records is None:
-            todo.append((str(root), sid, shards[sid], gen_dict, audit_dict))
+            todo.append((str(root), sid, shards[sid], gen_dict, audit_dict, robot_files))
         else:
             by_scene[sid] = records
     bar = tqdm(

@@ -12,7 +12,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from momakitchen.cli.common import non_negative_int, positive_int
+from momakitchen.cli.common import add_robot_yaml, non_negative_int, positive_int
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -85,6 +85,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--out", required=True, help="output directory")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
+    add_robot_yaml(p)
     p.set_defaults(func=run)
 
 

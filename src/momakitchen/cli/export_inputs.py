@@ -21,7 +21,7 @@ import argparse
 import time
 from pathlib import Path
 
-from momakitchen.cli.common import non_negative_int, output_file
+from momakitchen.cli.common import add_robot_yaml, non_negative_int, output_file
 from momakitchen.errors import MomaError
 from momakitchen.fileio import existing_dir
 
@@ -59,6 +59,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "--max-configs", type=non_negative_int, default=0, help="only the first N (0: all)"
     )
     rob.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_robot_yaml(p)
     p.set_defaults(func=run)
 
 

@@ -66,23 +66,28 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
     from tqdm import tqdm
 
-    from momakitchen.robots import get_robot_spec
-    from momakitchen.scene.configuration import SceneConfig, sample_scene
+    from momakitchen.scene.configuration import (
+        SceneConfig,
+        sample_scene,
+        usable_robot,
+        with_robot,
+    )
     from momakitchen.sim.config import STAGE_NAMES, DenseMapConfig, TrialConfig
     from momakitchen.sim.label_figure import save_label_figure
     from momakitchen.sim.labels import label_configuration
     from momakitchen.sim.world import World
 
-    if args.robot is not None:
-        get_robot_spec(args.robot)  # unknown names fail before any work
     scene_cfg = SceneConfig()
+    if args.robot is not None:  # unknown names, and arms that reach no counter, fail first
+        usable_robot(args.robot, scene_cfg)
     check_config_index(args.config, scene_cfg.configs_per_scene)
     out = planned_output_dir(args.out)
     scene = sample_scene(args.scene_id, scene_cfg)
     cfg = scene.configurations[args.config]
     if args.robot is not None:
-        # The same configuration (objects, target, obstacles), labelled by another robot.
-        cfg = dataclasses.replace(cfg, robot=args.robot)
+        # The same configuration (objects, target, obstacles), labelled by another robot
+        # (at its own mount height for it).
+        cfg = with_robot(cfg, args.robot, scene_cfg)
     trial_cfg = TrialConfig()
     with (
         World(scene.layout) as world,

@@ -15,7 +15,13 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from momakitchen.cli.common import non_negative_float, non_negative_int, output_file, positive_int
+from momakitchen.cli.common import (
+    add_robot_yaml,
+    non_negative_float,
+    non_negative_int,
+    output_file,
+    positive_int,
+)
 from momakitchen.errors import MomaError
 from momakitchen.fileio import atomic_write_text, dumps_strict, existing_dir
 
@@ -133,6 +139,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     tr.add_argument("--resume", action="store_true", help="continue the run in --out")
     tr.add_argument("--quiet", action="store_true", help="no progress bars")
+    add_robot_yaml(tr)
     tr.set_defaults(func=run_train)
 
     ev = sub.add_parser(
@@ -162,6 +169,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     ev.add_argument("--batch-size", type=positive_int, default=8)
     ev.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_robot_yaml(ev)
     ev.set_defaults(func=run_evaluate)
 
 

@@ -12,6 +12,7 @@ import argparse
 import time
 
 from momakitchen.cli.common import (
+    add_robot_yaml,
     checked_methods,
     non_negative_float,
     non_negative_int,
@@ -82,6 +83,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="only the first N configurations (0: all)",
     )
     ms.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_robot_yaml(ms)
     ms.set_defaults(func=run)
 
 

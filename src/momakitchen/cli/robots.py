@@ -1,11 +1,13 @@
 """``momakitchen robots``: list the robots, export a robot's URDF.
 
     momakitchen robots [--json] [--robot-yaml FILE ...]
-    momakitchen robots export-urdf NAME --out FILE [--robot-yaml FILE ...]
+    momakitchen robots export-urdf NAME --out FILE [--mount-height M] [--robot-yaml FILE ...]
 
 ``--robot-yaml`` (repeatable) registers user robots (URDF + YAML, see
 ``momakitchen.robots.user``) before the command runs, here as on every command that takes
-a robot (demo, label, predict); so does the environment variable ``MOMAKITCHEN_ROBOT_YAML``.
+a robot or builds worlds (demo, label, generate, msr, ...); so does the environment
+variable ``MOMAKITCHEN_ROBOT_YAML``. The table ends with the robots ``generate`` assigns
+by default; the others are used by name (``generate --robot NAME``, ``label --robot``).
 """
 
 from __future__ import annotations
@@ -46,6 +48,13 @@ def add_parser(subparsers) -> None:
     export.add_argument("name", help="robot name (see `momakitchen robots`)")
     export.add_argument("--out", required=True, metavar="FILE", help="URDF file to write")
     export.add_argument(
+        "--mount-height",
+        type=float,
+        default=None,
+        metavar="M",
+        help="mount the arm this high (m; default: the robot's own; any height of 0.3-1.3)",
+    )
+    export.add_argument(
         "--robot-yaml",
         dest="robot_yaml_sub",
         action="append",
@@ -58,6 +67,7 @@ def add_parser(subparsers) -> None:
 def robot_rows() -> list[dict]:
     """One JSON-ready dict per registered robot."""
     from momakitchen.robots.spec import (
+        DEFAULT_ROBOTS,
         DESCRIPTOR_NAMES,
         DESCRIPTOR_VERSION,
         ROBOTS,
@@ -71,6 +81,8 @@ def robot_rows() -> list[dict]:
                 "name": spec.name,
                 "reach_m": spec.reach,
                 "mount_height_m": spec.mount_height,
+                "mount_range_m": None if spec.mount_range is None else list(spec.mount_range),
+                "generate_default": spec.name in DEFAULT_ROBOTS,
                 "dof": spec.dof,
                 "end_effector": spec.end_effector,
                 "footprint_m": list(spec.footprint),
@@ -89,7 +101,7 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print(dumps_strict(rows, indent=2))
         return 0
-    header = ("name", "reach (m)", "mount height (m)", "DoF", "end-effector")
+    header = ("name", "reach (m)", "mount height (m)", "DoF", "end-effector", "mount range (m)")
     table = [header] + [
         (
             r["name"],
@@ -97,12 +109,15 @@ def run(args: argparse.Namespace) -> int:
             f"{r['mount_height_m']:.2f}",
             str(r["dof"]),
             r["end_effector"],
+            "" if r["mount_range_m"] is None else "{:.2f}-{:.2f}".format(*r["mount_range_m"]),
         )
         for r in rows
     ]
     widths = [max(len(row[i]) for row in table) for i in range(len(header))]
     for row in table:
         print("  ".join(cell.ljust(w) for cell, w in zip(row, widths, strict=True)).rstrip())
+    defaults = ", ".join(r["name"] for r in rows if r["generate_default"])
+    print(f"generate's robots by default: {defaults}; the others by --robot NAME")
     return 0
 
 
@@ -110,7 +125,7 @@ def _export(args: argparse.Namespace) -> int:
     from momakitchen.fileio import atomic_write_text
     from momakitchen.robots.urdf import robot_urdf
 
-    text = robot_urdf(args.name)
+    text = robot_urdf(args.name, args.mount_height)
     out = Path(args.out)
     if not out.parent.is_dir():
         raise MomaError(f"output directory {str(out.parent)!r} does not exist")
@@ -118,5 +133,6 @@ def _export(args: argparse.Namespace) -> int:
         atomic_write_text(out, text)
     except OSError as exc:
         raise MomaError(f"cannot write {str(out)!r}: {exc.strerror}") from None
-    print(f"wrote {out} ({args.name}: mobile base + arm + end-effector)")
+    at = "" if args.mount_height is None else f", arm at {args.mount_height:g} m"
+    print(f"wrote {out} ({args.name}: mobile base + arm + end-effector{at})")
     return 0

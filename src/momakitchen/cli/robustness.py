@@ -21,6 +21,7 @@ import time
 from typing import Any
 
 from momakitchen.cli.common import (
+    add_robot_yaml,
     checked_methods,
     non_negative_float,
     non_negative_int,
@@ -95,6 +96,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "--max-configs", type=non_negative_int, default=0, help="only the first N (0: all)"
     )
     rb.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_robot_yaml(rb)
     rb.set_defaults(func=run)
 
 

@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from momakitchen.cli.common import (
+    add_robot_yaml,
     check_config_index,
     non_negative_int,
     output_dir,
@@ -55,6 +56,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         action="store_true",
         help="skip the PyBullet build and rendered view (plan only)",
     )
+    add_robot_yaml(parser)
     parser.set_defaults(func=run)
 
 

@@ -101,6 +101,22 @@ def _ground_truth_line(total: dict[str, int]) -> str:
     )
 
 
+def _user_robot_lines(manifest: dict[str, Any]) -> list[str]:
+    """The card's lines on the user robots the dataset was labelled with (none: none)."""
+    records = manifest.get("user_robots") or []
+    if not records:
+        return []
+    files = "; ".join(
+        f"`{r['name']}` from `{r['yaml']}` (sha256 {r['sha256'][:12]})" for r in records
+    )
+    return [
+        f"User robots (URDF + YAML): {files}. Commands that rebuild the worlds (`msr`, "
+        "`robustness`, `audit`) need them registered: `--robot-yaml FILE` or "
+        "`MOMAKITCHEN_ROBOT_YAML`.",
+        "",
+    ]
+
+
 def render_card(manifest: dict[str, Any], stats: dict[str, Any] | None, figure: bool) -> str:
     c = manifest["counts"]
     splits = [
@@ -160,6 +176,7 @@ def render_card(manifest: dict[str, Any], stats: dict[str, Any] | None, figure: 
         "",
         coverage,
         "",
+        *_user_robot_lines(manifest),
         "## Target categories (episodes)",
         "",
         _table(targets, ["target", "train", "test", "trial success"]),

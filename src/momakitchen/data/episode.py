@@ -24,7 +24,8 @@ class ConfigurationLabels:
 
     Shapes: ``trial_positions`` (P, 2) float64 world xy of the trial grid;
     ``trial_yaws`` (P,) float64; ``trial_stages`` (P,) uint8 (0 = success, see
-    ``momakitchen.sim.trials.Stage``); ``trial_moved`` (P,) float32.
+    ``momakitchen.sim.trials.Stage``); ``trial_moved`` (P,) float32. ``mount_height``: the
+    arm's mount height in metres where the configuration drew one (None: the robot's own).
     """
 
     scene_id: int
@@ -36,6 +37,7 @@ class ConfigurationLabels:
     trial_yaws: np.ndarray
     trial_stages: np.ndarray
     trial_moved: np.ndarray
+    mount_height: float | None = None
 
     @property
     def trial_outcomes(self) -> np.ndarray:

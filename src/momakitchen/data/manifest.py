@@ -71,9 +71,16 @@ def scenes_for_both_splits(first_scene_id: int = 0) -> int:
     return sid - first_scene_id
 
 
-def new_manifest(producer: str, config: dict[str, Any], config_class: str = "") -> dict[str, Any]:
-    """An empty manifest for a dataset made by ``producer`` with ``config`` (the
-    ``dataclasses.asdict`` of an instance of ``config_class``)."""
+def new_manifest(
+    producer: str,
+    config: dict[str, Any],
+    config_class: str = "",
+    user_robots: list[dict[str, str]] | None = None,
+) -> dict[str, Any]:
+    """An empty manifest for a dataset made by ``producer`` with ``config`` (the plain data
+    of an instance of ``config_class``) and the user robots ``user_robots`` (records
+    ``{"name", "yaml", "sha256"}``; the key is left out when there are none)."""
+    robots = {"user_robots": list(user_robots)} if user_robots else {}
     return {
         "format": MANIFEST_FORMAT,
         "schema_version": _schema_version(),
@@ -81,6 +88,7 @@ def new_manifest(producer: str, config: dict[str, Any], config_class: str = "") 
         "producer": producer,
         "config": config,
         "config_class": config_class,
+        **robots,
         "descriptor_version": DESCRIPTOR_VERSION,
         "descriptor_names": list(DESCRIPTOR_NAMES),
         "split_rule": SPLIT_RULE,
@@ -266,6 +274,34 @@ def load_manifest(root: str | os.PathLike) -> dict[str, Any]:
     return _current_names(data)
 
 
+def manifest_user_robots(
+    manifest: dict[str, Any], root: str | os.PathLike = "dataset"
+) -> list[dict[str, str]]:
+    """The user robots a dataset was labelled with (``{"name", "yaml", "sha256"}``
+    records; empty for built-in robots only); MomaError on a malformed entry."""
+    from momakitchen.robots.user import UserRobotFile
+
+    records = manifest.get("user_robots", [])
+    if not isinstance(records, list):
+        raise MomaError(f"{root}: manifest 'user_robots' must be a list, got {records!r}")
+    where = f"{root}: manifest 'user_robots' entry"
+    return [UserRobotFile.from_dict(r, where).to_dict() for r in records]
+
+
+def check_user_robots(manifest: dict[str, Any], root: str | os.PathLike) -> None:
+    """MomaError (one line) unless every user robot the dataset at ``root`` was labelled
+    with is registered here from the same contents (``--robot-yaml`` /
+    ``MOMAKITCHEN_ROBOT_YAML``): what rebuilding its worlds needs."""
+    from momakitchen.robots.user import UserRobotFile, recorded_robot_problem
+
+    for record in manifest_user_robots(manifest, root):
+        problem = recorded_robot_problem(
+            UserRobotFile.from_dict(record), f"dataset {str(root)!r} was labelled with"
+        )
+        if problem:
+            raise MomaError(problem)
+
+
 def save_manifest(root: str | os.PathLike, manifest: dict[str, Any]) -> None:
     atomic_write_text(manifest_path(root), dumps_strict(manifest, indent=1) + "\n")
 
@@ -297,9 +333,10 @@ def _current_names(manifest: dict[str, Any]) -> dict[str, Any]:
     return manifest
 
 
-def generation_config(manifest: dict[str, Any]) -> Any:
-    """The config object a dataset was generated with (e.g. to rebuild its worlds:
-    ``sample_scene(scene_id, generation_config(m).scene)``); MomaError if unknown."""
+def generation_config(manifest: dict[str, Any], root: str | os.PathLike = "dataset") -> Any:
+    """The config object a dataset (at ``root``, for messages) was generated with (e.g. to
+    rebuild its worlds: ``sample_scene(scene_id, generation_config(m).scene)``); MomaError
+    if unknown, or if a user robot it names is not registered (:func:`check_user_robots`)."""
     import importlib
 
     from momakitchen import codec
@@ -307,6 +344,7 @@ def generation_config(manifest: dict[str, Any]) -> Any:
     name = manifest.get("config_class", "")
     if name not in _CONFIG_CLASSES:
         raise MomaError(f"cannot rebuild generation config of class {name!r}")
+    check_user_robots(manifest, root)
     module, cls_name = _CONFIG_CLASSES[name]
     cls = getattr(importlib.import_module(module), cls_name)
     return codec.from_dict(cls, manifest["config"], where="config")

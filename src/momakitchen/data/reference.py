@@ -87,7 +87,7 @@ def export_reference(root: str | os.PathLike, out: str | os.PathLike) -> dict[st
                 first = (
                     shard.arrays(c, episodes[0], ["descriptor"])["descriptor"]
                     if episodes
-                    else np.asarray(robot_descriptor(get_robot_spec(lab.robot)))
+                    else np.asarray(robot_descriptor(get_robot_spec(lab.robot), lab.mount_height))
                 )
                 info = {
                     "robot_name": lab.robot,

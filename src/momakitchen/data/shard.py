@@ -8,7 +8,8 @@ Layout of ``scenes/scene_{scene_id:06d}.h5`` (schema ``SCHEMA_VERSION``)::
                                            semantic_classes, stage_names,
                                            complete (written last)
     /config_{c:03d}/                attrs: scene_id, config_index, robot, target,
-                                           anchor (3,), num_episodes, feasible
+                                           anchor (3,), num_episodes, feasible,
+                                           mount_height (only where drawn)
         trial_positions (P, 2) f8   trial_yaws (P,) f8   trial_stages (P,) u1
         trial_moved (P,) f4
         episode_{e:03d}/            attrs: scene_id, config_index, episode_index, robot,
@@ -281,6 +282,8 @@ def _write_records(f: h5py.File, scene_id: int, records: SceneRecords) -> None:
         g.attrs["anchor"] = np.asarray(labels.anchor, np.float64)
         g.attrs["num_episodes"] = len(episodes)
         g.attrs["feasible"] = int(labels.feasible)
+        if labels.mount_height is not None:  # absent at the robot's own height
+            g.attrs["mount_height"] = float(labels.mount_height)
         for name, dtype in TRIAL_ARRAYS:
             _put(g, name, getattr(labels, name), dtype)
         for ep in episodes:
@@ -420,6 +423,7 @@ class SceneShard:
             robot=_text(a["robot"]),
             target=_text(a["target"]),
             anchor=float3(a["anchor"]),
+            mount_height=float(a["mount_height"]) if "mount_height" in a else None,
             **arrays,
         )
 

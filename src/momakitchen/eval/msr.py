@@ -218,15 +218,20 @@ def msr_view(shard: SceneShard, scene: Any, ci: int, seed: int) -> int | None:
     episodes = [e for e in shard.episode_indices(ci) if shard.num_points(ci, e)[1] > 0]
     if ci >= len(scene.configurations) or not episodes:
         return None
-    stored = shard.configuration(ci).robot
-    if scene.configurations[ci].robot != stored:
+    stored = shard.configuration(ci)
+    rebuilt = scene.configurations[ci]
+    if (rebuilt.robot, rebuilt.mount_height) != (stored.robot, stored.mount_height):
         raise MomaError(
-            f"{shard.path.name} configuration {ci}: stored robot {stored!r} "
-            f"but the rebuilt world has {scene.configurations[ci].robot!r} (another "
-            "momakitchen version?)"
+            f"{shard.path.name} configuration {ci}: stored robot "
+            f"{_robot_at(stored.robot, stored.mount_height)} but the rebuilt world has "
+            f"{_robot_at(rebuilt.robot, rebuilt.mount_height)} (another momakitchen version?)"
         )
     rng = np.random.default_rng([seed, scene.layout.scene_id, ci])
     return int(episodes[int(rng.integers(len(episodes)))])
+
+
+def _robot_at(robot: str, mount: float | None) -> str:
+    return repr(robot) + ("" if mount is None else f" at mount height {mount} m")
 
 
 def view_record(
@@ -246,10 +251,12 @@ def view_record(
 
 def dataset_generation(root: Path) -> tuple[dict[str, Any], Any]:
     """The manifest of a simulator-made dataset and its generation config (what rebuilds
-    its worlds); MomaError otherwise."""
+    its worlds); MomaError otherwise, one line naming the files to register where the
+    dataset was labelled with a user robot that is not registered here."""
     from momakitchen.data.config import GenerationConfig
 
     manifest = _load_dataset(root)
+    mf.check_user_robots(manifest, root)
     try:
         return manifest, GenerationConfig.from_dict(manifest["config"])
     except (TypeError, KeyError, ValueError) as exc:

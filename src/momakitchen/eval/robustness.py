@@ -171,7 +171,9 @@ def run_robustness(
         cfg = scene.configurations[ci]
         episode = shard.episode(ci, ep)
         frame = episode_frame(episode)
-        descriptor = np.asarray(robot_descriptor(get_robot_spec(cfg.robot)), np.float32)
+        descriptor = np.asarray(
+            robot_descriptor(get_robot_spec(cfg.robot), cfg.mount_height), np.float32
+        )
         grid: Any = SimpleNamespace(
             positions=labels.trial_positions, outcomes=labels.trial_outcomes
         )

@@ -67,7 +67,9 @@ def export_robustness_inputs(
             cfg = scene.configurations[ci]
             episode = shard.episode(ci, ep)
             frame = episode_frame(episode)
-            descriptor = np.asarray(robot_descriptor(get_robot_spec(cfg.robot)), np.float32)
+            descriptor = np.asarray(
+                robot_descriptor(get_robot_spec(cfg.robot), cfg.mount_height), np.float32
+            )
             for name in config.corruptions:
                 key = view_key(name, sid, ci, ep)
                 bad, inputs = track_view(

@@ -51,7 +51,7 @@ def run_demo(
     from momakitchen.models.inference import predict_map
     from momakitchen.perception.live import frame_inputs
     from momakitchen.robots import get_robot_spec, robot_descriptor
-    from momakitchen.scene.configuration import sample_scene
+    from momakitchen.scene.configuration import sample_scene, usable_robot, with_robot
     from momakitchen.sim.config import Stage
     from momakitchen.sim.labels import floor_affordance, label_configuration
     from momakitchen.sim.trials import TrialRunner
@@ -59,11 +59,12 @@ def run_demo(
     from momakitchen.train.checkpoint import default_checkpoint, load_checkpoint
 
     report_step = step or (lambda name, seconds: None)
+    config = GenerationConfig()
     if robot is not None:
-        get_robot_spec(robot)  # unknown names fail before any work
+        # Unknown names, and robots that cannot reach a counter, fail before any work.
+        usable_robot(robot, config.scene)
     out = Path(out_dir)
     run = load_checkpoint(checkpoint if checkpoint is not None else default_checkpoint())
-    config = GenerationConfig()
     seconds: dict[str, float] = {}
     started = {"total": time.perf_counter()}
 
@@ -84,7 +85,7 @@ def run_demo(
         )
     cfg = scene.configurations[config_index]
     if robot is not None:
-        cfg = dataclasses.replace(cfg, robot=robot)
+        cfg = with_robot(cfg, robot, config.scene)
     with World(scene.layout) as world:
         world.load_configuration(cfg)
         end(0)
@@ -132,7 +133,7 @@ def run_demo(
             run,
             clouds,
             cfg.robot,
-            np.asarray(robot_descriptor(get_robot_spec(cfg.robot)), np.float32),
+            np.asarray(robot_descriptor(get_robot_spec(cfg.robot), cfg.mount_height), np.float32),
         )
         end(2)
 

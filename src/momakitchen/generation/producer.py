@@ -3,10 +3,11 @@
 For each configuration: run the trials (sparse labels), then place the viewing robot at
 10 viewpoints in front of the target (alternately left and right of it, lateral offset
 0-1.5 m, forward distance 1.5-3.8 m, increasing), render RGB, depth and segmentation from
-its head camera (mount height + 0.3 m, looking at the target), and keep a viewpoint only
-if the target is visible. Each view becomes an :class:`~momakitchen.data.episode.Episode`:
-point clouds in the viewpoint's base frame, the visual-alignment channel from the
-segmentation, and the floor points with their dense affordance labels.
+its head camera (the configuration's mount height + 0.3 m, looking at the target), and
+keep a viewpoint only if the target is visible. Each view becomes an
+:class:`~momakitchen.data.episode.Episode`: point clouds in the viewpoint's base frame, the
+visual-alignment channel from the segmentation, and the floor points with their dense
+affordance labels.
 """
 
 from __future__ import annotations
@@ -154,7 +155,7 @@ def sample_views(
     blocked = corners_of(layout.footprints(0.02) + [o.footprint(0.02) for o in cfg.obstacles])
     room = layout.room
     intr = cam.intrinsics
-    height = spec.mount_height + cam.above_mount
+    height = cfg.mount + cam.above_mount  # the head camera rides on the arm's pillar
     goals = np.zeros((0, 2)) if successes is None else np.asarray(successes).reshape(-1, 2)
     check = len(goals) > 0 and views.coverage_radius > 0
     out = []
@@ -216,7 +217,7 @@ def make_episode(
         config_index=cfg.index,
         episode_index=index,
         robot=cfg.robot,
-        descriptor=np.asarray(robot_descriptor(spec), np.float32),
+        descriptor=np.asarray(robot_descriptor(spec, cfg.mount_height), np.float32),
         rgb=frame.rgb,
         depth=frame.depth,
         semantic=view.semantic,
@@ -243,6 +244,7 @@ def configuration_labels(labels: Labels) -> ConfigurationLabels:
         trial_yaws=labels.yaws,
         trial_stages=labels.stages,
         trial_moved=labels.moved,
+        mount_height=labels.mount_height,
     )
 
 

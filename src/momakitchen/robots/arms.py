@@ -355,6 +355,148 @@ ELEPHANT_ARM = BuiltArm(
     mount_yaw=PI,
 )
 
+# Universal Robots UR10e: UR's published DH table (d1 0.1807, a2 -0.6127, a3 -0.57155,
+# d4 0.17415, d5 0.11985, d6 0.11655) written as the ROS description's chain, like the UR5e;
+# limits, efforts and speeds from the UR10e user manual (elbow +-pi as in ROS).
+UR10E_ARM = BuiltArm(
+    joints=(
+        JointDef(
+            "shoulder_pan_joint",
+            (0, 0, 0.1807),
+            (0, 0, 0),
+            _Z,
+            -_TWO_PI,
+            _TWO_PI,
+            330,
+            2.0944,
+            0.075,
+        ),
+        JointDef(
+            "shoulder_lift_joint",
+            (0, 0, 0),
+            (PI / 2, 0, 0),
+            _Z,
+            -_TWO_PI,
+            _TWO_PI,
+            330,
+            2.0944,
+            0.075,
+        ),
+        JointDef("elbow_joint", (-0.6127, 0, 0), (0, 0, 0), _Z, -PI, PI, 150, PI, 0.06),
+        JointDef(
+            "wrist_1_joint",
+            (-0.57155, 0, 0.17415),
+            (0, 0, 0),
+            _Z,
+            -_TWO_PI,
+            _TWO_PI,
+            56,
+            PI,
+            0.05,
+        ),
+        JointDef(
+            "wrist_2_joint", (0, -0.11985, 0), (PI / 2, 0, 0), _Z, -_TWO_PI, _TWO_PI, 56, PI, 0.05
+        ),
+        JointDef(
+            "wrist_3_joint",
+            (0, 0.11655, 0),
+            (PI / 2, PI, PI),
+            _Z,
+            -_TWO_PI,
+            _TWO_PI,
+            56,
+            PI,
+            0.045,
+        ),
+    ),
+    base_radius=0.09,
+    base_height=0.1,
+    link_masses=(7.369, 13.051, 3.989, 2.1, 1.98, 0.615),
+    # As the UR5e: at joint 1 = 0 the published chain stretches along -x.
+    mount_yaw=PI,
+)
+
+# Kinova Gen3 7-DoF: the joint origins of Kinova's ROS description (kortex_description,
+# gen3 7dof), which realise the user guide's DH table; joints 1, 3, 5 and 7 turn without
+# limit (+-2 pi here), 2, 4 and 6 within the user guide's ranges (128.9, 147.8, 120.3 deg).
+GEN3_ARM = BuiltArm(
+    joints=(
+        JointDef("joint_1", (0, 0, 0.15643), (PI, 0, 0), _Z, -_TWO_PI, _TWO_PI, 39, 1.3963, 0.05),
+        JointDef(
+            "joint_2",
+            (0, 0.005375, -0.12838),
+            (PI / 2, 0, 0),
+            _Z,
+            -2.2497,
+            2.2497,
+            39,
+            1.3963,
+            0.05,
+        ),
+        JointDef(
+            "joint_3",
+            (0, -0.21038, -0.006375),
+            (-PI / 2, 0, 0),
+            _Z,
+            -_TWO_PI,
+            _TWO_PI,
+            39,
+            1.3963,
+            0.045,
+        ),
+        JointDef(
+            "joint_4",
+            (0, 0.006375, -0.21038),
+            (PI / 2, 0, 0),
+            _Z,
+            -2.5796,
+            2.5796,
+            39,
+            1.3963,
+            0.045,
+        ),
+        JointDef(
+            "joint_5",
+            (0, -0.20843, -0.006375),
+            (-PI / 2, 0, 0),
+            _Z,
+            -_TWO_PI,
+            _TWO_PI,
+            9,
+            1.2218,
+            0.04,
+        ),
+        JointDef(
+            "joint_6",
+            (0, 0.00017505, -0.10593),
+            (PI / 2, 0, 0),
+            _Z,
+            -2.0997,
+            2.0997,
+            9,
+            1.2218,
+            0.04,
+        ),
+        JointDef(
+            "joint_7",
+            (0, -0.10593, -0.00017505),
+            (-PI / 2, 0, 0),
+            _Z,
+            -_TWO_PI,
+            _TWO_PI,
+            9,
+            1.2218,
+            0.04,
+        ),
+    ),
+    # The interface module's tool frame (end_effector_link).
+    flange_xyz=(0, 0, -0.061525),
+    flange_rpy=(PI, 0, 0),
+    base_radius=0.05,
+    base_height=0.1,
+    link_masses=(1.3773, 1.1636, 1.1636, 0.9302, 0.6781, 0.6781, 0.364),
+)
+
 _PANDA_LIMITS = (
     ("panda_joint1", -2.8973, 2.8973),
     ("panda_joint2", -1.7628, 1.7628),

@@ -23,6 +23,15 @@ from momakitchen.robots.spec import RobotSpec, get_robot_spec
 from momakitchen.robots.urdf import BASE_LINK, FINGER_JOINTS, TCP_LINK, robot_urdf_path
 
 
+def variant_key(name: str, mount_height: float | None) -> str:
+    """Key of the per-process caches that depend on the mount height (self-collision
+    pairs): the robot's name at its own height, ``name@height`` at another."""
+    spec = get_robot_spec(name)
+    if mount_height is None or mount_height == spec.mount_height:
+        return name
+    return f"{name}@{float(mount_height)!r}"
+
+
 def _yaw_quaternion(yaw: float) -> tuple[float, float, float, float]:
     return (0.0, 0.0, math.sin(yaw / 2), math.cos(yaw / 2))
 
@@ -58,14 +67,21 @@ class RobotBody:
     Args:
         client_id: PyBullet physics client.
         name: registered robot name (``momakitchen.robots.ROBOTS``).
+        mount_height: height of the arm mount above the floor in metres (default: the
+            robot's own, ``spec.mount_height``); any height of
+            :data:`~momakitchen.robots.spec.MOUNT_RANGE`.
     """
 
-    def __init__(self, client_id: int, name: str) -> None:
+    def __init__(self, client_id: int, name: str, mount_height: float | None = None) -> None:
         self.spec: RobotSpec = get_robot_spec(name)
         self.model: RobotModel = self.spec.model
         self.client = int(client_id)
         self.name = name
-        path = robot_urdf_path(name)
+        path = robot_urdf_path(name, mount_height)  # checks the height
+        self.mount_height = float(self.spec.mount_height if mount_height is None else mount_height)
+        # How far the arm stands above its nominal mount (0.0 at the robot's own height).
+        self.mount_shift = self.mount_height - self.spec.mount_height
+        self.cache_key = variant_key(name, self.mount_height)
         self.body = self._load(path)
         self._index_joints()
         # PyBullet caches the kinematic tree behind calculateJacobian, its IK and inverse

@@ -1,8 +1,8 @@
 """Collisions of a :class:`~momakitchen.robots.robot.Robot` with the scene and itself.
 
 ``Robot.base_collisions`` and ``Robot.arm_collisions`` call these functions. The
-self-collision pairs (like an SRDF's enabled pairs) are computed once per robot and
-process (:data:`SELF_PAIRS_CACHE`).
+self-collision pairs (like an SRDF's enabled pairs) are computed once per robot, mount
+height and process (:data:`SELF_PAIRS_CACHE`).
 """
 
 from __future__ import annotations
@@ -14,7 +14,8 @@ from momakitchen.bullet import p
 from momakitchen.robots.body import RobotBody
 from momakitchen.robots.urdf import BASE_LINK
 
-# Per process and robot name: link index pairs tested for self-collision (-1 = base).
+# Per process and robot (``RobotBody.cache_key``: the name, ``name@height`` at another mount
+# height): link index pairs tested for self-collision (-1 = base).
 SELF_PAIRS_CACHE: dict[str, list[tuple[int, int]]] = {}
 
 
@@ -96,8 +97,8 @@ def arm_collisions(
 def self_pairs(robot: RobotBody) -> list[tuple[int, int]]:
     """Link pairs tested for self-collision: not within two joints of each other and
     not touching at the home configuration (like an SRDF's disabled pairs)."""
-    if robot.name in SELF_PAIRS_CACHE:
-        return SELF_PAIRS_CACHE[robot.name]
+    if robot.cache_key in SELF_PAIRS_CACHE:
+        return SELF_PAIRS_CACHE[robot.cache_key]
     c = robot.client
     n = len(robot.link_names)
     links = [-1] + [
@@ -137,5 +138,5 @@ def self_pairs(robot: RobotBody) -> list[tuple[int, int]]:
     robot._reset_arm(saved)
     for j, v in zip(robot.finger_joints, saved_fingers, strict=True):
         p.resetJointState(robot.body, j, v, physicsClientId=c)
-    SELF_PAIRS_CACHE[robot.name] = pairs
+    SELF_PAIRS_CACHE[robot.cache_key] = pairs
     return pairs

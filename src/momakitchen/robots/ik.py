@@ -24,7 +24,8 @@ from momakitchen.robots.body import RobotBody
 from momakitchen.robots.reach import within_reach
 
 # Per process and robot name: (configurations (n, dof), TCP positions (n, 3), TCP z axes
-# (n, 3)) in the base frame. Filled by ``build_seed_library`` (warmed in a scratch client).
+# (n, 3)) in the base frame of the robot at its own mount height (the same for any height,
+# shifted by it). Filled by ``build_seed_library`` (warmed in a scratch client).
 SEED_LIBRARY: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
 _EYE3, _EYE6 = np.eye(3), np.eye(6)
 
@@ -202,6 +203,8 @@ def _library_seeds(
     bpos, born = p.getBasePositionAndOrientation(robot.body, physicsClientId=robot.client)
     brot = np.array(p.getMatrixFromQuaternion(born)).reshape(3, 3)
     local = brot.T @ (target - np.array(bpos))
+    if robot.mount_shift:  # the library is in the frame of the robot at its own height
+        local = local - np.array([0.0, 0.0, robot.mount_shift])
     dist = np.linalg.norm(pos - local, axis=1)
     if target_rot is not None:
         # Approach direction matters most for the wrist: compare the TCP z axes.
@@ -232,7 +235,7 @@ def build_seed_library(
     for i, q in enumerate(qs):
         robot._reset_arm(q)
         wp, wq = robot.link_pose(robot.tcp_link)
-        pos[i] = brot.T @ (wp - np.array(bpos))
+        pos[i] = brot.T @ (wp - np.array(bpos)) - np.array([0.0, 0.0, robot.mount_shift])
         zax[i] = brot.T @ np.array(p.getMatrixFromQuaternion(wq)).reshape(3, 3)[:, 2]
     robot._reset_arm(saved)
     return qs, pos, zax

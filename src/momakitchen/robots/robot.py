@@ -24,46 +24,61 @@ from numpy.typing import ArrayLike
 from momakitchen.bullet import connect_direct, p
 from momakitchen.errors import MomaError
 from momakitchen.robots import collisions, ik, reach
-from momakitchen.robots.body import RobotBody
+from momakitchen.robots.body import RobotBody, variant_key
 from momakitchen.robots.collisions import Contact
 from momakitchen.robots.ik import IKResult
 from momakitchen.robots.spec import get_robot_spec
 from momakitchen.robots.tools import ParallelGripperTool, SuctionTool, Tool, make_tool
+from momakitchen.robots.urdf import mounted
 
 _WARMING: set[str] = set()
 
 
-def _warm_caches(name: str) -> None:
+def _warm_caches(name: str, mount_height: float | None = None) -> None:
     """Compute a robot's per-process caches (workspace, self-collision pairs, IK seed
     library) once, in a scratch client of their own.
 
     Computing them lazily inside a world would teleport its joints thousands of times in
     the middle of whatever that world was doing, and PyBullet's results depend, in the
     last bits, on such history: with the caches warmed apart, a world's results depend
-    only on what is done in it.
+    only on what is done in it. The workspace and the seed library are the same at every
+    mount height (measured at the robot's own); the self-collision pairs, which include
+    the base, are computed for each height, in a scratch client of their own too.
     """
-    if name in _WARMING or (
+    if name in _WARMING:
+        return
+    key = variant_key(name, mount_height)
+    if not (
         name in reach.WORKSPACE_CACHE
         and name in collisions.SELF_PAIRS_CACHE
         and name in ik.SEED_LIBRARY
     ):
-        return
-    _WARMING.add(name)
-    client = connect_direct()
-    try:
-        robot = Robot(client, name)
-        robot.workspace()
-        robot._self_pairs()
-        ik.SEED_LIBRARY.setdefault(name, ik.build_seed_library(robot))
-    finally:
-        p.disconnect(client)
-        _WARMING.discard(name)
+        _WARMING.add(name)
+        client = connect_direct()
+        try:
+            robot = Robot(client, name)
+            robot.workspace()
+            robot._self_pairs()
+            ik.SEED_LIBRARY.setdefault(name, ik.build_seed_library(robot))
+        finally:
+            p.disconnect(client)
+            _WARMING.discard(name)
+    if key not in collisions.SELF_PAIRS_CACHE:
+        _WARMING.add(name)
+        client = connect_direct()
+        try:
+            Robot(client, name, mount_height=mount_height)._self_pairs()
+        finally:
+            p.disconnect(client)
+            _WARMING.discard(name)
 
 
 def forget_caches(name: str) -> None:
-    """Drop the per-process caches of robot ``name`` (when a user robot is unregistered)."""
+    """Drop the per-process caches of robot ``name`` (when a user robot is unregistered),
+    at every mount height."""
     reach.WORKSPACE_CACHE.pop(name, None)
-    collisions.SELF_PAIRS_CACHE.pop(name, None)
+    for key in [k for k in collisions.SELF_PAIRS_CACHE if k == name or k.startswith(f"{name}@")]:
+        del collisions.SELF_PAIRS_CACHE[key]
     ik.SEED_LIBRARY.pop(name, None)
 
 
@@ -80,12 +95,21 @@ class Robot(RobotBody):
         client_id: PyBullet physics client (e.g. from ``p.connect(p.DIRECT)``).
         name: registered robot name (``momakitchen.robots.ROBOTS``).
         base: initial base pose ``(x, y, yaw)``.
+        mount_height: arm mount height in metres (default: the robot's own); any height of
+            :data:`~momakitchen.robots.spec.MOUNT_RANGE`, else MomaError naming it.
     """
 
-    def __init__(self, client_id: int, name: str, base: Sequence[float] = (0.0, 0.0, 0.0)):
-        get_robot_spec(name)  # an unknown name fails before any work
-        _warm_caches(name)
-        super().__init__(client_id, name)
+    def __init__(
+        self,
+        client_id: int,
+        name: str,
+        base: Sequence[float] = (0.0, 0.0, 0.0),
+        *,
+        mount_height: float | None = None,
+    ):
+        mounted(get_robot_spec(name), mount_height)  # bad names and heights fail first
+        _warm_caches(name, mount_height)
+        super().__init__(client_id, name, mount_height)
         self.tool: Tool = make_tool(self)
         self.place_base(*base)
         self.set_joint_positions(self.home)

@@ -11,6 +11,7 @@ Importing this module does not import PyBullet (only ``pybullet_data``, a path).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 from momakitchen.errors import MomaError
@@ -18,11 +19,13 @@ from momakitchen.registry import Registry
 from momakitchen.robots.arms import (
     ELEPHANT_ARM,
     FLEXIV_ARM,
+    GEN3_ARM,
     PANDA_ARM,
     PI,
     PYBULLET_DATA,
     REALMAN_ARM,
     UR5E_ARM,
+    UR10E_ARM,
     XARM6_ARM,
     BuiltArm,
     ParallelGripper,
@@ -31,6 +34,38 @@ from momakitchen.robots.arms import (
 )
 
 END_EFFECTORS = ("parallel_gripper", "suction")
+
+# Heights (m above the floor) at which any arm may be mounted on the mobile base: from just
+# below the base box's top (0.33 m) to a tall pillar. A robot's own mount height, a range to
+# sample from and a generation config's mount height must all lie in it.
+MOUNT_RANGE = (0.30, 1.30)
+
+
+def mount_height_problem(value: object) -> str | None:
+    """Why ``value`` is not a mount height (a number in :data:`MOUNT_RANGE`), or None."""
+    lo, hi = MOUNT_RANGE
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, int | float)
+        or not math.isfinite(value)
+        or not lo <= value <= hi
+    ):
+        return f"mount_height must be in [{lo}, {hi}] m, got {value!r}"
+    return None
+
+
+def mount_range_problem(value: object) -> str | None:
+    """Why ``value`` is not a mount height range ``(lo, hi)`` within :data:`MOUNT_RANGE` with
+    ``lo <= hi``, or None."""
+    if not isinstance(value, tuple | list) or len(value) != 2:
+        return f"a mount height range must be [lo, hi], got {value!r}"
+    for v in value:
+        problem = mount_height_problem(v)
+        if problem:
+            return f"{problem} (in the range {list(value)})"
+    if value[0] > value[1]:
+        return f"a mount height range needs lo <= hi, got {list(value)}"
+    return None
 
 
 @dataclass(frozen=True)
@@ -46,6 +81,9 @@ class RobotSpec:
         footprint: base footprint (length along x, width along y) in metres.
         mount_offset_x: position of the arm mount along the base's x axis (forward) from
             the base centre, metres.
+        mount_range: ``(lo, hi)`` metres: generation samples the mount height of each
+            configuration in this range (``mount_height`` is then the nominal one, e.g. for
+            ``predict``); None: always ``mount_height``. Keyword only.
         model: how the robot is built (arm, end-effector, home pose); keyword only.
     """
 
@@ -56,6 +94,7 @@ class RobotSpec:
     end_effector: str
     footprint: tuple[float, float] = (0.55, 0.45)
     mount_offset_x: float = 0.0
+    mount_range: tuple[float, float] | None = field(default=None, kw_only=True)
     model: RobotModel = field(kw_only=True, repr=False)
 
     def __post_init__(self) -> None:
@@ -63,10 +102,20 @@ class RobotSpec:
             raise MomaError(f"robot name must be non-empty lower case, got {self.name!r}")
         if not 0.1 <= self.reach <= 3.0:
             raise MomaError(f"robot {self.name!r}: reach must be in [0.1, 3] m, got {self.reach}")
-        if not 0.0 <= self.mount_height <= 2.5:
-            raise MomaError(
-                f"robot {self.name!r}: mount_height must be in [0, 2.5] m, got {self.mount_height}"
-            )
+        problem = mount_height_problem(self.mount_height)
+        if problem:
+            raise MomaError(f"robot {self.name!r}: {problem}")
+        if self.mount_range is not None:
+            problem = mount_range_problem(self.mount_range)
+            if problem:
+                raise MomaError(f"robot {self.name!r}: {problem}")
+            lo, hi = self.mount_range
+            object.__setattr__(self, "mount_range", (float(lo), float(hi)))
+            if not lo <= self.mount_height <= hi:
+                raise MomaError(
+                    f"robot {self.name!r}: mount_height {self.mount_height} lies outside its "
+                    f"mount_range {list(self.mount_range)}"
+                )
         if not 3 <= self.dof <= 10:
             raise MomaError(f"robot {self.name!r}: dof must be in [3, 10], got {self.dof}")
         if self.end_effector not in END_EFFECTORS:
@@ -84,6 +133,11 @@ class RobotSpec:
                 f"{self.footprint[0] / 2}), got {self.mount_offset_x}"
             )
         self._check_model()
+
+    @property
+    def mount_heights(self) -> tuple[float, float]:
+        """``(lo, hi)``: the mount heights this robot may have (one value twice if fixed)."""
+        return self.mount_range or (self.mount_height, self.mount_height)
 
     def _check_model(self) -> None:
         """The model must build the robot the numbers describe."""
@@ -241,8 +295,47 @@ for _spec in (
             source="Elephant Robotics ROS description (myCobot Pro 630)",
         ),
     ),
+    # Arms beyond the paper's six (docs/ROBOTS.md, "More arms"): they widen the reach range
+    # to 0.9-1.3 m and are available by name, but not in DEFAULT_ROBOTS.
+    RobotSpec(
+        "ur10e",
+        reach=1.30,
+        # A long arm on a low platform: it reaches the lowest drawers and the wall cabinets.
+        mount_height=0.80,
+        dof=6,
+        end_effector="parallel_gripper",
+        mount_offset_x=FRONT_MOUNT,
+        model=RobotModel(
+            UR10E_ARM,
+            # Robotiq 2F-85-like gripper (as on the Flexiv): 8 cm opening, 100 N per finger.
+            ParallelGripper(tcp_offset=0.15, palm_size=(0.07, 0.14, 0.10), finger_force=100.0),
+            home=(0.0, -1.9, 1.9, -1.57, -1.57, 0.0),
+            source="Universal Robots DH table (UR10e), ROS description chain",
+        ),
+    ),
+    RobotSpec(
+        "gen3",
+        reach=0.902,
+        # A light arm on a low platform: its shoulder stands at counter height.
+        mount_height=0.60,
+        dof=7,
+        end_effector="parallel_gripper",
+        mount_offset_x=FRONT_MOUNT,
+        model=RobotModel(
+            GEN3_ARM,
+            # Robotiq 2F-85 (Kinova's gripper option for the Gen3): 100 N per finger.
+            ParallelGripper(tcp_offset=0.15, palm_size=(0.07, 0.14, 0.10), finger_force=100.0),
+            # Kinova's "Home" position (user guide): 0, 15, 180, 230, 0, 55, 90 degrees.
+            home=(0.0, 0.2618, PI, -2.2689, 0.0, 0.9599, PI / 2),
+            source="Kinova Gen3 7-DoF: user guide DH table, kortex_description joint origins",
+        ),
+    ),
 ):
     register_robot(_spec)
+
+# The robots a generation config without ``scene.robots`` assigns (the paper's six, in this
+# order): every dataset made before the other arms existed keeps its bytes.
+DEFAULT_ROBOTS = ("panda", "flexiv", "ur5e", "xarm6", "realman", "elephant")
 
 
 # Robot descriptor for learning. Version it: a model trained on one descriptor layout must
@@ -252,14 +345,16 @@ DESCRIPTOR_NAMES = ("reach_m", "mount_height_m", "dof_over_7", "is_suction")
 DESCRIPTOR_DIM = len(DESCRIPTOR_NAMES)
 
 
-def robot_descriptor(spec: RobotSpec) -> tuple[float, ...]:
-    """The robot as numbers for the model, in the order of ``DESCRIPTOR_NAMES``.
+def robot_descriptor(spec: RobotSpec, mount_height: float | None = None) -> tuple[float, ...]:
+    """The robot as numbers for the model, in the order of ``DESCRIPTOR_NAMES`` (length
+    ``DESCRIPTOR_DIM``).
 
-    The first two entries are the paper's descriptor ``[reach, mount height]``.
+    The first two entries are the paper's descriptor ``[reach, mount height]``; the mount
+    height is ``mount_height`` where given (a configuration's sampled mount), else the
+    robot's own.
     """
-    return descriptor_values(
-        spec.reach, spec.mount_height, spec.dof, spec.end_effector == "suction"
-    )
+    mount = spec.mount_height if mount_height is None else mount_height
+    return descriptor_values(spec.reach, mount, spec.dof, spec.end_effector == "suction")
 
 
 def descriptor_values(

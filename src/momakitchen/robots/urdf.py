@@ -13,6 +13,7 @@ fingers close along y), ``finger_left``/``finger_right`` (generated grippers) an
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -28,7 +29,11 @@ from momakitchen.robots.arms import (
     SuctionCup,
     UserTool,
 )
-from momakitchen.robots.spec import RobotSpec, get_robot_spec
+from momakitchen.robots.spec import (
+    RobotSpec,
+    get_robot_spec,
+    mount_height_problem,
+)
 
 BASE_LINK = "mobile_base"
 TCP_LINK = "tcp"
@@ -489,9 +494,23 @@ def _suction(robot: ET.Element, s: SuctionCup, flange: str) -> None:
 # --------------------------------------------------------------------------------------
 
 
-def build_urdf(spec: RobotSpec) -> str:
-    """URDF text of the whole robot (base + arm + end-effector, ``spec.model``);
-    deterministic."""
+def mounted(spec: RobotSpec, mount_height: float | None) -> RobotSpec:
+    """``spec`` with its arm at ``mount_height`` (None or its own height: ``spec`` itself);
+    MomaError naming the value if it lies outside :data:`~momakitchen.robots.spec.MOUNT_RANGE`
+    (any arm may stand at any height of it, whatever range it samples from by default)."""
+    if mount_height is None or mount_height == spec.mount_height:
+        return spec
+    problem = mount_height_problem(mount_height)
+    if problem:
+        raise MomaError(f"robot {spec.name!r}: {problem}")
+    return dataclasses.replace(spec, mount_height=float(mount_height), mount_range=None)
+
+
+def build_urdf(spec: RobotSpec, mount_height: float | None = None) -> str:
+    """URDF text of the whole robot (base + arm + end-effector, ``spec.model``), the arm at
+    ``mount_height`` (default: the robot's own); deterministic. The mount height only sets
+    the pillar's length and the arm's mount joint: the arm and tool are the same."""
+    spec = mounted(spec, mount_height)
     model = spec.model
     robot = ET.Element("robot", name=f"momakitchen_{spec.name}")
     for name, rgba in _MATERIALS.items():
@@ -516,13 +535,14 @@ def build_urdf(spec: RobotSpec) -> str:
     return '<?xml version="1.0"?>\n' + ET.tostring(robot, encoding="unicode") + "\n"
 
 
-def robot_urdf(name: str) -> str:
-    """URDF text of a registered robot."""
-    return build_urdf(get_robot_spec(name))
+def robot_urdf(name: str, mount_height: float | None = None) -> str:
+    """URDF text of a registered robot (its arm at ``mount_height``; default its own)."""
+    return build_urdf(get_robot_spec(name), mount_height)
 
 
-def robot_urdf_path(name: str) -> Path:
-    """Path of the cached URDF file of a registered robot (written on first use)."""
+def robot_urdf_path(name: str, mount_height: float | None = None) -> Path:
+    """Path of the cached URDF file of a registered robot, its arm at ``mount_height``
+    (default its own; written on first use)."""
     from momakitchen.assets.cache import cached_urdf
 
-    return cached_urdf(robot_urdf(name), f"robot-{name}")
+    return cached_urdf(robot_urdf(name, mount_height), f"robot-{name}")

@@ -4,7 +4,8 @@ Example ``myarm.yaml`` (paths relative to the YAML file)::
 
     name: myarm                    # registry name, lower case
     urdf: myarm.urdf               # the arm with its tool, links below one root link
-    mount_height: 0.9              # metres above the floor, on top of the mobile base
+    mount_height: 0.9              # metres above the floor, on top of the mobile base;
+                                   # or [lo, hi]: sampled per configuration by `generate`
     end_effector_link: tool0       # the TCP frame (z = approach; fingers close along y)
     end_effector: parallel_gripper # or: suction
     # optional:
@@ -14,36 +15,48 @@ Example ``myarm.yaml`` (paths relative to the YAML file)::
     footprint: [0.55, 0.45]        # base length and width in metres
     mount_offset_x: 0.0            # arm mount position along the base's x axis
 
-The robot is mounted on the same mobile base as the built-in ones. On the command line,
-``--robot-yaml FILE`` (repeatable) or the environment variable ``MOMAKITCHEN_ROBOT_YAML``
-(paths separated by ``os.pathsep``) registers user robots before the command runs.
+The robot is mounted on the same mobile base as the built-in ones, at any height of
+:data:`~momakitchen.robots.spec.MOUNT_RANGE`. On the command line, ``--robot-yaml FILE``
+(repeatable) or the environment variable ``MOMAKITCHEN_ROBOT_YAML`` (paths separated by
+``os.pathsep``) registers user robots before the command runs. Each registered file is
+known with the content hash of the YAML and its URDF (:func:`user_robot_file`): datasets
+record it, and generation's worker processes register the same files and check the hash.
 """
 
 from __future__ import annotations
 
+import hashlib
 import math
 import os
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import yaml
 
 from momakitchen.errors import MomaError
 from momakitchen.fileio import existing_file
 from momakitchen.robots.arms import RobotModel, ShippedArm, UserTool
-from momakitchen.robots.spec import ROBOTS, RobotSpec, register_robot
+from momakitchen.robots.spec import (
+    ROBOTS,
+    RobotSpec,
+    mount_height_problem,
+    mount_range_problem,
+    register_robot,
+)
 from momakitchen.robots.urdf import BASE_LINK, TCP_LINK, link_of, parse_urdf
 
 ENV_VAR = "MOMAKITCHEN_ROBOT_YAML"
 
-_REQUIRED = {
+_REQUIRED: dict[str, type] = {
     "name": str,
     "urdf": str,
-    "mount_height": float,
+    "mount_height": object,  # a number or [lo, hi] (checked apart)
     "end_effector_link": str,
     "end_effector": str,
 }
-_OPTIONAL = {
+_OPTIONAL: dict[str, type] = {
     "reach": float,
     "finger_joints": list,
     "home": list,
@@ -54,13 +67,47 @@ _LOADED: dict[str, str] = {}  # resolved YAML path -> robot name
 
 
 @dataclass(frozen=True)
+class UserRobotFile:
+    """Where a registered user robot comes from.
+
+    Attributes:
+        name: the robot's registry name.
+        yaml: the resolved path of its YAML file.
+        sha256: hex digest of the YAML file's bytes followed by its URDF's bytes
+            (:func:`robot_files_digest`): the same text gives the same robot.
+    """
+
+    name: str
+    yaml: str
+    sha256: str
+
+    def to_dict(self) -> dict[str, str]:
+        return {"name": self.name, "yaml": self.yaml, "sha256": self.sha256}
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any], where: str = "user robot record") -> UserRobotFile:
+        """Inverse of :meth:`to_dict`; MomaError naming ``where`` on a malformed record."""
+        if not isinstance(data, Mapping) or not all(
+            isinstance(data.get(k), str) and data.get(k) for k in ("name", "yaml", "sha256")
+        ):
+            raise MomaError(f"{where}: expected {{'name', 'yaml', 'sha256'}} strings, got {data!r}")
+        return cls(str(data["name"]), str(data["yaml"]), str(data["sha256"]))
+
+
+_FILES: dict[str, UserRobotFile] = {}  # robot name -> its files
+
+
+@dataclass(frozen=True)
 class UserRobotConfig:
     """The contents of a user robot YAML file (validated).
 
     Attributes:
         name: registry name.
         urdf: absolute path of the URDF.
-        mount_height: arm mount height above the floor, metres.
+        mount_height: arm mount height above the floor, metres (the nominal one, the middle
+            of ``mount_range``, when a range is given).
+        mount_range: ``(lo, hi)`` metres when the YAML gives ``mount_height: [lo, hi]``
+            (sampled per configuration by generation), else None.
         end_effector_link: TCP link of the URDF.
         end_effector: ``"parallel_gripper"`` or ``"suction"``.
         reach: metres, or None to measure it.
@@ -76,6 +123,7 @@ class UserRobotConfig:
     mount_height: float
     end_effector_link: str
     end_effector: str
+    mount_range: tuple[float, float] | None = None
     reach: float | None = None
     finger_joints: tuple[str, ...] = ()
     home: tuple[float, ...] = ()
@@ -94,10 +142,17 @@ class UserRobotConfig:
             raise MomaError(f"{where}: name must be a lower-case identifier, got {self.name!r}")
         if len(self.footprint) != 2:
             raise MomaError(f"{where}: footprint must be [length, width], got {self.footprint}")
+        problem = mount_height_problem(self.mount_height)
+        if problem is None and self.mount_range is not None:
+            problem = mount_range_problem(self.mount_range)
+        if problem:
+            raise MomaError(f"{where}: {problem}")
 
 
 def _typed(value, kind, key: str, where: str):
     """Check one YAML value against the expected type; ints are fine where floats are."""
+    if kind is object:
+        return value
     if kind is float:
         if (
             isinstance(value, bool)
@@ -145,10 +200,40 @@ def load_config(path: str | os.PathLike) -> UserRobotConfig:
             values[key] = tuple(_typed(v, float, key, where) for v in values[key])
     if "finger_joints" in values:
         values["finger_joints"] = tuple(values["finger_joints"])
+    values["mount_height"], values["mount_range"] = _mount(values["mount_height"], where)
     urdf = Path(values.pop("urdf"))
     if not urdf.is_absolute():
         urdf = (path.parent / urdf).resolve()
     return UserRobotConfig(urdf=urdf, source=where, **values)
+
+
+def _mount(value: object, where: str) -> tuple[float, tuple[float, float] | None]:
+    """``(nominal height, range or None)`` of a YAML ``mount_height``: a number, or
+    ``[lo, hi]`` (nominal: the middle, to the millimetre)."""
+    if isinstance(value, list):
+        problem = mount_range_problem(value)
+        if problem:
+            raise MomaError(f"{where}: field 'mount_height': {problem}")
+        lo, hi = float(value[0]), float(value[1])
+        return round((lo + hi) / 2, 3), (lo, hi)
+    problem = mount_height_problem(value)
+    if problem:
+        raise MomaError(f"{where}: field 'mount_height' must be a number or [lo, hi]: {problem}")
+    assert isinstance(value, int | float)
+    return float(value), None
+
+
+def robot_files_digest(yaml_path: str | os.PathLike, urdf_path: str | os.PathLike) -> str:
+    """sha256 (hex) of a user robot's YAML bytes then its URDF's bytes."""
+    digest = hashlib.sha256()
+    for path in (yaml_path, urdf_path):
+        try:
+            data = Path(path).read_bytes()
+        except OSError as exc:
+            raise MomaError(f"cannot read {str(path)!r}: {exc.strerror}") from None
+        digest.update(len(data).to_bytes(8, "little"))
+        digest.update(data)
+    return digest.hexdigest()
 
 
 def _model(cfg: UserRobotConfig) -> tuple[RobotModel, int]:
@@ -225,6 +310,7 @@ def register_user_robot(path: str | os.PathLike) -> RobotSpec:
     if cfg.name in ROBOTS:
         raise MomaError(f"{cfg.source}: robot name {cfg.name!r} is already registered")
     model, dof = _model(cfg)
+    files = UserRobotFile(cfg.name, key, robot_files_digest(key, cfg.urdf))
 
     def make_spec(reach: float) -> RobotSpec:
         try:
@@ -232,6 +318,7 @@ def register_user_robot(path: str | os.PathLike) -> RobotSpec:
                 cfg.name,
                 reach=reach,
                 mount_height=cfg.mount_height,
+                mount_range=cfg.mount_range,
                 dof=dof,
                 end_effector=cfg.end_effector,
                 footprint=(cfg.footprint[0], cfg.footprint[1]),
@@ -251,7 +338,50 @@ def register_user_robot(path: str | os.PathLike) -> RobotSpec:
         ROBOTS.unregister(cfg.name)
         raise
     _LOADED[key] = cfg.name
+    _FILES[cfg.name] = files
     return spec
+
+
+def user_robot_file(name: str) -> UserRobotFile | None:
+    """Where registered robot ``name`` comes from (None for a built-in robot)."""
+    return _FILES.get(name)
+
+
+def user_robot_files(names: Iterable[str]) -> tuple[UserRobotFile, ...]:
+    """The files of the user robots among ``names`` (built-in ones are left out), in order
+    of name, each once."""
+    return tuple(_FILES[n] for n in sorted(set(names)) if n in _FILES)
+
+
+def register_recorded(files: Iterable[UserRobotFile]) -> None:
+    """Register user robots recorded elsewhere (a generating process, a dataset), each from
+    its YAML path, and check that the files still hash as recorded; MomaError naming the
+    file otherwise. Robots already registered from the same files are left as they are.
+    Worker processes of generation call this first."""
+    for rec in files:
+        register_user_robot(rec.yaml)
+        problem = recorded_robot_problem(rec)
+        if problem:
+            raise MomaError(problem)
+
+
+def recorded_robot_problem(rec: UserRobotFile, what: str = "") -> str | None:
+    """Why the registered robots do not hold the user robot of record ``rec`` (not
+    registered, or registered from other contents), or None. ``what`` names who recorded
+    it, e.g. ``"dataset 'DIR' was labelled with"`` (default: ``"expected"``)."""
+    head = f"{what or 'expected'} user robot {rec.name!r} (from {rec.yaml})"
+    if rec.name not in ROBOTS:
+        return f"{head}; pass --robot-yaml {rec.yaml} (or set {ENV_VAR})"
+    now = _FILES.get(rec.name)
+    if now is None:
+        return f"{head}, but {rec.name!r} is a built-in robot here"
+    if now.sha256 != rec.sha256:
+        return (
+            f"{head}, sha256 {rec.sha256[:12]}, but {rec.name!r} is registered from "
+            f"{now.yaml} with sha256 {now.sha256[:12]} (YAML or URDF changed?); pass the "
+            "files it was made with"
+        )
+    return None
 
 
 def _measure_reach(name: str) -> float:
@@ -281,5 +411,6 @@ def unregister_user_robot(name: str) -> None:
         raise MomaError(f"{name!r} is not a registered user robot")
     for key in [k for k, v in _LOADED.items() if v == name]:
         del _LOADED[key]
+    _FILES.pop(name, None)
     ROBOTS.unregister(name)
     forget_caches(name)

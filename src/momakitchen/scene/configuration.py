@@ -4,30 +4,47 @@ Pure data, fully determined by ``(scene_id, index)`` and the :class:`SceneConfig
 configuration's target is either a rigid object standing on the countertop or the
 functional part (door, drawer, lever) of an articulated furniture unit. Obstacles stand
 inside the sampling semicircle in front of the target, whose radius is the robot's reach.
+The robot's arm stands at its own mount height, or at one drawn for the configuration
+(:func:`configuration_mount`) when the config or the robot gives a range.
 """
 
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from momakitchen.assets import categories_of_kind, get_category
+from momakitchen.codec import OMIT_IF_DEFAULT, to_dict
 from momakitchen.errors import MomaError
 from momakitchen.frames import float3
-from momakitchen.robots import ROBOTS, get_robot_spec
+from momakitchen.robots import get_robot_spec
+from momakitchen.robots.spec import (
+    DEFAULT_ROBOTS,
+    RobotSpec,
+    mount_height_problem,
+    mount_range_problem,
+)
 from momakitchen.scene.geometry import (
     box_corners,
     corners_of,
     overlap_matrix,
     semicircle_grid,
 )
-from momakitchen.scene.layout import Layout, Placed, _r, sample_layout, scene_rng
+from momakitchen.scene.layout import (
+    COUNTER_HEIGHTS,
+    Layout,
+    Placed,
+    _r,
+    sample_layout,
+    scene_rng,
+)
 from momakitchen.scene.urdf_frames import joint_axes, link_extent_points, link_rest_poses
 
 CONFIG_STREAM = 1
+MOUNT_STREAM = 4  # seed stream of sampled mount heights (views use 3)
 
 
 @dataclass(frozen=True)
@@ -47,7 +64,12 @@ class SceneConfig:
             inside the sampling semicircle, where the robot would like to park).
         min_target_bases: a target is redrawn (up to 8 times) while fewer grid positions
             than this can hold the base clear of furniture and walls.
-        robots: robot names assigned round-robin over configurations (``()`` = all).
+        robots: robot names assigned round-robin over configurations (``()``: the paper's
+            six, ``DEFAULT_ROBOTS``).
+        mount_height: every robot's arm mount height in metres, or a range ``(lo, hi)`` to
+            draw each configuration's from (:func:`configuration_mount`); None: each robot's
+            own (its ``mount_range`` if it has one). Within ``MOUNT_RANGE``. Written to a
+            manifest only when set, so datasets made before it existed keep their bytes.
     """
 
     configs_per_scene: int = 10
@@ -58,6 +80,7 @@ class SceneConfig:
     min_free_positions: int = 12
     min_target_bases: int = 20
     robots: tuple[str, ...] = ()
+    mount_height: float | tuple[float, float] | None = field(default=None, metadata=OMIT_IF_DEFAULT)
 
     def __post_init__(self) -> None:
         if not 1 <= self.configs_per_scene <= 1000:
@@ -77,12 +100,34 @@ class SceneConfig:
             )
         if not 0.02 <= self.grid_spacing <= 0.5:
             raise MomaError(f"grid_spacing must be in [0.02, 0.5] m, got {self.grid_spacing}")
-        for name in self.robots:
-            get_robot_spec(name)
+        mount = self.mount_height
+        if mount is not None:
+            problem = (
+                mount_range_problem(mount)
+                if isinstance(mount, tuple | list)
+                else mount_height_problem(mount)
+            )
+            if problem:
+                raise MomaError(f"scene.{problem}")
+            if isinstance(mount, list):
+                object.__setattr__(self, "mount_height", (float(mount[0]), float(mount[1])))
+        for name in self.robot_names:
+            usable_robot(name, self)
 
     @property
     def robot_names(self) -> tuple[str, ...]:
-        return self.robots or tuple(ROBOTS)
+        """The robots assigned round-robin: ``robots``, or ``DEFAULT_ROBOTS``."""
+        return self.robots or DEFAULT_ROBOTS
+
+    def mount_heights(self, spec: RobotSpec) -> tuple[float, float]:
+        """``(lo, hi)``: the mount heights ``spec``'s configurations may have (one value
+        twice for a fixed height)."""
+        mount = self.mount_height
+        if mount is None:
+            return spec.mount_heights
+        if isinstance(mount, tuple):
+            return (float(mount[0]), float(mount[1]))
+        return (float(mount), float(mount))
 
 
 @dataclass(frozen=True)
@@ -107,7 +152,11 @@ class Target:
 
 @dataclass(frozen=True)
 class Configuration:
-    """A scene plus objects, one target, obstacles and the robot used to label it."""
+    """A scene plus objects, one target, obstacles and the robot used to label it.
+
+    ``mount_height`` is the robot's arm mount height in metres where it was drawn or set by
+    the config (:func:`configuration_mount`), None where the robot stands at its own.
+    """
 
     scene_id: int
     index: int
@@ -115,9 +164,17 @@ class Configuration:
     objects: tuple[Placed, ...]
     target: Target
     obstacles: tuple[Placed, ...]
+    mount_height: float | None = None
+
+    @property
+    def mount(self) -> float:
+        """The arm's mount height in metres: the drawn one or the robot's own."""
+        if self.mount_height is not None:
+            return self.mount_height
+        return get_robot_spec(self.robot).mount_height
 
     def to_dict(self) -> dict[str, Any]:
-        return {
+        out = {
             "scene_id": self.scene_id,
             "index": self.index,
             "robot": self.robot,
@@ -125,6 +182,9 @@ class Configuration:
             "objects": [p.to_dict() for p in self.objects],
             "obstacles": [p.to_dict() for p in self.obstacles],
         }
+        if self.mount_height is not None:
+            out["mount_height"] = self.mount_height
+        return out
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> Configuration:
@@ -136,6 +196,9 @@ class Configuration:
             objects=tuple(Placed.from_dict(p) for p in data["objects"]),
             target=Target(t["uid"], t["category"], t["articulation"], tuple(t["anchor"])),
             obstacles=tuple(Placed.from_dict(p) for p in data["obstacles"]),
+            mount_height=(
+                None if data.get("mount_height") is None else float(data["mount_height"])
+            ),
         )
 
 
@@ -198,6 +261,73 @@ def articulated_targets(layout: Layout) -> list[tuple[str, int]]:
 # Shoulders sit about this far above the arm mount (Panda 0.333 m, xArm6 0.267 m, UR5e
 # 0.163 m): used only to skip parts that are plainly out of a robot's reach.
 SHOULDER_ABOVE_MOUNT = 0.25
+
+
+def counter_reach_problem(spec: RobotSpec, mounts: tuple[float, float]) -> str | None:
+    """Why robot ``spec`` mounted anywhere in ``mounts`` = ``(lo, hi)`` could not reach any
+    countertop (:data:`~momakitchen.scene.layout.COUNTER_HEIGHTS`), or None.
+
+    The base stands with its front edge at the counter, the arm ``footprint[0] / 2 -
+    mount_offset_x`` behind it; the countertop's front edge must lie within ``reach`` of
+    the shoulder (``SHOULDER_ABOVE_MOUNT`` above the mount) at some mount height and some
+    counter height. A necessary condition only, cheap enough for every config.
+    """
+    lo, hi = mounts
+    counter_lo, counter_hi = COUNTER_HEIGHTS
+    gap = max(
+        0.0, counter_lo - (hi + SHOULDER_ABOVE_MOUNT), (lo + SHOULDER_ABOVE_MOUNT) - counter_hi
+    )
+    standoff = max(0.0, spec.footprint[0] / 2 - spec.mount_offset_x)
+    need = float(np.hypot(standoff, gap))
+    if need <= spec.reach:
+        return None
+    heights = f"{lo:g} m" if lo == hi else f"{lo:g}-{hi:g} m"
+    source = spec.model.source
+    origin = f" ({source})" if source.startswith("user robot") else ""
+    return (
+        f"robot {spec.name!r}{origin} cannot reach the counter at any mount height: its "
+        f"reach is {spec.reach:g} m, but the countertop edge ({counter_lo:g}-{counter_hi:g} m "
+        f"high) is at least {need:.2f} m from its shoulder at a mount height of {heights}"
+    )
+
+
+def configuration_mount(
+    scene_id: int, index: int, spec: RobotSpec, cfg: SceneConfig
+) -> float | None:
+    """The arm mount height of configuration ``index`` of scene ``scene_id`` for ``spec``:
+    None where neither ``cfg.mount_height`` nor the robot's ``mount_range`` applies (the
+    robot stands at its own height), the given height, or one drawn uniformly from the
+    range and rounded to the millimetre (its own random stream: deterministic in
+    ``(scene_id, index)``, and nothing else drawn for the configuration changes)."""
+    chosen = cfg.mount_height if cfg.mount_height is not None else spec.mount_range
+    if chosen is None:
+        return None
+    if not isinstance(chosen, tuple):
+        return float(chosen)
+    lo, hi = float(chosen[0]), float(chosen[1])
+    if lo == hi:
+        return lo
+    drawn = round(float(scene_rng(scene_id, MOUNT_STREAM, index).uniform(lo, hi)), 3)
+    return min(max(drawn, lo), hi)
+
+
+def usable_robot(name: str, scene_config: SceneConfig) -> RobotSpec:
+    """The spec of robot ``name`` for configurations of ``scene_config``; MomaError for an
+    unknown robot or one that cannot reach the counter (:func:`counter_reach_problem`)."""
+    spec = get_robot_spec(name)
+    problem = counter_reach_problem(spec, scene_config.mount_heights(spec))
+    if problem:
+        raise MomaError(problem)
+    return spec
+
+
+def with_robot(cfg: Configuration, name: str, scene_config: SceneConfig) -> Configuration:
+    """The same configuration (objects, target, obstacles) for robot ``name``, with that
+    robot's mount height for it (:func:`configuration_mount`); MomaError for an unknown
+    robot or one that cannot reach the counter (:func:`usable_robot`)."""
+    spec = usable_robot(name, scene_config)
+    mount = configuration_mount(cfg.scene_id, cfg.index, spec, scene_config)
+    return dataclasses.replace(cfg, robot=name, mount_height=mount)
 
 
 def within_height_band(z: float, mount_height: float, reach: float) -> bool:
@@ -388,13 +518,13 @@ def sample_configuration(
     rng = scene_rng(layout.scene_id, CONFIG_STREAM, index)
     names = cfg.robot_names
     robot = get_robot_spec(names[(layout.scene_id * 7 + index) % len(names)])
+    mount = configuration_mount(layout.scene_id, index, robot, cfg)
+    mounted_at = robot.mount_height if mount is None else mount
     objects = _place_objects(layout, rng, int(rng.integers(cfg.objects[0], cfg.objects[1] + 1)))
     parts = [
         (uid, art)
         for uid, art in articulated_targets(layout)
-        if within_height_band(
-            handle_anchor(layout.unit(uid), art)[2], robot.mount_height, robot.reach
-        )
+        if within_height_band(handle_anchor(layout.unit(uid), art)[2], mounted_at, robot.reach)
     ]
     furniture = corners_of(layout.footprints())
     best: tuple[int, Target] | None = None
@@ -434,7 +564,9 @@ def sample_configuration(
     obstacles = _place_obstacles(
         layout, rng, cfg, np.asarray(target.anchor), robot.reach, robot.footprint, sweep
     )
-    return Configuration(layout.scene_id, index, robot.name, tuple(objects), target, obstacles)
+    return Configuration(
+        layout.scene_id, index, robot.name, tuple(objects), target, obstacles, mount
+    )
 
 
 @dataclass(frozen=True)
@@ -448,7 +580,7 @@ class Scene:
     def to_dict(self) -> dict[str, Any]:
         return {
             "schema_version": 1,
-            "scene_config": dataclasses.asdict(self.config),
+            "scene_config": to_dict(self.config),
             "layout": self.layout.to_dict(),
             "configurations": [c.to_dict() for c in self.configurations],
         }

@@ -20,6 +20,8 @@ from momakitchen.errors import MomaError
 from momakitchen.scene.geometry import Footprint
 from momakitchen.scene.ids import check_scene_id
 
+# Countertop heights (m) of the kitchens: each scene's is drawn uniformly from this range.
+COUNTER_HEIGHTS = (0.86, 0.94)
 LAYOUT_STREAM = 0  # seed stream of the layout; configurations use stream 1
 
 # Widths along the wall (m) that the layout grants each base-unit category; standard
@@ -196,7 +198,7 @@ def sample_layout(scene_id: int) -> Layout:
     """The kitchen of ``scene_id``: room, furniture sequence and instances, counter height."""
     check_scene_id(scene_id)
     rng = scene_rng(scene_id, LAYOUT_STREAM)
-    counter_height = _r(rng.uniform(0.86, 0.94))
+    counter_height = _r(rng.uniform(*COUNTER_HEIGHTS))
     counter_depth = _r(rng.uniform(0.56, 0.66))
     order = _unit_sequence(rng)
     widths = [_r(rng.uniform(*UNIT_WIDTHS[c])) for c in order]

@@ -120,7 +120,8 @@ class Labels:
     rise (m) or joint opening (rad or m) reached in physics (0 where no physics ran).
     ``seconds`` splits the wall time: check, ik, physics, total. ``grasps`` (P,) names the
     grasp candidate each trial executed ("" where no plan reached physics): which one
-    succeeded, which one failed in execution.
+    succeeded, which one failed in execution. ``mount_height`` is the arm's mount height
+    in metres where the configuration drew one (None: the robot's own).
     """
 
     scene_id: int
@@ -135,6 +136,7 @@ class Labels:
     moved: np.ndarray
     seconds: dict[str, float]
     grasps: tuple[str, ...] = ()
+    mount_height: float | None = None
 
     @property
     def outcomes(self) -> np.ndarray:
@@ -155,6 +157,7 @@ class Labels:
             "scene_id": self.scene_id,
             "config_index": self.config_index,
             "robot": self.robot,
+            **({} if self.mount_height is None else {"mount_height": self.mount_height}),
             "target": self.target,
             "anchor": list(self.anchor),
             "positions": n,
@@ -252,4 +255,5 @@ def label_configuration(
         moved=np.array([r.moved for r in results], dtype=np.float32),
         seconds=seconds,
         grasps=tuple(r.grasp for r in results),
+        mount_height=cfg.mount_height,
     )

@@ -107,15 +107,25 @@ class TrialRunner:
     """Runs trials of one robot on the loaded configuration of a :class:`World`.
 
     Loads the robot (parked outside the room), saves the world state, and restores it
-    before every trial.
+    before every trial. The robot's arm stands at ``mount_height`` (metres), by default at
+    the loaded configuration's (``Configuration.mount_height``: drawn for it, or the
+    robot's own).
     """
 
-    def __init__(self, world: World, robot_name: str, config: TrialConfig | None = None):
+    def __init__(
+        self,
+        world: World,
+        robot_name: str,
+        config: TrialConfig | None = None,
+        mount_height: float | None = None,
+    ):
         if world.configuration is None:
             raise MomaError("load a configuration into the world before running trials")
         self.world = world
         self.config = config or TrialConfig()
-        self.robot = Robot(world.client, robot_name, base=PARKING)
+        if mount_height is None and world.configuration.robot == robot_name:
+            mount_height = world.configuration.mount_height
+        self.robot = Robot(world.client, robot_name, base=PARKING, mount_height=mount_height)
         self.target: TargetInfo = world.target
         c = world.client
         floor = world.bodies["floor"].body_id
