@@ -128,6 +128,10 @@ class SuctionTool:
         contact_distance: a surface within this distance of the cup attaches, metres.
         face_only: only contacts on the cup face count (not its rim or side); true for
             the generated cup, whose face geometry is known.
+        face_link: for a cup of unknown geometry (a user's tool), the link whose frame
+            lies on the cup face, z out of it (the TCP): only contacts at most the contact
+            distance behind that plane count, not those along the side of a long stem.
+            None: no such test.
     """
 
     kind = "suction"
@@ -136,12 +140,18 @@ class SuctionTool:
     min_surface_width = 0.015
 
     def __init__(
-        self, robot: RobotBody, cup_link: int, contact_distance: float, face_only: bool
+        self,
+        robot: RobotBody,
+        cup_link: int,
+        contact_distance: float,
+        face_only: bool,
+        face_link: int | None = None,
     ) -> None:
         self.robot = robot
         self.cup_link = cup_link
         self.contact_distance = contact_distance
         self.face_only = face_only
+        self.face_link = face_link
         self._attachment: tuple[int, int] | None = None  # (constraint id, body)
 
     @property
@@ -172,6 +182,9 @@ class SuctionTool:
             ]
         cup_pos, cup_orn = r.link_pose(self.cup_link)
         rot = np.array(p.getMatrixFromQuaternion(cup_orn)).reshape(3, 3)
+        if self.face_link is not None:
+            face_pos, face_orn = r.link_pose(self.face_link)
+            face_z = np.array(p.getMatrixFromQuaternion(face_orn)).reshape(3, 3)[:, 2]
         best = None
         for b in bodies:
             if b == r.body:
@@ -183,6 +196,10 @@ class SuctionTool:
                 local = rot.T @ (np.array(pt[5]) - cup_pos)
                 if self.face_only and local[2] < CUP_HEIGHT - 0.004:
                     continue
+                if self.face_link is not None and (
+                    float((np.array(pt[5]) - face_pos) @ face_z) < -reach - 0.004
+                ):
+                    continue  # on the stem, behind the cup face
                 if best is None or pt[8] < best[2]:
                     best = (b, pt[4], pt[8])
         if best is None:
@@ -246,5 +263,26 @@ def make_tool(robot: RobotBody) -> Tool:
         return SuctionTool(
             robot, robot.link_index(SUCTION_LINK), ee.contact_distance, face_only=True
         )
-    # A user's suction tool: the TCP frame sits on the cup, its parent link.
-    return SuctionTool(robot, robot._parent[robot.tcp_link], ee.contact_distance, face_only=False)
+    return SuctionTool(
+        robot,
+        cup_link(robot),
+        ee.contact_distance,
+        face_only=False,
+        face_link=robot.tcp_link,
+    )
+
+
+def cup_link(robot: RobotBody) -> int:
+    """The link that carries a user's suction cup: the nearest link at or above the TCP
+    frame that has collision geometry. A ROS-style TCP frame (``tool0``) has none, and
+    PyBullet finds no contact on a link without geometry: such a cup would never attach."""
+    c = robot.client
+    link = robot._parent[robot.tcp_link]
+    while link >= 0 and not p.getCollisionShapeData(robot.body, link, physicsClientId=c):
+        link = robot._parent[link]
+    if link < 0:
+        raise MomaError(
+            f"robot {robot.name!r}: no link with collision geometry carries the suction TCP "
+            f"{robot.link_names[robot._parent[robot.tcp_link]]!r}"
+        )
+    return link
