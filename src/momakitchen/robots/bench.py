@@ -23,9 +23,7 @@ import numpy as np
 from momakitchen.bullet import p
 from momakitchen.robots.reach import measure_workspace
 from momakitchen.robots.robot import Robot
-from momakitchen.robots.spec import ROBOTS
-
-BUILTIN = ("panda", "flexiv", "ur5e", "xarm6", "realman", "elephant")
+from momakitchen.robots.spec import DEFAULT_ROBOTS, ROBOTS
 
 
 @dataclass(frozen=True)
@@ -106,7 +104,9 @@ def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--poses", type=int, default=200, help="IK poses per robot and run")
     parser.add_argument("--runs", type=int, default=3, help="runs (medians are reported)")
-    parser.add_argument("--robots", nargs="*", default=list(BUILTIN))
+    parser.add_argument(
+        "--robots", nargs="*", default=list(DEFAULT_ROBOTS), help="default: the paper's six"
+    )
     args = parser.parse_args(argv)
     client = p.connect(p.DIRECT)
     print(
