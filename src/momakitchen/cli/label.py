@@ -2,7 +2,10 @@
 
 Writes ``labels.npz`` (grid positions, yaws, outcomes, failure stage, the grasp executed and
 what moved per position), ``labels.json`` (summary: counts per stage and per grasp, success
-rate, timing) and ``labels.png`` (outcomes by stage next to the dense map).
+rate, timing, and ``rejections``: the stages that turned away most of the positions reaching
+them, with the colliding links or execution failures most often behind it) and
+``labels.png`` (outcomes by stage next to the dense map). The same stage counts and
+rejections are printed.
 """
 
 from __future__ import annotations
@@ -74,7 +77,7 @@ def run(args: argparse.Namespace) -> int:
     )
     from momakitchen.sim.config import STAGE_NAMES, DenseMapConfig, TrialConfig
     from momakitchen.sim.label_figure import save_label_figure
-    from momakitchen.sim.labels import label_configuration
+    from momakitchen.sim.labels import label_configuration, rejections
     from momakitchen.sim.world import World
 
     scene_cfg = SceneConfig()
@@ -124,9 +127,11 @@ def run(args: argparse.Namespace) -> int:
         stage_names=np.array(STAGE_NAMES),
     )
     atomic_write_bytes(out / "labels.npz", data)
+    rejected = rejections(labels)
     summary = {
         "generator": f"momakitchen {__version__}",
         **labels.summary(),
+        "rejections": [dataclasses.asdict(r) for r in rejected],
         "overrides": {"target_mass": args.target_mass, "target_friction": args.target_friction},
         "trial_config": dataclasses.asdict(trial_cfg),
         "dense_map": dataclasses.asdict(DenseMapConfig()),
@@ -141,4 +146,8 @@ def run(args: argparse.Namespace) -> int:
         f"({s['physics_trials']} executed in physics), {labels.seconds['total']:.1f} s -> "
         f"{out}/labels.npz, labels.json, labels.png"
     )
+    counts = ", ".join(f"{k} {v}" for k, v in s["stages"].items() if v)
+    print(f"  stages: {counts}")
+    for r in rejected:  # why a stage turned most positions away: which links collide
+        print(f"  {r.line()}")
     return 0

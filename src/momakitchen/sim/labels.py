@@ -121,7 +121,9 @@ class Labels:
     ``seconds`` splits the wall time: check, ik, physics, total. ``grasps`` (P,) names the
     grasp candidate each trial executed ("" where no plan reached physics): which one
     succeeded, which one failed in execution. ``mount_height`` is the arm's mount height
-    in metres where the configuration drew one (None: the robot's own).
+    in metres where the configuration drew one (None: the robot's own). ``why`` (P,) says
+    what stopped each failed trial (``TrialResult.why``; empty tuples where nothing is
+    known): diagnosis only, never stored in a dataset.
     """
 
     scene_id: int
@@ -137,6 +139,7 @@ class Labels:
     seconds: dict[str, float]
     grasps: tuple[str, ...] = ()
     mount_height: float | None = None
+    why: tuple[tuple[str, ...], ...] = ()
 
     @property
     def outcomes(self) -> np.ndarray:
@@ -256,4 +259,54 @@ def label_configuration(
         seconds=seconds,
         grasps=tuple(r.grasp for r in results),
         mount_height=cfg.mount_height,
+        why=tuple(r.why for r in results),
     )
+
+
+@dataclass(frozen=True)
+class Rejection:
+    """A stage that rejected most of the positions that reached it.
+
+    Attributes:
+        stage: the stage's name (``STAGE_NAMES``).
+        rejected: positions that failed at this stage.
+        reached: positions that got as far as this stage (passed every earlier one).
+        causes: ``(cause, positions)`` pairs, most frequent first: colliding pairs
+            (``"LINK with OTHER"``) or what went wrong in execution.
+    """
+
+    stage: str
+    rejected: int
+    reached: int
+    causes: tuple[tuple[str, int], ...]
+
+    def line(self, top: int = 2) -> str:
+        """One line, e.g. ``arm_collision rejected 34 of 41 positions: most often
+        panda_link0 with mobile_base (29)``."""
+        text = f"{self.stage} rejected {self.rejected} of {self.reached} positions"
+        if self.causes:
+            shown = ", then ".join(f"{c} ({n})" for c, n in self.causes[:top])
+            text += f": most often {shown}"
+        return text
+
+
+def rejections(labels: Labels, share: float = 0.5) -> list[Rejection]:
+    """The stages that rejected more than ``share`` of the positions reaching them, in
+    trial order, with their most frequent causes (each counted once per position)."""
+    stages = np.asarray(labels.stages)
+    out = []
+    for stage in list(Stage)[1:]:  # trial order: the enum's (base collision first)
+        # Stage codes follow the trial's order: a position reached ``stage`` when it
+        # succeeded or failed there or later.
+        reached = int(((stages == Stage.SUCCESS) | (stages >= stage)).sum())
+        rejected = int((stages == stage).sum())
+        if rejected == 0 or rejected <= share * reached:
+            continue
+        counts: dict[str, int] = {}
+        for code, why in zip(stages, labels.why, strict=False):
+            if code == stage:
+                for cause in set(why):
+                    counts[cause] = counts.get(cause, 0) + 1
+        causes = tuple(sorted(counts.items(), key=lambda kv: (-kv[1], kv[0])))
+        out.append(Rejection(STAGE_NAMES[stage], rejected, reached, causes))
+    return out

@@ -29,6 +29,7 @@ from momakitchen.bullet import p
 from momakitchen.errors import MomaError
 from momakitchen.robots.robot import Robot
 from momakitchen.robots.tools import ParallelGripperTool, SuctionTool
+from momakitchen.robots.urdf import BASE_LINK
 from momakitchen.sim.config import Stage, TrialConfig
 from momakitchen.sim.world import TargetInfo, World
 
@@ -46,7 +47,9 @@ class TrialResult:
 
     ``moved`` is the object's rise (m) for rigid targets or the joint opening (rad or m)
     for articulated ones; ``grasp`` names the grasp frame used. ``t_check``, ``t_ik``
-    and ``t_physics`` split the trial's wall time (s).
+    and ``t_physics`` split the trial's wall time (s). ``why`` says what stopped a failed
+    trial, for diagnosis only (labels never depend on it): the colliding pairs
+    (``"LINK with OTHER"``) of a base or arm collision, or what went wrong in execution.
     """
 
     stage: Stage
@@ -55,6 +58,7 @@ class TrialResult:
     t_check: float = 0.0
     t_ik: float = 0.0
     t_physics: float = 0.0
+    why: tuple[str, ...] = ()
 
     @property
     def success(self) -> bool:
@@ -133,6 +137,13 @@ class TrialRunner:
         # Bounding boxes of the static scene, to query PyBullet only about nearby bodies.
         self._boxes = np.stack([world.aabb(int(b)) for b in self._scene_bodies])
         self._floor = floor
+        # Readable names of the scene's bodies and links, e.g. "counter f2" (diagnosis).
+        self._body_names = {
+            info.body_id: (f"{info.category} {info.uid}", {i: n for n, i in info.links.items()})
+            for info in world.bodies.values()
+        }
+        self._contacts: set[str] = set()  # colliding pairs met while planning one trial
+        self._why = ""  # why the last execution failed
         self._allow: list[int | tuple[int, int]] = [self.target.body_id]
         if self.target.is_articulated:
             # The tool may touch the moving part and its handle, not the carcass.
@@ -227,6 +238,7 @@ class TrialRunner:
         """IK for pre-grasp and grasp poses over the grasp candidates; (stage, plan, t_ik)."""
         robot, cfg = self.robot, self.config
         t_ik = 0.0
+        self._contacts = set()
         reachable = False
         collided = False
         pos_l, rot_l = self.world.link_pose(self.target.body_id, self.target.link_index)
@@ -290,9 +302,22 @@ class TrialRunner:
         gap = np.maximum(np.maximum(lo - [x, y], [x, y] - hi), 0.0)
         return self._scene_bodies[np.hypot(gap[:, 0], gap[:, 1]) <= radius].tolist()
 
+    def _name(self, body: int, link: int) -> str:
+        """A readable name of a body's link: the robot's link names, scene bodies by name."""
+        robot = self.robot
+        if body == robot.body:
+            return BASE_LINK if link < 0 else robot.link_names[link]
+        if body not in self._body_names:
+            return f"body {body}"
+        name, links = self._body_names[body]
+        return f"{name} {links[link]}" if link >= 0 and link in links else name
+
     def _arm_collides(self, q: np.ndarray, bodies: list[int]) -> bool:
         self.robot.set_joint_positions(q)
-        return bool(self.robot.arm_collisions(bodies, allow=self._allow))
+        contacts = self.robot.arm_collisions(bodies, allow=self._allow)
+        for ct in contacts:  # kept for the diagnosis: which links keep colliding
+            self._contacts.add(f"{ct.link} with {self._name(ct.body, ct.other_link)}")
+        return bool(contacts)
 
     # ---------------------------------------------------------------- execution
     def _drive(self, q_from: np.ndarray, q_to: np.ndarray, waypoints: int, steps: int) -> None:
@@ -319,6 +344,7 @@ class TrialRunner:
             self._drive(plan.q_pre, res.q, 3, 15)
             world.step(5)
             if tool.on([body]) != body:
+                self._why = "the suction cup attached nothing"
                 return False, 0.0
             q_held = res.q
         else:
@@ -326,6 +352,7 @@ class TrialRunner:
             tool.close()
             tool.settle()  # an object between the fingers stops them early
             if not tool.holds(body):
+                self._why = "the fingers closed on nothing"
                 return False, 0.0  # the fingers closed on nothing (or on something else)
             q_held = robot.joint_positions()
         if self.target.is_articulated:
@@ -345,16 +372,21 @@ class TrialRunner:
             ori_tol=math.radians(5),
         )
         if not up.success:
+            self._why = "no IK for the lift"
             return False, 0.0
         robot.set_joint_positions(q_held)  # solve_ik leaves the arm at its solution
         self._drive(q_held, up.q, 4, 15)
         # A loaded arm lags its commands: let it arrive before judging the lift.
         robot.drive_to(up.q, 60, tol=2e-3)
         if self._object_height() - z0 < cfg.min_lift:
+            self._why = "the object did not rise"
             return False, self._object_height() - z0  # it did not come up: no need to hold
         world.step(round(cfg.hold_seconds * 240))
         rise = self._object_height() - z0
-        return bool(rise >= cfg.min_lift and self.tool.holds(self.target.body_id)), rise
+        ok = bool(rise >= cfg.min_lift and self.tool.holds(self.target.body_id))
+        if not ok:
+            self._why = "the object slipped while held"
+        return ok, rise
 
     def _link_frame(self) -> tuple[np.ndarray, np.ndarray]:
         """The world pose (position, quaternion) of the target part's link frame, which
@@ -455,6 +487,8 @@ class TrialRunner:
                 break
         world.step(20)
         opened = (world.joint_position(t) - q_start) * t.open_direction
+        if opened < need:
+            self._why = "the part did not open far enough"
         return bool(opened >= need), float(opened)
 
     def _lost_grip(self) -> bool:
@@ -471,9 +505,9 @@ class TrialRunner:
             self.tool.off()
 
     # ---------------------------------------------------------------- trial
-    def _place(self, x: float, y: float, yaw: float | None) -> bool:
+    def _place(self, x: float, y: float, yaw: float | None) -> list[int]:
         """Put the base at ``(x, y)`` facing the target (or ``yaw``), the arm at home;
-        True if the base then collides with the scene."""
+        the scene bodies the base then collides with (empty: it fits)."""
         robot = self.robot
         assert self.world.configuration is not None  # loaded when the runner was made
         anchor = self.world.configuration.target.anchor
@@ -482,7 +516,7 @@ class TrialRunner:
         robot.place_base(x, y, yaw)
         robot.set_joint_positions(robot.home)
         half_diagonal = 0.5 * float(np.hypot(*robot.spec.footprint))
-        return bool(robot.base_collisions(self._near(x, y, half_diagonal + 0.02)))
+        return robot.base_collisions(self._near(x, y, half_diagonal + 0.02))
 
     def base_free(self, x: float, y: float, yaw: float | None = None) -> bool:
         """Whether the base fits at ``(x, y)`` facing the target: the first check of
@@ -498,14 +532,18 @@ class TrialRunner:
         self._release()
         if self._dirty:  # checks only teleport the robot; physics may have moved anything
             self._restore()
-        if self._place(x, y, yaw):
-            return TrialResult(Stage.BASE_COLLISION, t_check=time.perf_counter() - t0)
+        hits = self._place(x, y, yaw)
+        if hits:
+            why = tuple(sorted(f"{BASE_LINK} with {self._name(b, -1)}" for b in hits))
+            return TrialResult(Stage.BASE_COLLISION, t_check=time.perf_counter() - t0, why=why)
         arm_bodies = [self._floor, *self._near(x, y, robot.workspace()[1] + 0.5)]
         stage, plan, t_ik = self._plan(np.array([x, y]), arm_bodies)
         t1 = time.perf_counter()
         if plan is None:
-            return TrialResult(stage, t_check=t1 - t0 - t_ik, t_ik=t_ik)
+            why = tuple(sorted(self._contacts)) if stage == Stage.ARM_COLLISION else ()
+            return TrialResult(stage, t_check=t1 - t0 - t_ik, t_ik=t_ik, why=why)
         self._dirty = True
+        self._why = ""
         ok, moved = self._execute(plan)
         t2 = time.perf_counter()
         self._release()
@@ -516,4 +554,5 @@ class TrialRunner:
             t1 - t0 - t_ik,
             t_ik,
             t2 - t1,
+            () if ok or not self._why else (self._why,),
         )
