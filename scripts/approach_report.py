@@ -9,12 +9,16 @@ robot (replayed).
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
 from script_cli import run_main
 
-from momakitchen.fileio import atomic_write_bytes, atomic_write_text, read_json_object
+from momakitchen.fileio import (
+    atomic_write_bytes,
+    atomic_write_text,
+    dumps_strict,
+    read_json_object,
+)
 
 
 def main() -> None:
@@ -23,6 +27,11 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("runs", nargs="+", type=Path, help="`momakitchen approach --json` files")
     ap.add_argument("--json", type=Path, help="the merged result")
+    ap.add_argument(
+        "--compact",
+        action="store_true",
+        help="--json without the episodes' paths, unindented (for archiving)",
+    )
     ap.add_argument("--markdown", type=Path)
     ap.add_argument("--figure", type=Path, help="one episode per robot (replays them)")
     ap.add_argument(
@@ -35,7 +44,11 @@ def main() -> None:
     merged = merge_results([(str(p), read_json_object(p)) for p in args.runs])
     print(format_table(merged["results"]))
     if args.json:
-        atomic_write_text(args.json, json.dumps(merged, indent=1, allow_nan=False) + "\n")
+        if args.compact:
+            for r in merged["records"]:
+                r.pop("path", None)
+        text = dumps_strict(merged, indent=None if args.compact else 1)
+        atomic_write_text(args.json, text + "\n")
     if args.markdown:
         atomic_write_text(args.markdown, report_markdown(merged))
     if args.figure:

@@ -80,6 +80,10 @@ def test_rows_pairs_and_sweep():
     # Half of 1.0 is reached between 6 cm (0.6) and 10 cm (0.3): 6 + 4 * 0.1 / 0.3.
     assert nav["stop_sweep"]["halving_cm"] == pytest.approx(6 + 4 / 3)
     assert rows["oracle"]["stop_sweep"]["halving_cm"] is None
+    # An episode without a trial fails at every stop error: the sweep's rates are over
+    # every episode, as success is.
+    a[0].pop("stop_sweep")
+    assert summarize(result)[0]["stop_sweep"]["success"] == [0.9, 0.9, 0.5, 0.2]
     (pair,) = pairwise(result)
     assert (pair["only_a"], pair["only_b"]) == (6, 0)  # navaff solves 6 the oracle does not
     assert pair["p"] == pytest.approx(2 / 64)

@@ -131,7 +131,7 @@ def episode_figure(episodes: Sequence[tuple[dict[str, Any], Any]]) -> bytes:
     n = len(episodes)
     cols = min(3, n)
     rows = math.ceil(n / cols)
-    fig, axes = plt.subplots(rows, cols, figsize=(5.2 * cols, 4.4 * rows), squeeze=False)
+    fig, axes = plt.subplots(rows, cols, figsize=(5.2 * cols, 3.2 * rows), squeeze=False)
     scatter = None
     for ax, (rec, ctx) in zip(axes.ravel(), episodes, strict=False):
         free = ctx.free
@@ -146,15 +146,11 @@ def episode_figure(episodes: Sequence[tuple[dict[str, Any], Any]]) -> bytes:
         cap = rec["capture"]
         if cap["fused"]["xy"]:
             xy = np.asarray(cap["fused"]["xy"])
+            value = np.asarray(cap["fused"]["value"])
+            lit = value >= 0.05  # the seen floor the map calls poor stays a light wash
+            ax.scatter(*xy[~lit].T, s=3, color="lightsteelblue", alpha=0.35, lw=0)
             scatter = ax.scatter(
-                xy[:, 0],
-                xy[:, 1],
-                c=cap["fused"]["value"],
-                s=4,
-                cmap="viridis",
-                vmin=0,
-                vmax=1,
-                lw=0,
+                *xy[lit].T, c=value[lit], s=5, cmap="viridis", vmin=0, vmax=1, lw=0
             )
         ok = ctx.labels.trial_stages == 0
         pos = ctx.labels.trial_positions
@@ -178,7 +174,7 @@ def episode_figure(episodes: Sequence[tuple[dict[str, Any], Any]]) -> bytes:
             h = np.asarray(head).reshape(4, 4)
             cam_yaw = math.degrees(yaw + math.atan2(h[1, 2], h[0, 2]))
             ax.add_patch(
-                Wedge((x, y), 2.0, cam_yaw - half, cam_yaw + half, color="gold", alpha=0.18, lw=0)
+                Wedge((x, y), 1.5, cam_yaw - half, cam_yaw + half, fc="none", ec="goldenrod", lw=1)
             )
             ax.plot(x, y, "o", color="goldenrod", ms=4)
         if rec.get("goal"):

@@ -75,8 +75,9 @@ def summarize(result: dict[str, Any]) -> list[dict[str, Any]]:
             row[key] = {
                 k: {"success": _mean(v), "episodes": len(v)} for k, v in sorted(groups.items())
             }
-        swept = [r["stop_sweep"] for r in recs if "stop_sweep" in r]
-        if sweep and swept:
+        # An episode that ended before its trial fails at every stop error.
+        swept = [r.get("stop_sweep", [0] * len(sweep)) for r in recs]
+        if sweep and any("stop_sweep" in r for r in recs):
             rates = np.mean(np.asarray(swept, float), axis=0).tolist()
             cms = [float(s[0]) for s in sweep]
             row["stop_sweep"] = {
