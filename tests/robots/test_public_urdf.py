@@ -156,3 +156,34 @@ def test_public_suction_urdf_succeeds_on_scene_12(public_yamls, name):
         assert ("the suction cup attached nothing",) not in failed
     finally:
         unregister_user_robot(spec.name)
+
+
+def _flipped_tcp(public_yamls, tmp_path) -> Path:
+    """The iiwa with suction, its tool0 frame turned half a turn about x (z into the arm)."""
+    src = public_yamls["iiwa_suction"]
+    urdf = (src.parent / "iiwa_suction.urdf").read_text()
+    joint = '<origin xyz="0 0 0.12" rpy="0 0 0" />'
+    assert urdf.count(joint) == 1
+    (tmp_path / "flipped.urdf").write_text(
+        urdf.replace(joint, joint.replace('0 0 0"', '3.14159 0 0"'))
+    )
+    # Without reach: registering measures it, which loads the robot.
+    text = src.read_text().replace("iiwa_suction", "flipped").split("reach:")[0]
+    (tmp_path / "flipped.yaml").write_text(text)
+    return tmp_path / "flipped.yaml"
+
+
+def test_tcp_frame_with_z_into_the_arm_is_refused(public_yamls, tmp_path):
+    from momakitchen.errors import MomaError
+
+    yaml_path = _flipped_tcp(public_yamls, tmp_path)
+    with pytest.raises(MomaError, match=r"z axis of end_effector_link 'tool0' points back"):
+        spec = register_user_robot(yaml_path)
+        unregister_user_robot(spec.name)  # not reached when the check works
+    out = subprocess.run(
+        [sys.executable, "-m", "momakitchen.cli.main", "robots", "--robot-yaml", str(yaml_path)],
+        capture_output=True,
+        text=True,
+    )
+    assert out.returncode == 2
+    assert out.stderr.strip().splitlines()[-1].endswith("(the approach direction)")

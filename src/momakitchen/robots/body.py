@@ -84,6 +84,8 @@ class RobotBody:
         self.cache_key = variant_key(name, self.mount_height)
         self.body = self._load(path)
         self._index_joints()
+        if isinstance(self.model.end_effector, UserTool):
+            self._check_tcp_axis()
         # PyBullet caches the kinematic tree behind calculateJacobian, its IK and inverse
         # dynamics by body and does not drop it when a body is removed, so a robot loaded
         # where another body was may inherit a stale tree. Nothing here uses those
@@ -160,6 +162,31 @@ class RobotBody:
         # with an allowed target are intended, arm contacts are not).
         last = self.arm_joints[-1]
         self.ee_links = {j for j in range(n) if self._descends(j, last) and j != last}
+
+    def _check_tcp_axis(self) -> None:
+        """A user's TCP frame must have z out of the tool (the approach direction): the
+        trials approach along it, so a frame turned back into the arm makes every
+        approach drive the wrist into the target. The TCP is rigid on the last arm
+        joint's link, so any configuration tells."""
+        c = self.client
+        last = self.arm_joints[-1]
+        wrist = p.getLinkState(self.body, last, computeForwardKinematics=True, physicsClientId=c)
+        tcp = p.getLinkState(
+            self.body, self.tcp_link, computeForwardKinematics=True, physicsClientId=c
+        )
+        out = np.subtract(tcp[4], wrist[4])
+        z = np.array(p.getMatrixFromQuaternion(tcp[5])).reshape(3, 3)[:, 2]
+        length = float(np.linalg.norm(out))
+        # Beyond 2 cm from the wrist, z more than 120 degrees away from the tool's
+        # direction is a frame turned back, not a tool mounted off-axis.
+        if length > 0.02 and float(out @ z) < -0.5 * length:
+            tool = self.model.end_effector
+            assert isinstance(tool, UserTool)
+            raise MomaError(
+                f"robot {self.name!r}: the z axis of end_effector_link {tool.tcp_link!r} "
+                f"points back into the arm ({float(out @ z) / length:.2f} along the wrist-to-"
+                "TCP direction); z must point out of the tool (the approach direction)"
+            )
 
     def _descends(self, j: int, ancestor: int) -> bool:
         while j >= 0:
