@@ -49,7 +49,8 @@ def test_check_refuses_an_unfinished_dataset(tmp_path, capsys, scenes, at, missi
     assert "--allow-incomplete" in err
     assert main(["check", str(root), "--quiet", "--allow-incomplete"]) == 0
     out = capsys.readouterr().out
-    assert f"OK: {at} shards" in out and f"{missing} of {scenes} requested scenes missing" in out
+    shards = f"{at} shard" if at == 1 else f"{at} shards"  # counts are pluralised
+    assert f"OK: {shards}," in out and f"{missing} of {scenes} requested scenes missing" in out
     assert main(["stats", str(root)]) == 0
     assert f"{missing} of {scenes} requested scenes missing" in capsys.readouterr().out
 
