@@ -187,3 +187,32 @@ def test_tcp_frame_with_z_into_the_arm_is_refused(public_yamls, tmp_path):
     )
     assert out.returncode == 2
     assert out.stderr.strip().splitlines()[-1].endswith("(the approach direction)")
+
+
+@pytest.mark.slow
+def test_ik_diagnosis_names_the_joint_at_its_limit_and_keeps_the_outcomes(public_yamls):
+    """Scene 12, configuration 1 (a cabinet door): the iiwa's long suction tool leaves it
+    short of most handle poses with joint 2 at its ±120° limit; diagnosing says so and
+    changes no outcome."""
+    from momakitchen.scene.configuration import SceneConfig, sample_scene, with_robot
+    from momakitchen.sim.labels import label_configuration
+    from momakitchen.sim.world import World
+
+    spec = register_user_robot(public_yamls["iiwa_suction"])
+    try:
+        scene_cfg = SceneConfig()
+        scene = sample_scene(12, scene_cfg)
+        cfg = with_robot(scene.configurations[1], spec.name, scene_cfg)
+        runs = []
+        # A world each: a second run in one world moves the part by slightly other amounts.
+        for diagnose in (False, True):
+            with World(scene.layout) as world:
+                runs.append(label_configuration(world, cfg, diagnose=diagnose))
+        plain, diagnosed = runs
+        np.testing.assert_array_equal(plain.stages, diagnosed.stages)
+        np.testing.assert_array_equal(plain.moved, diagnosed.moved)
+        ik = [r for r in rejections(diagnosed) if r.stage == "ik_failed"]
+        assert ik and ik[0].causes[0][0] == "lbr_iiwa_joint_2 at its limit"
+        assert not any(r.causes for r in rejections(plain) if r.stage == "ik_failed")
+    finally:
+        unregister_user_robot(spec.name)

@@ -114,6 +114,7 @@ def run(args: argparse.Namespace) -> int:
             target_mass=args.target_mass,
             target_friction=args.target_friction,
             progress=progress,
+            diagnose=True,  # the rejection lines say which joints stop IK
         )
     output_dir(out)  # created only now: a failed run leaves no empty directory
     data = npz_bytes(

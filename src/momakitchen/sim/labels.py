@@ -218,18 +218,21 @@ def label_configuration(
     target_mass: float | None = None,
     target_friction: float | None = None,
     progress: Callable[[int, int], None] | None = None,
+    diagnose: bool = False,
 ) -> Labels:
     """Run the trials of ``cfg`` on its sampling grid and return the sparse labels.
 
     The world is reset to ``cfg`` first (``World.load_configuration``), the robot of the
-    configuration is loaded for the trials and removed afterwards.
+    configuration is loaded for the trials and removed afterwards. ``diagnose`` also
+    says which joints stop IK where it fails (``Labels.why``; one more IK solve there,
+    the same outcomes).
     """
     t0 = time.perf_counter()
     world.load_configuration(cfg)
     set_target_dynamics(world, target_mass, target_friction)
     spec = get_robot_spec(cfg.robot)
     grid = semicircle_grid(cfg.target.anchor[:2], spec.reach, grid_spacing)
-    runner = TrialRunner(world, cfg.robot, trial_config)
+    runner = TrialRunner(world, cfg.robot, trial_config, diagnose=diagnose)
     results = []
     try:
         for i, (x, y) in enumerate(grid):

@@ -113,7 +113,9 @@ class TrialRunner:
     Loads the robot (parked outside the room), saves the world state, and restores it
     before every trial. The robot's arm stands at ``mount_height`` (metres), by default at
     the loaded configuration's (``Configuration.mount_height``: drawn for it, or the
-    robot's own).
+    robot's own). With ``diagnose``, a position where IK fails costs one more IK solve,
+    which says in ``TrialResult.why`` which arm joints stop at a limit (outcomes are the
+    same either way).
     """
 
     def __init__(
@@ -122,6 +124,7 @@ class TrialRunner:
         robot_name: str,
         config: TrialConfig | None = None,
         mount_height: float | None = None,
+        diagnose: bool = False,
     ):
         if world.configuration is None:
             raise MomaError("load a configuration into the world before running trials")
@@ -144,6 +147,8 @@ class TrialRunner:
         }
         self._contacts: set[str] = set()  # colliding pairs met while planning one trial
         self._why = ""  # why the last execution failed
+        self._diagnose = diagnose
+        self._ik_why: tuple[str, ...] = ()  # what stopped IK at the last position
         self._allow: list[int | tuple[int, int]] = [self.target.body_id]
         if self.target.is_articulated:
             # The tool may touch the moving part and its handle, not the carcass.
@@ -239,6 +244,8 @@ class TrialRunner:
         robot, cfg = self.robot, self.config
         t_ik = 0.0
         self._contacts = set()
+        self._ik_why = ()
+        first: tuple[np.ndarray, np.ndarray] | None = None  # the first pre-grasp tried
         reachable = False
         collided = False
         pos_l, rot_l = self.world.link_pose(self.target.body_id, self.target.link_index)
@@ -253,6 +260,8 @@ class TrialRunner:
             reachable = True
             for approach, sign in self._approaches(normal, closing):
                 quat = tcp_quaternion(approach, sign * closing)
+                if first is None:
+                    first = (pos + cfg.pregrasp_offset * approach, quat)
                 # Distinct arm configurations for the pre-grasp, until one is free of
                 # collisions at both poses (an IK answer alone may fold the arm into the
                 # base or sweep it through an obstacle).
@@ -276,7 +285,24 @@ class TrialRunner:
                     return Stage.SUCCESS, _Plan(g, pre.q, grasp.q, pos, approach, quat), t_ik
         if not reachable:
             return Stage.OUT_OF_REACH, None, t_ik
+        if not collided and self._diagnose and first is not None:
+            self._ik_why = self._ik_limits(*first)
         return (Stage.ARM_COLLISION if collided else Stage.IK_FAILED), None, t_ik
+
+    def _ik_limits(self, position: np.ndarray, quat: np.ndarray) -> tuple[str, ...]:
+        """Diagnosis of an IK failure: the arm joints at a limit in the best (failed)
+        solution of the first pre-grasp pose, e.g. ``"joint_2 at its limit"``, or that
+        none is. A robot's own kinematics (a joint range too short for the pose) reads
+        apart from a poor start."""
+        robot = self.robot
+        with robot.kinematic_scratch():
+            res = robot.solve_ik(position, quat)
+        if res.success:  # found with more restarts than planning allows
+            return ("solved only with more IK restarts",)
+        span = 1e-3 * np.maximum(robot.upper - robot.lower, 1.0)
+        at = (res.q <= robot.lower + span) | (res.q >= robot.upper - span)
+        names = [f"{robot.joint_names[j]} at its limit" for j in np.flatnonzero(at)]
+        return tuple(names) or ("no joint at a limit",)
 
     def _approaches(
         self, normal: np.ndarray, closing: np.ndarray
@@ -534,13 +560,17 @@ class TrialRunner:
             self._restore()
         hits = self._place(x, y, yaw)
         if hits:
-            why = tuple(sorted(f"{BASE_LINK} with {self._name(b, -1)}" for b in hits))
-            return TrialResult(Stage.BASE_COLLISION, t_check=time.perf_counter() - t0, why=why)
+            pairs = tuple(sorted(f"{BASE_LINK} with {self._name(b, -1)}" for b in hits))
+            return TrialResult(Stage.BASE_COLLISION, t_check=time.perf_counter() - t0, why=pairs)
         arm_bodies = [self._floor, *self._near(x, y, robot.workspace()[1] + 0.5)]
         stage, plan, t_ik = self._plan(np.array([x, y]), arm_bodies)
         t1 = time.perf_counter()
         if plan is None:
-            why = tuple(sorted(self._contacts)) if stage == Stage.ARM_COLLISION else ()
+            why: tuple[str, ...] = ()
+            if stage == Stage.ARM_COLLISION:
+                why = tuple(sorted(self._contacts))
+            elif stage == Stage.IK_FAILED:
+                why = self._ik_why
             return TrialResult(stage, t_check=t1 - t0 - t_ik, t_ik=t_ik, why=why)
         self._dirty = True
         self._why = ""
