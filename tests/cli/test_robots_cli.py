@@ -161,3 +161,45 @@ def test_urdf_that_does_not_parse_one_line_exit_2(tmp_path, capsys):
     assert err.count("\n") == 1
     assert str(urdf) in err and "does not parse" in err
     assert "broken" not in ROBOTS
+
+
+def test_more_arms_and_mount_ranges_in_the_listing(tmp_path, capsys, cleanup):
+    cleanup.append("kuka_range")
+    path = kuka_yaml(tmp_path, "kuka_range", reach=0.8)
+    path.write_text(path.read_text().replace("mount_height: 0.9", "mount_height: [0.6, 1.3]"))
+    assert main(["robots", "--json", "--robot-yaml", str(path)]) == 0
+    rows = {r["name"]: r for r in json.loads(capsys.readouterr().out)}
+    assert rows["kuka_range"]["mount_range_m"] == [0.6, 1.3]
+    assert rows["kuka_range"]["mount_height_m"] == 0.95  # the middle of the range
+    assert rows["ur10e"]["reach_m"] == 1.3 and rows["gen3"]["dof"] == 7
+    assert [n for n, r in rows.items() if r["generate_default"]] == list(MANUFACTURER_REACH)
+    assert rows["panda"]["mount_range_m"] is None
+    assert main(["robots"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert next(x for x in out if x.startswith("kuka_range")).split()[-1] == "0.60-1.30"
+    assert next(x for x in out if x.startswith("ur10e")).split()[:3] == ["ur10e", "1.300", "0.80"]
+    assert out[-1].startswith("generate's robots by default: panda, flexiv, ur5e")
+
+
+def test_export_at_another_mount_height(tmp_path, capsys):
+    out = tmp_path / "gen3.urdf"
+    assert main(["robots", "export-urdf", "gen3", "--out", str(out), "--mount-height", "1.1"]) == 0
+    assert "arm at 1.1 m" in capsys.readouterr().out
+    client = p.connect(p.DIRECT)
+    try:
+        body = p.loadURDF(str(out), physicsClientId=client)
+        names = [
+            p.getJointInfo(body, j, physicsClientId=client)[1].decode()
+            for j in range(p.getNumJoints(body, physicsClientId=client))
+        ]
+        mount = names.index("mount_joint")
+        z = p.getLinkState(body, mount, physicsClientId=client)[4][2]
+        assert z == pytest.approx(1.1, abs=1e-6)
+    finally:
+        p.disconnect(client)
+    bad = tmp_path / "bad.urdf"
+    argv = ["robots", "export-urdf", "gen3", "--out", str(bad), "--mount-height", "1.6"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "mount_height must be in [0.3, 1.3] m, got 1.6" in err
+    assert not bad.exists()
