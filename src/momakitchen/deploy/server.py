@@ -66,20 +66,17 @@ from __future__ import annotations
 
 import asyncio
 import hmac
-import io
 import ipaddress
 import logging
 import math
 import time
-import warnings
 from collections.abc import Callable, Mapping
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
+from momakitchen.deploy.server_inputs import check_fields, predict_arguments
 from momakitchen.errors import MomaError
 
 LOG = logging.getLogger("momakitchen.serve")
@@ -87,20 +84,7 @@ MAX_BODY_MB = 64  # a 640x480 float32 depth .npy is 1.2 MB; a 4K frame's fits to
 MAX_INFLIGHT_MB = 256  # four full-size bodies at once
 QUEUE = 4  # requests waiting for the model behind the one it predicts
 READ_TIMEOUT = 30.0  # s; a 64 MB body at 20 Mbit/s takes 27 s
-MAX_PIXELS = 4096 * 4096  # per image; a 16 Mpx frame takes about 2 GB to predict
-MAX_OBSTACLE_MASKS = 16
 TOKEN_ENV = "MOMAKITCHEN_SERVE_TOKEN"
-REQUIRED = ("depth", "target_mask", "intrinsics", "camera_to_base")
-FILES = ("depth", "target_mask", "rgb", "obstacle_mask")
-# name -> (type, least, greatest); the top_k and pick_radius ranges are predict's own
-NUMBERS: dict[str, tuple[type, float, float]] = {
-    "top_k": (int, 1, 50),
-    "mc_samples": (int, 0, 64),
-    "pick_radius": (float, 0.0, 1.0),
-    "min_spread": (float, 0.0, 5.0),
-}
-TEXT = ("intrinsics", "camera_to_base", "robot", "reach", "mount_height", "floor_points")
-FIELDS = (*FILES, *NUMBERS, *TEXT)
 
 
 def _require_aiohttp() -> Any:
@@ -154,207 +138,6 @@ def checkpoint_label(run_dir: str | Path) -> str:
     return f"{path.name} (bundled)" if bundled else path.name
 
 
-# ---------------------------------------------------------------------------- decoding
-def _npy_header(data: bytes, name: str) -> tuple[tuple[int, ...], np.dtype, int]:
-    """Shape, dtype and data offset of an uploaded ``.npy``, from its header only."""
-    fmt = np.lib.format
-    f = io.BytesIO(data)
-    try:
-        version = fmt.read_magic(f)
-        if version == (1, 0):
-            shape, _, dtype = fmt.read_array_header_1_0(f)
-        elif version == (2, 0):
-            shape, _, dtype = fmt.read_array_header_2_0(f)
-        else:  # 3.0 only adds UTF-8 field names, i.e. structured arrays
-            raise ValueError(f"unsupported .npy format version {version}")
-    except (ValueError, OSError, EOFError, SyntaxError) as exc:
-        raise MomaError(f"field {name!r} is not a readable .npy array ({exc})") from None
-    if dtype.kind not in "biuf" or dtype.fields is not None or dtype.subdtype is not None:
-        raise MomaError(
-            f"field {name!r} is a .npy of dtype {str(dtype)[:60]}: give a bool, integer or "
-            "float array"
-        )
-    return tuple(shape), dtype, f.tell()
-
-
-def array_header(data: bytes, name: str) -> tuple[tuple[int, ...], str]:
-    """The shape ((H, W) or (H, W, C)) and format (``"npy"`` or ``"image"``) of an uploaded
-    ``.npy``, PNG or JPEG file, read from its header without decoding it; MomaError names
-    a file that is unreadable, of another kind, not numbers, or over :data:`MAX_PIXELS`."""
-    if data.startswith(b"\x93NUMPY"):
-        shape, dtype, offset = _npy_header(data, name)
-        kind = "npy"
-    elif data.startswith((b"\x89PNG", b"\xff\xd8")):
-        from PIL import Image, UnidentifiedImageError
-
-        try:
-            with warnings.catch_warnings():  # the size is checked below, against a lower limit
-                warnings.simplefilter("ignore", Image.DecompressionBombWarning)
-                with Image.open(io.BytesIO(data)) as img:  # reads the header only
-                    w, h = img.size
-                    shape = (h, w) if len(img.getbands()) == 1 else (h, w, len(img.getbands()))
-        except (UnidentifiedImageError, Image.DecompressionBombError, OSError, SyntaxError) as exc:
-            raise MomaError(f"field {name!r} is not a readable image ({exc})") from None
-        except ValueError as exc:
-            raise MomaError(f"field {name!r} is not a readable image ({exc})") from None
-        kind = "image"
-    else:
-        raise MomaError(f"field {name!r} must be a PNG, JPEG or .npy file")
-    if len(shape) not in (2, 3) or (len(shape) == 3 and not 1 <= shape[2] <= 4):
-        raise MomaError(f"field {name!r} must be an (H, W) or (H, W, C) image, got {shape}")
-    h, w = shape[:2]
-    if h * w > MAX_PIXELS:
-        raise MomaError(
-            f"field {name!r} is {w}x{h} = {h * w} pixels, over the limit of {MAX_PIXELS} "
-            "(4096x4096)"
-        )
-    if kind == "npy" and len(data) < offset + math.prod(shape) * dtype.itemsize:
-        raise MomaError(
-            f"field {name!r} is a truncated .npy: its header says {shape} {dtype}, "
-            f"{offset + math.prod(shape) * dtype.itemsize} bytes; the upload has {len(data)}"
-        )
-    return shape, kind
-
-
-def decode_array(data: bytes, name: str) -> tuple[np.ndarray, str]:
-    """An array and its format (``"npy"`` or ``"image"``) from an uploaded ``.npy``, PNG
-    or JPEG file, after :func:`array_header`'s checks."""
-    kind = array_header(data, name)[1]
-    if kind == "npy":
-        try:
-            return np.load(io.BytesIO(data), allow_pickle=False), "npy"
-        except (ValueError, OSError, EOFError) as exc:
-            raise MomaError(f"field {name!r} is not a readable .npy array ({exc})") from None
-    from PIL import Image, UnidentifiedImageError
-
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", Image.DecompressionBombWarning)
-            with Image.open(io.BytesIO(data)) as img:
-                return np.array(img), "image"
-    except (UnidentifiedImageError, Image.DecompressionBombError, OSError, SyntaxError) as exc:
-        raise MomaError(f"field {name!r} is not a readable image ({exc})") from None
-    except ValueError as exc:
-        raise MomaError(f"field {name!r} is not a readable image ({exc})") from None
-
-
-def _numbers(text: str, name: str, count: int) -> list[float]:
-    try:
-        values = [float(v) for v in text.replace(",", " ").split()]
-    except ValueError:
-        raise MomaError(f"field {name!r} must be {count} numbers, got {text[:80]!r}") from None
-    if len(values) != count or not np.isfinite(values).all():
-        raise MomaError(f"field {name!r} must be {count} finite numbers, got {len(values)}")
-    return values
-
-
-def _option(name: str, text: str) -> int | float:
-    """A numeric option's value, checked against :data:`NUMBERS`."""
-    kind, lo, hi = NUMBERS[name]
-    try:
-        value: int | float = kind(text)
-    except ValueError:
-        value = math.nan
-    if not (math.isfinite(value) and lo <= value <= hi):
-        what = "an integer" if kind is int else "a finite number (m)"
-        raise MomaError(f"field {name!r} must be {what} in [{lo:g}, {hi:g}], got {text[:40]!r}")
-    return value
-
-
-def check_fields(
-    files: Mapping[str, list[bytes]], text: Mapping[str, str]
-) -> tuple[dict[str, Any], bool]:
-    """Every check of a request that needs no decoding: the field names and counts, the
-    numbers, and each file's header (:func:`array_header`: format, dtype, size, the depth
-    image's size). Returns the keyword arguments of :func:`momakitchen.predict` other
-    than the arrays, and whether the answer includes the floor points. MomaError names a
-    bad field."""
-    unknown = sorted((set(files) | set(text)) - set(FIELDS))
-    if unknown:
-        raise MomaError(f"unknown field {unknown[0]!r}; the fields are {', '.join(FIELDS)}")
-    for name in REQUIRED:
-        if name not in files and name not in text:
-            raise MomaError(f"missing field {name!r}")
-    for name in files:
-        if name not in FILES:
-            raise MomaError(f"field {name!r} must be text, not a file")
-    for name in FILES:
-        if name in text:
-            raise MomaError(f"field {name!r} must be a file upload")
-        if name != "obstacle_mask" and len(files.get(name, [])) > 1:
-            raise MomaError(f"field {name!r} is given more than once")
-    if len(files.get("obstacle_mask", [])) > MAX_OBSTACLE_MASKS:
-        raise MomaError(
-            f"field 'obstacle_mask' is given {len(files['obstacle_mask'])} times, more than "
-            f"{MAX_OBSTACLE_MASKS}: merge some of the masks"
-        )
-    size = array_header(files["depth"][0], "depth")[0][:2]
-    for name, data in _images(files):
-        if name != "depth":
-            shape = array_header(data, name)[0]
-            if shape[:2] != size:
-                raise MomaError(
-                    f"field {name!r} is {shape[1]}x{shape[0]}: it does not match the depth "
-                    f"image ({size[1]}x{size[0]})"
-                )
-    kwargs: dict[str, Any] = {
-        "intrinsics": _numbers(text["intrinsics"], "intrinsics", 4),
-        "camera_to_base": np.reshape(
-            _numbers(text["camera_to_base"], "camera_to_base", 16), (4, 4)
-        ),
-    }
-    if "robot" in text:
-        if "reach" in text or "mount_height" in text:
-            raise MomaError("give either 'robot' or 'reach' and 'mount_height', not both")
-        kwargs["robot"] = text["robot"]
-    elif "reach" in text and "mount_height" in text:
-        kwargs["robot"] = {
-            "reach": _numbers(text["reach"], "reach", 1)[0],
-            "mount_height": _numbers(text["mount_height"], "mount_height", 1)[0],
-        }
-    else:
-        raise MomaError("missing field 'robot' (or both 'reach' and 'mount_height')")
-    for name in NUMBERS:
-        if name in text:
-            kwargs[name] = _option(name, text[name])
-    floor = text.get("floor_points", "1")
-    if floor not in ("0", "1"):
-        raise MomaError(f"field 'floor_points' must be 0 or 1, got {floor[:40]!r}")
-    return kwargs, floor == "1"
-
-
-def _images(files: Mapping[str, list[bytes]]) -> list[tuple[str, bytes]]:
-    """The uploaded files with the names errors give them."""
-    out = [(name, files[name][0]) for name in ("depth", "target_mask", "rgb") if name in files]
-    return out + [(f"obstacle_mask {i}", b) for i, b in enumerate(files.get("obstacle_mask", []))]
-
-
-def predict_arguments(
-    files: Mapping[str, list[bytes]], text: Mapping[str, str]
-) -> tuple[dict[str, Any], bool]:
-    """The keyword arguments of :func:`momakitchen.predict` from a request's fields, and
-    whether the answer includes the floor points (:func:`check_fields`, then the images
-    decoded). MomaError names a bad field."""
-    from momakitchen.deploy.predict import load_depth
-
-    kwargs, floor = check_fields(files, text)
-    depth, kind = decode_array(files["depth"][0], "depth")
-    if kind == "image":
-        if depth.dtype != np.uint16:
-            raise MomaError(f"depth PNG must be 16-bit (millimetres), got {depth.dtype}")
-        depth = depth.astype(np.float32) / 1000.0
-    kwargs["depth"] = load_depth(depth)
-    kwargs["target_mask"] = decode_array(files["target_mask"][0], "target_mask")[0]
-    kwargs["obstacle_masks"] = [
-        decode_array(b, f"obstacle_mask {i}")[0]
-        for i, b in enumerate(files.get("obstacle_mask", []))
-    ]
-    if "rgb" in files:
-        kwargs["rgb"] = decode_array(files["rgb"][0], "rgb")[0]
-    return kwargs, floor
-
-
-# ---------------------------------------------------------------------------- the app
 class _ClientGone(Exception):
     """The client of a queued frame left before the model got to it."""
 
