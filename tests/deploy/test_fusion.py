@@ -80,5 +80,5 @@ def test_bad_input_is_named():
         LookPolicy("sometimes")
     with pytest.raises(MomaError, match="max_looks"):
         LookPolicy(max_looks=0)
-    with pytest.raises(MomaError, match="MapFusion.cell"):
+    with pytest.raises(MomaError, match=r"MapFusion\.cell"):
         MapFusion(cell=0.0)

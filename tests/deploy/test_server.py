@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from cli_process import cli_process
+from cli_process import cli_process, serve_process
 
 pytest.importorskip("aiohttp")
 
@@ -39,25 +39,8 @@ def episodes(real_view):
 @pytest.fixture(scope="module")
 def server():
     """``momakitchen serve`` in its own process on a free port of 127.0.0.1."""
-    argv, env = cli_process("serve", "--host", "127.0.0.1", "--port", "0")
-    proc = subprocess.Popen(
-        argv,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        env=env,
-    )
-    line: list[str] = []
-    reader = threading.Thread(target=lambda: line.append(proc.stdout.readline()), daemon=True)
-    reader.start()
-    reader.join(60)
-    match = re.search(r"http://127\.0\.0\.1:(\d+)", line[0] if line else "")
-    if not match:
-        proc.kill()
-        pytest.fail(f"the server did not start: {line} {proc.stderr.read()}")
-    yield f"http://127.0.0.1:{match.group(1)}"
-    proc.terminate()
-    proc.wait(10)
+    with serve_process() as url:
+        yield url
 
 
 def _png(array: np.ndarray) -> bytes:

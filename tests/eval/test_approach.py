@@ -4,14 +4,12 @@ through serve's HTTP API, the command line and its bad input."""
 from __future__ import annotations
 
 import json
-import re
-import subprocess
 import threading
 from http.server import BaseHTTPRequestHandler, HTTPServer
 
 import pytest
 
-from cli_process import cli_process
+from cli_process import serve_process
 from momakitchen.cli.main import main
 from momakitchen.errors import MomaError
 from momakitchen.eval import approach_track
@@ -97,21 +95,8 @@ def test_far_starts_relook_and_resume(real_dataset, tiny_run, tmp_path, monkeypa
 def server():
     """The bundled model behind ``momakitchen serve`` (a tiny test model's flat map would
     make the pick hinge on the answer's 4-decimal rounding)."""
-    argv, env = cli_process("serve", "--host", "127.0.0.1", "--port", "0")
-    proc = subprocess.Popen(
-        argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env
-    )
-    line: list[str] = []
-    reader = threading.Thread(target=lambda: line.append(proc.stdout.readline()), daemon=True)
-    reader.start()
-    reader.join(60)
-    match = re.search(r"http://127\.0\.0\.1:(\d+)", line[0] if line else "")
-    if not match:
-        proc.kill()
-        pytest.fail(f"the server did not start: {line} {proc.stderr.read()}")
-    yield f"http://127.0.0.1:{match.group(1)}"
-    proc.terminate()
-    proc.wait(10)
+    with serve_process() as url:
+        yield url
 
 
 @pytest.mark.slow
