@@ -76,6 +76,9 @@ def test_suction_cup_is_the_link_with_geometry_above_a_bare_tcp_frame(iiwa):
     assert p.getCollisionShapeData(robot.body, tool0, physicsClientId=client) == ()
     assert robot.link_names[tool.cup_link] == "suction_tool"
     assert tool.face_link == robot.tcp_link
+    # The bare frame has no <inertial>: 1 g, not PyBullet's default 1 kg, on the tool.
+    assert p.getDynamicsInfo(robot.body, tool0, physicsClientId=client)[0] == 0.001
+    assert p.getDynamicsInfo(robot.body, tool.cup_link, physicsClientId=client)[0] == 0.2
 
 
 def _box_at(client: int, pos, half=(0.03, 0.03, 0.03)) -> int:

@@ -20,7 +20,13 @@ from momakitchen.bullet import p
 from momakitchen.errors import MomaError
 from momakitchen.robots.arms import EndEffector, ParallelGripper, RobotModel, ShippedArm, UserTool
 from momakitchen.robots.spec import RobotSpec, get_robot_spec
-from momakitchen.robots.urdf import BASE_LINK, FINGER_JOINTS, TCP_LINK, robot_urdf_path
+from momakitchen.robots.urdf import (
+    BASE_LINK,
+    FINGER_JOINTS,
+    TCP_LINK,
+    parse_urdf,
+    robot_urdf_path,
+)
 
 
 def variant_key(name: str, mount_height: float | None) -> str:
@@ -86,6 +92,7 @@ class RobotBody:
         self._index_joints()
         if isinstance(self.model.end_effector, UserTool):
             self._check_tcp_axis()
+            self._lighten_bare_links()
         # PyBullet caches the kinematic tree behind calculateJacobian, its IK and inverse
         # dynamics by body and does not drop it when a body is removed, so a robot loaded
         # where another body was may inherit a stale tree. Nothing here uses those
@@ -187,6 +194,23 @@ class RobotBody:
                 f"points back into the arm ({float(out @ z) / length:.2f} along the wrist-to-"
                 "TCP direction); z must point out of the tool (the approach direction)"
             )
+
+    def _lighten_bare_links(self) -> None:
+        """Links of a user's URDF without ``<inertial>`` (bare frames such as ``tool0``)
+        weigh 1 g, not the 1 kg PyBullet gives them: a frame on the tool is no payload."""
+        arm = self.model.arm
+        if not isinstance(arm, ShippedArm):
+            return
+        for link in parse_urdf(arm.urdf).findall("link"):
+            j = self._link_index.get(link.get("name", ""))
+            if link.find("inertial") is None and j is not None and j >= 0:
+                p.changeDynamics(
+                    self.body,
+                    j,
+                    mass=0.001,
+                    localInertiaDiagonal=[1e-6] * 3,
+                    physicsClientId=self.client,
+                )
 
     def _descends(self, j: int, ancestor: int) -> bool:
         while j >= 0:
