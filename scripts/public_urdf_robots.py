@@ -108,6 +108,8 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--out", required=True, type=Path, help="folder for the YAML/URDF files")
     args = parser.parse_args(argv)
+    if args.out.exists() and not args.out.is_dir():
+        parser.exit(2, f"public_urdf_robots.py: --out {str(args.out)!r} is not a folder\n")
     for path in write_robots(args.out):
         print(path)
     return 0

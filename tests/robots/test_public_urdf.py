@@ -66,6 +66,15 @@ def test_script_writes_loadable_files(tmp_path):
     ]
     urdf = (tmp_path / "iiwa_suction.urdf").read_text()
     assert '<link name="tool0" />' in urdf  # the TCP frame has no geometry
+    bad = subprocess.run(
+        [sys.executable, str(SCRIPT), "--out", str(tmp_path / "iiwa_suction.urdf")],
+        capture_output=True,
+        text=True,
+    )
+    assert bad.returncode == 2
+    assert bad.stderr.strip() == (
+        f"public_urdf_robots.py: --out {str(tmp_path / 'iiwa_suction.urdf')!r} is not a folder"
+    )
 
 
 def test_suction_cup_is_the_link_with_geometry_above_a_bare_tcp_frame(iiwa):
