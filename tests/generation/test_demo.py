@@ -141,3 +141,25 @@ def test_the_legend_names_the_camera_only_where_the_map_shows_it():
         labels = [t.get_text() for t in ax.get_legend().get_texts()]
         plt.close(fig)
         assert ("robot (camera)" in labels) is shown and "target" in labels, labels
+
+
+def test_demo_with_a_user_robot_on_a_drawn_mount(tiny_run, tmp_path):
+    import pybullet_data
+
+    from momakitchen.robots.user import unregister_user_robot
+
+    urdf = f"{pybullet_data.getDataPath()}/franka_panda/panda.urdf"
+    yaml_path = tmp_path / "pandademo.yaml"
+    yaml_path.write_text(
+        f"name: pandademo\nurdf: {urdf}\nmount_height: [0.6, 1.3]\nreach: 0.85\n"
+        "end_effector_link: panda_grasptarget\nend_effector: parallel_gripper\n"
+    )
+    out = tmp_path / "demo"
+    argv = ["demo", "--out", str(out), "--checkpoint", str(tiny_run), "--scene-id", "5"]
+    try:
+        assert main([*argv, "--robot", "pandademo", "--robot-yaml", str(yaml_path)]) == 0
+    finally:
+        unregister_user_robot("pandademo")
+    result = json.loads((out / "result.json").read_text())
+    assert result["robot"] == "pandademo" and 0.6 <= result["mount_height"] <= 1.3
+    assert result["mount_height"] != 0.95  # drawn for the configuration, not the nominal

@@ -21,7 +21,7 @@ import torch
 from torch.utils.data import Dataset
 
 from momakitchen.errors import MomaError
-from momakitchen.robots.spec import ROBOTS, get_robot_spec, robot_descriptor
+from momakitchen.robots.spec import DEFAULT_ROBOTS, ROBOTS, get_robot_spec, robot_descriptor
 
 EPISODES_PER_CONFIG = 10
 CONFIGS_PER_SCENE = 2
@@ -45,7 +45,7 @@ class SyntheticConfig:
     num_global: int = 2048
     num_floor: int = 1024
     seed: int = 0
-    robots: tuple[str, ...] = ("panda", "flexiv", "ur5e", "xarm6", "realman", "elephant")
+    robots: tuple[str, ...] = DEFAULT_ROBOTS
     min_fill: float = 0.75
 
     def __post_init__(self) -> None:

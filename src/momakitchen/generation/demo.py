@@ -163,6 +163,7 @@ def run_demo(
         "scene_id": scene_id,
         "config_index": config_index,
         "robot": cfg.robot,
+        "mount_height": cfg.mount,
         "target": labels.target,
         "model": run.config.model,
         "checkpoint": str(checkpoint) if checkpoint is not None else "bundled",
