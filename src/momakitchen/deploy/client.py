@@ -72,6 +72,14 @@ def multipart(fields: list[tuple[str, str | bytes]]) -> tuple[bytes, str]:
     return out.getvalue(), f"multipart/form-data; boundary={boundary}"
 
 
+def _robot_fields(robot: Any) -> list[tuple[str, str | bytes]]:
+    """A registered name as ``robot``; a descriptor (a drawn mount height) as its reach
+    and mount height, the two numbers the API takes."""
+    if isinstance(robot, str):
+        return [("robot", robot)]
+    return [("reach", f"{robot[0]:.6g}"), ("mount_height", f"{robot[1]:.6g}")]
+
+
 class ServerPerceiver:
     """A model behind ``momakitchen serve`` at ``url`` (e.g. ``http://127.0.0.1:8000``)."""
 
@@ -120,14 +128,14 @@ class ServerPerceiver:
             return MomaError(f"server {self.url!r} refused the frame: {detail}")
         return ServerError(f"server {self.url!r}{path} answered HTTP {exc.code}: {detail}")
 
-    def __call__(self, frame: Any, robot: str, metric: bool, config: Any) -> Any:
+    def __call__(self, frame: Any, robot: Any, metric: bool, config: Any) -> Any:
         fields: list[tuple[str, str | bytes]] = [
             ("depth", _npy(np.asarray(frame.depth, np.float32))),
             ("target_mask", _npy(frame.target_mask.astype(np.uint8))),
             ("rgb", _npy(np.asarray(frame.rgb, np.uint8))),
             ("intrinsics", " ".join(f"{v:.10g}" for v in frame.intrinsics.as_array())),
             ("camera_to_base", " ".join(f"{v:.12g}" for v in np.ravel(frame.camera_to_base))),
-            ("robot", robot),
+            *_robot_fields(robot),
             ("top_k", "1"),
             ("mc_samples", str(config.mc_samples)),
             ("pick_radius", f"{config.pick_radius:g}"),
@@ -136,7 +144,7 @@ class ServerPerceiver:
         body, ctype = multipart(fields)
         return self.parse(self._request("/predict", body, ctype, self.timeout), robot)
 
-    def parse(self, doc: Any, robot: str) -> Any:
+    def parse(self, doc: Any, robot: Any) -> Any:
         """A :class:`Prediction` from a ``prediction.json`` document; ServerError if it is
         not one."""
         from momakitchen.models.inference import Prediction
@@ -168,6 +176,6 @@ class ServerPerceiver:
             pose_scores=pose_rows[:, 3],
             pose_uncertainty=pose_rows[:, 4],
             target_xyz=target,
-            robot=robot,
+            robot=robot if isinstance(robot, str) else "custom",
             model=str(doc.get("model", self.name)),
         )

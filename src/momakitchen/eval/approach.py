@@ -163,7 +163,9 @@ class ModelPerceiver:
         self.run, self.name = run, name
         self.preprocessing = run.preprocessing
 
-    def __call__(self, frame: Any, robot: str, metric: bool, config: ApproachConfig) -> Any:
+    def __call__(
+        self, frame: Any, robot: str | tuple[float, ...], metric: bool, config: ApproachConfig
+    ) -> Any:
         from momakitchen.deploy.predict import predict
 
         return predict(
@@ -205,7 +207,19 @@ class Context:
 
     @property
     def camera_height(self) -> float:
-        return float(self.spec.mount_height + self.gen.camera.above_mount)
+        """The head camera's height: above the configuration's mount (drawn or the
+        robot's own), as the dataset's views."""
+        return float(self.cfg.mount + self.gen.camera.above_mount)
+
+    @property
+    def robot(self) -> str | tuple[float, ...]:
+        """The robot as ``predict`` takes it: its name, or for a drawn mount height its
+        descriptor with that height."""
+        if self.cfg.mount_height is None:
+            return str(self.cfg.robot)
+        from momakitchen.robots.spec import robot_descriptor
+
+        return robot_descriptor(self.spec, self.cfg.mount_height)
 
     def head(self, odom: Vec, target_xyz: Vec) -> np.ndarray:
         """The head camera's transform to the base (4, 4), turned toward ``target_xyz``
@@ -277,7 +291,7 @@ def take_look(
         return LookResult(None, "target_not_in_view")
     bad = corrupt_frame(frame, corruption, corruption_rng(ctx.config.seed, ids, name))
     try:
-        pred = perceiver(bad, ctx.cfg.robot, corruption.preset.depth.metric, ctx.config)
+        pred = perceiver(bad, ctx.robot, corruption.preset.depth.metric, ctx.config)
     except MomaError as exc:
         if getattr(exc, "fatal", False):
             raise
