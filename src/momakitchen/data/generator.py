@@ -28,7 +28,6 @@ import dataclasses
 import fcntl
 import functools
 import inspect
-import json
 import multiprocessing
 import os
 import queue
@@ -44,8 +43,15 @@ from typing import Any
 
 from tqdm import tqdm
 
-from momakitchen import codec
 from momakitchen.data import manifest as mf
+from momakitchen.data.producers import (  # noqa: F401  (importable from here too)
+    PRODUCERS,
+    Producer,
+    _first_difference,
+    config_class,
+    config_dict,
+    producer_name,
+)
 from momakitchen.data.shard import (
     SCENES_DIR,
     SceneRecords,
@@ -59,8 +65,6 @@ from momakitchen.data.shard import (
     write_shard_bytes,
 )
 from momakitchen.errors import MomaError
-from momakitchen.fileio import dumps_strict
-from momakitchen.registry import Registry
 from momakitchen.scene.ids import check_scene_range
 from momakitchen.version import __version__
 
@@ -68,53 +72,6 @@ BACKENDS = ("local", "ray")
 SceneFn = Callable[[int, Any], SceneRecords]
 LOCK_NAME = ".generate.lock"
 MANIFEST_SAVE_SECONDS = 5.0
-
-
-@dataclasses.dataclass(frozen=True)
-class Producer:
-    """A registered producer: the stable ``name`` that manifests record, the function and
-    the type of its config. Producers register where they are defined (the simulator-backed
-    ``"kitchen"`` in :mod:`momakitchen.generation.producer`)."""
-
-    name: str
-    scene_fn: SceneFn
-    config_type: type
-
-
-PRODUCERS: Registry[Producer] = Registry("producer")
-
-
-def producer_name(scene_fn: SceneFn) -> str:
-    """The registered name of ``scene_fn``; an unregistered (user's) producer is recorded by
-    its import path."""
-    for entry in PRODUCERS.values():
-        if entry.scene_fn is scene_fn:
-            return entry.name
-    return f"{scene_fn.__module__}.{scene_fn.__qualname__}"
-
-
-def config_dict(config: Any) -> dict[str, Any]:
-    """The config as plain JSON data (tuples become lists), as stored in the manifest
-    (:func:`momakitchen.codec.to_dict`: fields added later appear only once set)."""
-    if not dataclasses.is_dataclass(config) or isinstance(config, type):
-        raise MomaError(f"generation config must be a dataclass, got {type(config).__name__}")
-    return json.loads(dumps_strict(codec.to_dict(config)))
-
-
-def config_class(config: Any) -> str:
-    return f"{type(config).__module__}.{type(config).__qualname__}"
-
-
-def _first_difference(a: Any, b: Any, path: str = "config") -> str | None:
-    if isinstance(a, dict) and isinstance(b, dict):
-        for key in sorted(set(a) | set(b)):
-            if key not in a or key not in b:
-                return f"{path}.{key}"
-            diff = _first_difference(a[key], b[key], f"{path}.{key}")
-            if diff:
-                return diff
-        return None
-    return None if a == b else path
 
 
 @dataclasses.dataclass(frozen=True)
