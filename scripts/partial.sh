@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
-# Keep unfinished runs of scripts/results.sh in the repository, so that a new machine
-# resumes them instead of training again:
+# Keep a resumable copy of unfinished runs of scripts/results.sh in PARTIAL (default
+# ~/mk-partial; never in git: only the bundled model and archived runs' final weights
+# are), e.g. on storage that outlives the machine, so that a new one resumes them:
 #
-#   bash scripts/partial.sh navaff-12ep pointnet2-12ep     # RUNS/<name> -> results/partial/<name>
-#   mkdir -p ~/mk-runs && cp -rn results/partial/* ~/mk-runs/   # on the new machine, then
+#   PARTIAL=/mnt/keep bash scripts/partial.sh navaff-12ep pointnet2-12ep  # RUNS/<name> -> PARTIAL/<name>
+#   mkdir -p ~/mk-runs && cp -rn /mnt/keep/* ~/mk-runs/   # on the new machine, then
 #   ONLY="navaff-12ep pointnet2-12ep" bash scripts/results.sh
 #
 # Each run is kept as it stood at its last checkpoint (an epoch's end, or within an epoch:
@@ -12,7 +13,7 @@
 # beside it: if an epoch ends while the files are copied, they are copied again.
 set -euo pipefail
 RUNS=${RUNS:-$HOME/mk-runs}
-REPO=$(cd "$(dirname "$0")/.." && pwd)
+PARTIAL=${PARTIAL:-$HOME/mk-partial}
 if (($# == 0)); then
   echo "usage: bash scripts/partial.sh NAME [NAME ...] (runs in $RUNS)" >&2
   exit 2
@@ -26,7 +27,8 @@ for name in "$@"; do
 done
 for name in "$@"; do
   src=$RUNS/$name
-  tmp=$(mktemp -d "$REPO/results/.partial-XXXXXX")
+  mkdir -p "$PARTIAL"
+  tmp=$(mktemp -d "$PARTIAL/.partial-XXXXXX")
   # The files of one checkpoint: the trainer writes the weights, then trainer_state.safetensors,
   # then trainer_state.json, so neither may be newer than it, and it must not change.
   until
@@ -39,8 +41,7 @@ for name in "$@"; do
   step=$(python3 -c 'import json, sys; print(json.load(open(sys.argv[1]))["progress"]["global_step"])' \
     "$tmp/trainer_state.json")
   awk -F, -v s="$step" 'NR == 1 || $3 <= s' "$src/log.csv" >"$tmp/log.csv"
-  mkdir -p "$REPO/results/partial"
-  rm -rf "$REPO/results/partial/$name"
-  mv "$tmp" "$REPO/results/partial/$name"
-  echo "$name: step $step -> results/partial/$name"
+  rm -rf "${PARTIAL:?}/$name"
+  mv "$tmp" "$PARTIAL/$name"
+  echo "$name: step $step -> $PARTIAL/$name"
 done
