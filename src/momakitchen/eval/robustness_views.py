@@ -195,6 +195,8 @@ def corrupted_view(
             metric_depth=corruption.preset.depth.metric,
         )
     except MomaError as exc:
+        if getattr(exc, "fatal", False):  # a broken model, not a bad view: stop the run
+            raise
         return bad, _error(exc)
 
 
@@ -331,6 +333,8 @@ def predict_view(
             threads=None if stored else 1,
         )
     except MomaError as exc:
+        if getattr(exc, "fatal", False):  # a broken model, not a bad view: stop the run
+            raise
         return _error(exc)
     return {"status": "ok", "prediction": pred}
 
