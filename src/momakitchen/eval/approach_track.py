@@ -57,14 +57,16 @@ def far_start(ctx: Context) -> tuple[Pose, np.ndarray] | None:
         return None
     # Farthest first; within the range by distance, below it too ("as the room allows").
     order = np.flatnonzero(ok)[np.argsort(-dist[ok], kind="stable")]
+    # Connected to one of the nearest front cells: one labelling of the free floor, not a
+    # path search per candidate.
+    reaches_front = np.isin(free.components, free.components[front[:50]])
     tried = 0
     for i in order:
         if dist[i] < lo and tried >= 4:  # below the range: a few more, then give up
             break
-        x, y = (float(v) for v in free.cells[i])
-        reach = free.reachable((x, y))
-        if not any(reach(*free.cells[j]) for j in front[:50]):
+        if not reaches_front[i]:
             continue
+        x, y = (float(v) for v in free.cells[i])
         pose = (x, y, face((x, y), anchor))
         head = ctx.head(pose, anchor)
         tried += 1

@@ -30,6 +30,7 @@ of the stop-error sweep.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -170,6 +171,15 @@ class FreeSpace:
         """``f(x, y)``: whether the cell of (x, y) is free and connected to ``start_xy``."""
         dist = self._tree(start_xy)[0]
         return lambda x, y: bool(np.isfinite(dist[self.index(x, y)]))
+
+    @functools.cached_property
+    def components(self) -> np.ndarray:
+        """The connected piece of free floor each cell belongs to (blocked cells are
+        pieces of their own): two free cells are connected iff their labels are equal.
+        Shapes: (N,) int, indexed as ``cells``."""
+        from scipy.sparse.csgraph import connected_components
+
+        return connected_components(self._graphs["plan"], directed=False)[1]
 
     def shortest(self, start_xy: Sequence[float]) -> np.ndarray:
         """Length (m) of the shortest collision-free grid path from ``start_xy`` to every
