@@ -230,3 +230,36 @@ def test_approach_cli_writes_tables_figure_and_recordings(real_dataset, tiny_run
     assert {"/approach/base", "/approach/odom", "/approach/fused_map"} <= topics
     assert not (tmp_path / "a.json.partial.jsonl").exists()
     assert "navaff (single)" in capsys.readouterr().out
+
+
+def test_a_look_sees_the_configuration_as_labelled_after_a_trial(real_dataset):
+    """A trial moves the target (lifts it, opens its door); the next episode's look must
+    not see that."""
+    import numpy as np
+
+    from momakitchen.eval.approach_track import configuration_context
+    from momakitchen.eval.msr import dataset_generation, rebuilt_configurations
+    from momakitchen.sim.trials import TrialRunner
+    from momakitchen.sim.world import World
+
+    manifest, gen = dataset_generation(real_dataset)
+    (sid,) = [int(k) for k in manifest["shards"]]
+    todo = [(sid, 0, manifest["shards"][str(sid)]["file"])]
+    for scene, shard, ci in rebuilt_configurations(real_dataset, todo, gen.scene):
+        labels = shard.configuration(ci)
+        ok = labels.trial_positions[labels.trial_stages == 0]
+        assert len(ok), "the fixture's configuration 0 has a successful trial"
+        cfg = scene.configurations[ci]
+        episode = shard.episode(ci, shard.episode_indices(ci)[0])
+        with World(scene.layout) as world:
+            world.load_configuration(cfg)
+            runner = TrialRunner(world, cfg.robot, gen.trial)
+            try:
+                ctx = configuration_context(scene, ci, labels, gen, world, runner, ApproachConfig())
+                before = ctx.render(episode.base_pose, episode.camera_to_base)
+                assert runner.run(*ok[0]).success  # the target really moved
+                after = ctx.render(episode.base_pose, episode.camera_to_base)
+            finally:
+                runner.close()
+        np.testing.assert_array_equal(after.depth, before.depth)
+        np.testing.assert_array_equal(after.target_mask, before.target_mask)

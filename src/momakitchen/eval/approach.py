@@ -239,13 +239,15 @@ class Context:
 
     def render(self, true: Vec, camera_to_base: np.ndarray) -> Any:
         """The perfect frame of the head at ``camera_to_base`` on the base at ``true``."""
-        from momakitchen.data.episode import SEMANTIC_CLASSES
+        from momakitchen.data.episode import stored_frame
         from momakitchen.frames import base_to_world
         from momakitchen.generation.producer import semantic_map
         from momakitchen.generation.render import render
-        from momakitchen.perception.sensors import Frame
         from momakitchen.sim.trials import PARKING
 
+        # Another episode's trial may have moved the target or opened its door: each
+        # episode looks at the configuration as it was labelled.
+        self.runner.reset()
         # The trial robot is a collision probe that stays where the last check put it;
         # out of the room it does not block the camera (the dataset's views never show it).
         self.runner.robot.place_base(*PARKING)
@@ -257,15 +259,11 @@ class Context:
             cam.near,
             cam.far,
         )
-        sem = semantic_map(self.world, r.body, r.link)
-        return Frame(
-            depth=r.depth,
-            rgb=r.rgb,
-            target_mask=sem == SEMANTIC_CLASSES.index("target"),
-            obstacle_masks=(sem == SEMANTIC_CLASSES.index("obstacle"),),
-            intrinsics=cam.intrinsics,
-            camera_to_base=camera_to_base,
-        )
+        arrays = {"depth": r.depth, "rgb": r.rgb, "camera_to_base": camera_to_base}
+        arrays["semantic"] = semantic_map(self.world, r.body, r.link)
+        arrays["intrinsics"] = cam.intrinsics.as_array()
+        # The masks from the segmentation, as a stored episode's frame gets them.
+        return stored_frame(arrays)
 
     def base_free(self, pose: Sequence[float]) -> bool:
         return self.runner.base_free(float(pose[0]), float(pose[1]), float(pose[2]))

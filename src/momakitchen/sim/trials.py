@@ -544,6 +544,12 @@ class TrialRunner:
         half_diagonal = 0.5 * float(np.hypot(*robot.spec.footprint))
         return robot.base_collisions(self._near(x, y, half_diagonal + 0.02))
 
+    def reset(self) -> None:
+        """The world as it was before any trial (a trial moves the target, may open a door
+        or push an object): what a camera must see before the next manipulation."""
+        if self._dirty:
+            self._restore()
+
     def base_free(self, x: float, y: float, yaw: float | None = None) -> bool:
         """Whether the base fits at ``(x, y)`` facing the target: the first check of
         :meth:`run`, without the rest of the trial."""
