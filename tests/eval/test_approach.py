@@ -172,6 +172,8 @@ def test_a_server_that_answers_garbage_stops_the_run_and_keeps_what_was_done(
         (["--method", "teleport"], "unknown method 'teleport'"),
         (["--server", "http://127.0.0.1:9"], "cannot reach server"),
         (["--record", "7"], "--record wants SCENE:CONFIG"),
+        (["--part", "3/2"], "expected K/N with 1 <= K <= N, got '3/2'"),
+        (["--part", "9/9"], "part 9/9 is empty"),
     ],
 )
 def test_bad_input_is_one_line_before_any_work(real_dataset, tmp_path, capsys, argv, message):

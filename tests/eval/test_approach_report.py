@@ -113,3 +113,26 @@ def test_merge_results_checks_the_parts_fit():
     other = {**b, "config": {**b["config"], "seed": 1}}
     with pytest.raises(MomaError, match="other settings"):
         merge_results([("a", a), ("b", other)])
+
+
+def test_merge_results_joins_the_parts_of_a_split():
+    def run(method, k, configs):
+        recs = [_record(method, "single", c, c % 2) for c in configs]
+        out = _result(recs, [method])
+        out["config"] = {**out["config"], "part": [k, 2]}
+        out["configurations"] = len(configs)
+        return out
+
+    parts = [
+        ("n1", run("navaff", 1, [0, 2])),
+        ("n2", run("navaff", 2, [1, 3, 5])),
+        ("o1", run("oracle", 1, [0, 2])),
+        ("o2", run("oracle", 2, [1, 3, 5])),
+    ]
+    merged = merge_results(parts)
+    assert merged["configurations"] == 5 and merged["config"]["part"] == [1, 1]
+    assert {r["method"]: r["episodes"] for r in merged["results"]} == {"navaff": 5, "oracle": 5}
+    with pytest.raises(MomaError, match="whole split: got 1/2"):
+        merge_results(parts[:1] + parts[2:3])
+    with pytest.raises(MomaError, match="part 2/2 has methods"):
+        merge_results(parts[:3])

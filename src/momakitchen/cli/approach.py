@@ -20,7 +20,7 @@ import json
 import time
 from pathlib import Path
 
-from momakitchen.cli.common import add_robot_yaml, non_negative_int, output_file
+from momakitchen.cli.common import add_robot_yaml, non_negative_int, output_file, part_arg
 from momakitchen.errors import MomaError
 from momakitchen.fileio import atomic_write_bytes, atomic_write_text
 
@@ -87,6 +87,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     ap.add_argument("--split", default="test", choices=SPLITS)
     ap.add_argument(
         "--max-configs", type=non_negative_int, default=0, help="only the first N (0: all)"
+    )
+    ap.add_argument(
+        "--part",
+        type=part_arg,
+        default=(1, 1),
+        metavar="K/N",
+        help="only part K of N of the split (every N-th scene from the K-th), to run it in "
+        "N processes; scripts/approach_report.py merges the parts' --json files",
     )
     ap.add_argument(
         "--max-looks", type=int, default=3, help="most looks per episode, the first included (3)"
@@ -178,6 +186,7 @@ def run(args: argparse.Namespace) -> int:
         seed=args.seed,
         split=args.split,
         max_configs=args.max_configs,
+        part=args.part,
         look=LookPolicy(
             relook_distance=args.relook_distance,
             max_uncertainty=args.max_uncertainty,

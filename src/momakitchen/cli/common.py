@@ -37,6 +37,14 @@ def positive_int(text: str) -> int:
     return _integer(text, 1)
 
 
+def part_arg(text: str) -> tuple[int, int]:
+    """argparse type: ``K/N``, part K of N (1 <= K <= N)."""
+    k, sep, n = text.partition("/")
+    if sep and k.isdigit() and n.isdigit() and 1 <= int(k) <= int(n):
+        return int(k), int(n)
+    raise argparse.ArgumentTypeError(f"expected K/N with 1 <= K <= N, got {text!r}")
+
+
 def _number(text: str, allow_zero: bool) -> float:
     rule = ">= 0" if allow_zero else "> 0"
     try:

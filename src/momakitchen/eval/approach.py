@@ -82,6 +82,9 @@ class ApproachConfig:
         seed: seeds the near start (as ``msr --seed``), motion and perception errors and
             the random baseline; the same for every method.
         split, max_configs: which configurations.
+        part: ``(k, n)``: only the scenes ``k-1, k-1+n, ...`` of the split's scenes in
+            order (part k of n, to run one split in several processes or on several
+            machines; ``scripts/approach_report.py`` merges the parts); (1, 1): all.
         far_range: distance range (m) of far starts; ``far_angle``: deg either side of
             the direction the target faces.
         look: the look policy's thresholds (its ``kind`` is set per policy).
@@ -98,6 +101,7 @@ class ApproachConfig:
     seed: int = 0
     split: str = "test"
     max_configs: int = 0
+    part: tuple[int, int] = (1, 1)
     far_range: tuple[float, float] = (3.8, 6.0)
     far_angle: float = 45.0
     look: LookPolicy = field(default_factory=LookPolicy)
@@ -121,6 +125,9 @@ class ApproachConfig:
         perception_corruption(self.perception)
         if self.seed < 0 or self.max_configs < 0:
             raise MomaError("seed and max_configs must be >= 0")
+        k, n = self.part
+        if not 1 <= k <= n:
+            raise MomaError(f"part must be K/N with 1 <= K <= N, got {k}/{n}")
         if self.split not in SPLITS:
             raise MomaError(f"split must be one of {SPLITS}, got {self.split!r}")
         lo, hi = self.far_range

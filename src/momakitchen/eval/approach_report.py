@@ -252,33 +252,52 @@ def format_table(rows: Sequence[dict[str, Any]]) -> str:
 
 
 def merge_results(parts: Sequence[tuple[str, dict[str, Any]]]) -> dict[str, Any]:
-    """One approach result from runs of other methods on the same dataset and settings
-    (e.g. the baselines in one run, each model in its own): valid because an episode
+    """One approach result from runs on the same dataset and settings: runs of other
+    methods (e.g. the baselines in one run, each model in its own) and the parts of one
+    split (``--part K/N``, every part with the same methods). Valid because an episode
     depends only on its configuration, start, method, policy and seed. The tables are
-    computed again; MomaError when the parts' settings or datasets differ, or they share
-    a method."""
+    computed again; MomaError when the runs' settings or datasets differ, two share a
+    method on the same part, or the parts do not make up the whole split."""
     from momakitchen.errors import MomaError
 
     if not parts:
         raise MomaError("no approach results to merge")
-    (label0, first), *rest = parts
-    merged = {k: v for k, v in first.items() if k not in ("results", "pairs", "seconds")}
-    merged["methods"] = list(first["methods"])
-    merged["records"] = list(first["records"])
-    for label, part in rest:
-        for key in ("dataset", "configurations"):
-            if part.get(key) != first.get(key):
-                raise MomaError(f"{label!r} differs from {label0!r} in {key}")
-        mine = {k: v for k, v in part["config"].items() if k not in ("starts", "policies")}
-        theirs = {k: v for k, v in first["config"].items() if k not in ("starts", "policies")}
-        if mine != theirs:
+    label0, first = parts[0]
+
+    def settings(run: dict[str, Any]) -> dict[str, Any]:
+        return {k: v for k, v in run["config"].items() if k not in ("starts", "policies", "part")}
+
+    by_part: dict[tuple[int, ...], list[tuple[str, dict[str, Any]]]] = defaultdict(list)
+    for label, run in parts:
+        if run.get("dataset") != first.get("dataset"):
+            raise MomaError(f"{label!r} differs from {label0!r} in dataset")
+        if settings(run) != settings(first):
             raise MomaError(f"{label!r} was run with other settings than {label0!r}")
-        shared = sorted(set(part["methods"]) & set(merged["methods"]))
-        if shared:
-            raise MomaError(f"{label!r} repeats methods {shared}")
-        merged["methods"] += part["methods"]
-        merged["records"] += part["records"]
-        merged["skipped"] = merged.get("skipped", []) + part.get("skipped", [])
+        by_part[tuple(run["config"].get("part", (1, 1)))].append((label, run))
+    merged = {k: v for k, v in first.items() if k not in ("results", "pairs", "seconds")}
+    merged["config"] = dict(first["config"], part=[1, 1])
+    merged["records"], merged["skipped"], merged["configurations"] = [], [], 0
+    methods: list[str] | None = None
+    for key, runs in sorted(by_part.items()):
+        here: list[str] = []
+        for label, run in runs:
+            if run.get("configurations") != runs[0][1].get("configurations"):
+                raise MomaError(f"{label!r} differs from {runs[0][0]!r} in configurations")
+            shared = sorted(set(run["methods"]) & set(here))
+            if shared:
+                raise MomaError(f"{label!r} repeats methods {shared}")
+            here += run["methods"]
+            merged["records"] += run["records"]
+            merged["skipped"] += run.get("skipped", [])
+        if methods is not None and sorted(here) != sorted(methods):
+            raise MomaError(f"part {key[0]}/{key[1]} has methods {here}, part 1 has {methods}")
+        methods = methods or here
+        merged["configurations"] += runs[0][1]["configurations"]
+    n = {key[1] for key in by_part}
+    if len(n) != 1 or sorted(by_part) != [(k, *n) for k in range(1, next(iter(n)) + 1)]:
+        got = ", ".join(f"{k}/{m}" for k, m in sorted(by_part))
+        raise MomaError(f"the parts do not make up the whole split: got {got}")
+    merged["methods"] = methods
     merged["results"] = summarize(merged)
     merged["pairs"] = pairwise(merged)
     return merged

@@ -319,6 +319,7 @@ def run_approach(
         preprocessing = Preprocessing(gen.cloud, gen.camera.max_depth)
         methods = load_methods(checkpoints, servers, preprocessing, root)
     todo = judged_configurations(root, manifest, config.split, config.max_configs)
+    todo = part_of(todo, *config.part)
     check_shard_files(root, manifest, {sid for sid, _, _ in todo})
     settings = {
         "config": config.to_dict(),
@@ -361,6 +362,18 @@ def run_approach(
         "records": records,
         "skipped": skipped,
     }
+
+
+def part_of(todo: list[tuple[int, int, str]], k: int, n: int) -> list[tuple[int, int, str]]:
+    """Part ``k`` of ``n`` of ``todo``: the configurations of every n-th scene, from the
+    k-th (scenes interleaved, so every part has scenes from the whole range); MomaError
+    when it is empty."""
+    scenes = sorted({sid for sid, _, _ in todo})
+    mine = set(scenes[k - 1 :: n])
+    part = [t for t in todo if t[0] in mine]
+    if not part:
+        raise MomaError(f"part {k}/{n} is empty: the split has only {len(scenes)} scenes")
+    return part
 
 
 def _load_resume(path: Path, settings: dict[str, Any]) -> dict[tuple[int, int], dict[str, Any]]:
