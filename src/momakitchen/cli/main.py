@@ -35,6 +35,7 @@ COMMANDS = {
     "msr": "msr",
     "approach": "approach",
     "robustness": "robustness",
+    "robot-check": "robot_check",
     "audit": "audit",
     "benchmark": "benchmark",
     "predict": "predict",
