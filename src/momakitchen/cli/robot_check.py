@@ -114,15 +114,24 @@ def _command(argv: list[str], log: Path, what: str) -> None:
         raise MomaError(f"`momakitchen {argv[0]}` stopped with status {status} (see {log})")
 
 
-def _dataset_digest(data: Path) -> str:
+def _check_key(data: Path, checkpoint: str, seed: int) -> dict[str, Any]:
+    """What a closed loop's result depends on: the dataset (its manifest), the model's
+    weights and the seed."""
     import hashlib
 
-    return hashlib.sha256((data / "manifest.json").read_bytes()).hexdigest()
+    def digest(path: Path) -> str:
+        return hashlib.sha256(path.read_bytes()).hexdigest()
+
+    return {
+        "manifest_sha256": digest(data / "manifest.json"),
+        "checkpoint": checkpoint,
+        "weights_sha256": digest(Path(_run_dir(checkpoint)) / "model.safetensors"),
+        "seed": seed,
+    }
 
 
-def _reuse(path: Path, data: Path, checkpoint: str, seed: int) -> dict[str, Any] | None:
-    """A check's msr result written before on this dataset (manifest) with these settings,
-    else None."""
+def _reuse(path: Path, key: dict[str, Any]) -> dict[str, Any] | None:
+    """A check's msr result written before with this key, else None."""
     from momakitchen.fileio import read_json_object
 
     if not path.is_file():
@@ -131,15 +140,15 @@ def _reuse(path: Path, data: Path, checkpoint: str, seed: int) -> dict[str, Any]
         old = read_json_object(path)
     except MomaError:
         return None
-    mine = {"manifest_sha256": _dataset_digest(data), "checkpoint": checkpoint, "seed": seed}
-    return old if old.get("check") == mine else None
+    return old if old.get("check") == key else None
 
 
 def _closed_loop(args: argparse.Namespace, data: Path, checkpoint: str, out: Path) -> dict:
     """msr Top-1 of the model, the oracle and random on every configuration of ``data``."""
     from momakitchen.fileio import atomic_write_text, dumps_strict, read_json_object
 
-    old = _reuse(out, data, checkpoint, args.seed)
+    key = _check_key(data, checkpoint, args.seed)
+    old = _reuse(out, key)
     if old is not None:
         return old
     tmp = out.with_name(out.stem + ".msr.json")
@@ -153,11 +162,7 @@ def _closed_loop(args: argparse.Namespace, data: Path, checkpoint: str, out: Pat
         "the oracle and random; msr, Top-1)",
     )
     result = read_json_object(tmp)
-    result["check"] = {
-        "manifest_sha256": _dataset_digest(data),
-        "checkpoint": checkpoint,
-        "seed": args.seed,
-    }
+    result["check"] = key
     atomic_write_text(out, dumps_strict(result, indent=1) + "\n")
     tmp.unlink()
     return result
