@@ -145,26 +145,21 @@ def _reuse(path: Path, key: dict[str, Any]) -> dict[str, Any] | None:
 
 def _closed_loop(args: argparse.Namespace, data: Path, checkpoint: str, out: Path) -> dict:
     """msr Top-1 of the model, the oracle and random on every configuration of ``data``."""
-    from momakitchen.fileio import atomic_write_text, dumps_strict, read_json_object
+    from momakitchen.eval.msr import MsrConfig, format_msr_table, run_msr
+    from momakitchen.fileio import atomic_write_text, dumps_strict
 
     key = _check_key(data, checkpoint, args.seed)
     old = _reuse(out, key)
     if old is not None:
         return old
-    tmp = out.with_name(out.stem + ".msr.json")
-    _command(
-        ["msr", "--data", str(data), "--json", str(tmp), "--checkpoint", _run_dir(checkpoint)]
-        + ["--method", "oracle", "--method", "random", "--split", "all", "--top-k", "1"]
-        + ["--seed", str(args.seed)]
-        + (["--quiet"] if args.quiet else []),
-        out.parent / "log.txt",
-        f"closed loop on {data} ({'the model' if checkpoint == args.checkpoint else checkpoint}, "
-        "the oracle and random; msr, Top-1)",
-    )
-    result = read_json_object(tmp)
+    who = "the model" if checkpoint == args.checkpoint else checkpoint
+    print(f"closed loop on {data} ({who}, the oracle and random; msr, Top-1)", flush=True)
+    config = MsrConfig(top_k=1, seed=args.seed, split="all")
+    result = run_msr(data, [_run_dir(checkpoint)], ["oracle", "random"], config, not args.quiet)
+    with open(out.parent / "log.txt", "a") as f:
+        f.write(format_msr_table(result) + "\n")
     result["check"] = key
     atomic_write_text(out, dumps_strict(result, indent=1) + "\n")
-    tmp.unlink()
     return result
 
 

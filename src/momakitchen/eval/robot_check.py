@@ -26,7 +26,8 @@ def top1_outcomes(result: dict[str, Any], name: str) -> list[int]:
     ``msr`` result, in its order; MomaError when the result has no such method."""
     if name not in result.get("methods", {}):
         raise MomaError(f"msr result has no method {name!r}: {', '.join(result['methods'])}")
-    return [int(bool(r["methods"][name]["outcomes"][:1] == [1])) for r in result["records"]]
+    outcomes = [r["methods"][name]["outcomes"] for r in result["records"]]
+    return [int(o[0]) if o else 0 for o in outcomes]
 
 
 def gap_interval(
