@@ -1,0 +1,99 @@
+#!/usr/bin/env bash
+# Robots the model never saw: the bundled NavAff and PointNet++ retrained on robots that
+# vary continuously, and both before and after on held-out robots, in closed loop and on
+# the maps (docs/RESULTS.md, "Robots the model never saw").
+#
+#   bash scripts/anyarm.sh             # DATA=~/mk-data RUNS=~/mk-runs by default
+#   SCENES=60 HELDOUT_SCENES=6 bash scripts/anyarm.sh
+#
+# 1. The any-arm data (scripts/recipes/anyarm_generate.yaml): the Panda, Flexiv, UR5e,
+#    Realman and UR10e, each configuration's mount drawn in 0.45-1.15 m; scenes from 30000.
+# 2. Retraining (scripts/recipes/anyarm_finetune.yaml): the bundled NavAff and the
+#    12-epoch PointNet++ (results/runs/pointnet2-12ep) fine-tuned on its train split,
+#    side by side, one thread each.
+# 3. Held-out robots, each labelled alone on the same kitchens (scenes from 910000, used
+#    by no development step): the Elephant (the shortest reach) and the xArm6 (the lowest
+#    mount), both left out of step 1; the Kinova Gen3 (an arm no training saw); the Panda
+#    at 1.30 m and the UR5e at 0.35 m (mounts outside step 1's range).
+# 4. On each held-out robot and on step 1's test split (the trained robots): msr Top-1 of
+#    the four models with the oracle and random (seed 0, every configuration), and the map
+#    metrics; then scripts/anyarm_report.py writes results/anyarm/report.{json,md}.
+#
+# Every step resumes: generation skips finished scenes, training goes on from its last
+# checkpoint, and results newer than their model are kept. Run it again after a stop.
+set -euo pipefail
+
+DATA=${DATA:-$HOME/mk-data}
+RUNS=${RUNS:-$HOME/mk-runs}
+SCENES=${SCENES:-60}
+HELDOUT_SCENES=${HELDOUT_SCENES:-6}
+WORKERS=${WORKERS:-2}
+REPO=$(cd "$(dirname "$0")/.." && pwd)
+OUT=${OUT:-$REPO/results/anyarm}
+RECIPES=$REPO/scripts/recipes
+ANYARM=$DATA/anyarm
+mkdir -p "$RUNS" "$OUT"
+
+stamp() { echo "[$(date -u +%FT%TZ)] $*"; }
+
+# name, robot, generation config ("" for the robot's own mount)
+HELDOUT=(
+  "elephant elephant"
+  "xarm6 xarm6"
+  "gen3 gen3"
+  "panda-1.30 panda $RECIPES/mount_1.30.yaml"
+  "ur5e-0.35 ur5e $RECIPES/mount_0.35.yaml"
+)
+
+stamp "any-arm data: $SCENES scenes from 30000 in $ANYARM"
+momakitchen generate --out "$ANYARM" --scenes "$SCENES" --first-scene-id 30000 \
+  --config "$RECIPES/anyarm_generate.yaml" --workers "$WORKERS" --quiet
+
+train_one() {  # name, model, initial run
+  local resume=()
+  [[ -f "$RUNS/$1/trainer_state.json" ]] && resume=(--resume)
+  if [[ -f "$RUNS/$1/done" ]]; then return 0; fi
+  stamp "train $1 (from $3)"
+  momakitchen train --data "$ANYARM" --out "$RUNS/$1" --model "$2" --init "$3" \
+    --config "$RECIPES/anyarm_finetune.yaml" "${resume[@]}" --quiet >"$RUNS/$1.log" 2>&1
+  touch "$RUNS/$1/done"
+}
+BUNDLED=$(python3 -c "from momakitchen.train.checkpoint import default_checkpoint as d; print(d())")
+train_one navaff-anyarm navaff bundled &
+train_one pointnet2-anyarm pointnet2 "$REPO/results/runs/pointnet2-12ep" &
+wait
+
+for spec in "${HELDOUT[@]}"; do
+  read -r name robot config <<<"$spec"
+  stamp "held-out $name: $HELDOUT_SCENES scenes from 910000"
+  momakitchen generate --out "$DATA/heldout-$name" --scenes "$HELDOUT_SCENES" \
+    --first-scene-id 910000 --robot "$robot" ${config:+--config "$config"} \
+    --workers "$WORKERS" --quiet
+done
+
+MODELS=("$BUNDLED" "$REPO/results/runs/pointnet2-12ep" "$RUNS/navaff-anyarm" "$RUNS/pointnet2-anyarm")
+NAMES=(navaff pointnet2 navaff-anyarm pointnet2-anyarm)
+score() {  # dataset, split, result name
+  local dir=$OUT/$3 i ckpt=() newest=0
+  mkdir -p "$dir"
+  for i in "${!MODELS[@]}"; do
+    ckpt+=(--checkpoint "${MODELS[$i]}")
+    if [[ ! -f "$dir/${NAMES[$i]}-maps.json" || "${MODELS[$i]}/model.safetensors" -nt "$dir/${NAMES[$i]}-maps.json" ]]; then
+      stamp "maps of ${NAMES[$i]} on $3"
+      momakitchen evaluate --data "$1" --split "$2" --checkpoint "${MODELS[$i]}" \
+        --json "$dir/${NAMES[$i]}-maps.json" --quiet >/dev/null
+    fi
+    [[ "${MODELS[$i]}/model.safetensors" -nt "$dir/msr.json" ]] && newest=1
+  done
+  if [[ ! -f "$dir/msr.json" || $newest == 1 ]]; then
+    stamp "closed loop on $3"
+    momakitchen msr --data "$1" --split "$2" --top-k 1 --seed 0 "${ckpt[@]}" \
+      --method oracle --method random --json "$dir/msr.json" --quiet >/dev/null
+  fi
+}
+score "$ANYARM" test trained
+for spec in "${HELDOUT[@]}"; do
+  read -r name _ <<<"$spec"
+  score "$DATA/heldout-$name" all "$name"
+done
+python3 "$REPO/scripts/anyarm_report.py" "$OUT"

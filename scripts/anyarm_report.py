@@ -1,0 +1,171 @@
+"""The held-out robot tables of ``scripts/anyarm.sh``: per robot, each model's closed-loop
+Top-1, the share of the random -> oracle gap it closes and its map PCC; McNemar between
+the models; and the checks against the any-arm figures to reach.
+
+    python scripts/anyarm_report.py results/anyarm
+
+DIR holds one folder per robot set (``trained``: the any-arm test split, the robots the
+retraining saw; the others: held-out robots), each with the ``msr.json`` of ``msr
+--top-k 1`` (every model, the oracle and random on the same views) and one
+``MODEL-maps.json`` of ``evaluate`` per model. Writes ``DIR/report.json`` and
+``DIR/report.md``.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+from script_cli import run_main
+
+from momakitchen.errors import MomaError
+from momakitchen.eval.robot_check import top1_outcomes
+from momakitchen.eval.stats import mcnemar
+from momakitchen.fileio import atomic_write_text, dumps_strict, read_json_object
+
+# msr's name of each model (its run directory's), and the report's.
+MODELS = {
+    "navaff": "NavAff (bundled)",
+    "pointnet2-12ep": "PointNet++ (12 epochs)",
+    "navaff-anyarm": "NavAff, any-arm",
+    "pointnet2-anyarm": "PointNet++, any-arm",
+}
+# (a, b): McNemar of a against b on every robot set and pooled over the held-out ones.
+PAIRS = [
+    ("navaff-anyarm", "navaff"),
+    ("pointnet2-anyarm", "pointnet2-12ep"),
+    ("navaff", "pointnet2-12ep"),
+    ("navaff-anyarm", "pointnet2-anyarm"),
+]
+TRAINED = "trained"
+GAP_CLOSED, PCC_DROP = 0.90, 0.05  # the figures to reach on every held-out robot
+
+
+def robot_set(folder: Path) -> dict[str, Any]:
+    """One robot set's rates, gap shares, PCCs and paired Top-1 outcomes."""
+    msr = read_json_object(folder / "msr.json")
+    oracle = top1_outcomes(msr, "oracle")
+    random = top1_outcomes(msr, "random")
+    o, r = sum(oracle) / len(oracle), sum(random) / len(random)
+    out: dict[str, Any] = {
+        "configurations": len(oracle),
+        "robots": sorted({rob for m in msr["methods"].values() for rob in m["per_robot"]}),
+        "oracle": o,
+        "random": r,
+        "models": {},
+        "outcomes": {"oracle": oracle, "random": random},
+    }
+    for name in MODELS:
+        won = top1_outcomes(msr, name)
+        top1 = sum(won) / len(won)
+        maps = read_json_object(folder / f"{name}-maps.json")["metrics"]
+        out["models"][name] = {
+            "top1": top1,
+            "gap_closed": (top1 - r) / (o - r) if o > r else None,
+            "pcc": maps["pcc"],
+            "sim": maps["sim"],
+        }
+        out["outcomes"][name] = won
+    return out
+
+
+def pair_tests(sets: dict[str, dict[str, Any]]) -> dict[str, Any]:
+    """McNemar of each pair per robot set and pooled over the held-out sets."""
+    tests: dict[str, Any] = {}
+    for a, b in PAIRS:
+        row: dict[str, Any] = {}
+        pooled_a: list[int] = []
+        pooled_b: list[int] = []
+        for name, s in sets.items():
+            only_a, only_b, p = mcnemar(s["outcomes"][a], s["outcomes"][b])
+            row[name] = {"only_a": only_a, "only_b": only_b, "p": p}
+            if name != TRAINED:
+                pooled_a += s["outcomes"][a]
+                pooled_b += s["outcomes"][b]
+        only_a, only_b, p = mcnemar(pooled_a, pooled_b)
+        row["held-out, pooled"] = {"only_a": only_a, "only_b": only_b, "p": p}
+        tests[f"{a} vs {b}"] = row
+    return tests
+
+
+def goals(sets: dict[str, dict[str, Any]]) -> dict[str, Any]:
+    """Each model's figures against the goals on every held-out robot set."""
+    trained = sets[TRAINED]["models"]
+    out: dict[str, Any] = {}
+    for name in MODELS:
+        rows = {}
+        for set_name, s in sets.items():
+            if set_name == TRAINED:
+                continue
+            m = s["models"][name]
+            drop = trained[name]["pcc"] - m["pcc"]
+            closed = m["gap_closed"]
+            rows[set_name] = {
+                "gap_closed": closed,
+                "gap_closed_met": closed is not None and closed >= GAP_CLOSED,
+                "pcc_drop": drop,
+                "pcc_met": drop <= PCC_DROP,
+            }
+        out[name] = rows
+    return out
+
+
+def markdown(report: dict[str, Any]) -> str:
+    sets = report["sets"]
+    lines = [
+        "| robots | configurations | oracle | random | "
+        + " | ".join(f"{label} Top-1 (gap closed, PCC)" for label in MODELS.values())
+        + " |",
+        "| --- | ---: | ---: | ---: | " + " | ".join("---:" for _ in MODELS) + " |",
+    ]
+    for name, s in sets.items():
+        cells = []
+        for model in MODELS:
+            m = s["models"][model]
+            closed = "–" if m["gap_closed"] is None else f"{m['gap_closed']:.2f}"
+            cells.append(f"{100 * m['top1']:.1f} % ({closed}, {m['pcc']:.3f})")
+        lines.append(
+            f"| {name} ({', '.join(s['robots'])}) | {s['configurations']} | "
+            f"{100 * s['oracle']:.1f} % | {100 * s['random']:.1f} % | " + " | ".join(cells) + " |"
+        )
+    lines += ["", "| McNemar (only a / only b, p) | " + " | ".join(sets) + " | held-out, pooled |"]
+    lines.append("| --- | " + " | ".join("---" for _ in range(len(sets) + 1)) + " |")
+    for pair, row in report["mcnemar"].items():
+        cells = [f"{t['only_a']} / {t['only_b']}, {t['p']:.2g}" for t in row.values()]
+        lines.append(f"| {pair} | " + " | ".join(cells) + " |")
+    lines += ["", f"Goals (gap closed >= {GAP_CLOSED}, PCC within {PCC_DROP} of `trained`):", ""]
+    for model, rows in report["goals"].items():
+        met = [k for k, v in rows.items() if v["gap_closed_met"] and v["pcc_met"]]
+        missed = {k: v for k, v in rows.items() if not (v["gap_closed_met"] and v["pcc_met"])}
+        text = ", ".join(
+            f"{k} (gap closed {'–' if v['gap_closed'] is None else format(v['gap_closed'], '.2f')},"
+            f" PCC -{v['pcc_drop']:.3f})"
+            for k, v in missed.items()
+        )
+        lines.append(
+            f"- {MODELS[model]}: met on {len(met)} of {len(rows)}"
+            + (f"; missed on {text}" if missed else "")
+        )
+    return "\n".join(lines) + "\n"
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("dir", type=Path)
+    args = ap.parse_args()
+    folders = sorted(p for p in args.dir.iterdir() if (p / "msr.json").is_file())
+    if TRAINED not in [p.name for p in folders] or len(folders) < 2:
+        raise MomaError(f"{args.dir} wants a '{TRAINED}' folder and held-out ones with msr.json")
+    # The trained robots first, then the held-out sets in name order.
+    folders.sort(key=lambda p: (p.name != TRAINED, p.name))
+    sets = {p.name: robot_set(p) for p in folders}
+    report = {"sets": sets, "mcnemar": pair_tests(sets), "goals": goals(sets)}
+    atomic_write_text(args.dir / "report.json", dumps_strict(report, indent=1) + "\n")
+    text = markdown(report)
+    atomic_write_text(args.dir / "report.md", text)
+    print(text, end="")
+
+
+if __name__ == "__main__":
+    run_main(main, "anyarm_report.py")

@@ -1,0 +1,64 @@
+"""scripts/anyarm_report.py: the held-out robot tables from msr and evaluate results."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+SCRIPTS = Path(__file__).resolve().parents[2] / "scripts"
+MODELS = ["navaff", "pointnet2-12ep", "navaff-anyarm", "pointnet2-anyarm"]
+
+
+def _robot_set(root: Path, name: str, outcomes: dict[str, list[int]], pcc: dict[str, float]):
+    """A folder with an msr.json (Top-1 outcome per configuration of every method) and one
+    MODEL-maps.json per model."""
+    folder = root / name
+    folder.mkdir()
+    n = len(outcomes["oracle"])
+    records = [
+        {"methods": {m: {"outcomes": [won[c]]} for m, won in outcomes.items()}} for c in range(n)
+    ]
+    methods = {m: {"per_robot": {name: {}}} for m in outcomes}
+    (folder / "msr.json").write_text(json.dumps({"methods": methods, "records": records}))
+    for m in MODELS:
+        (folder / f"{m}-maps.json").write_text(json.dumps({"metrics": {"pcc": pcc[m], "sim": 0.5}}))
+
+
+def _report(root: Path) -> subprocess.CompletedProcess:
+    cmd = [sys.executable, str(SCRIPTS / "anyarm_report.py"), str(root)]
+    return subprocess.run(cmd, capture_output=True, text=True, check=False)
+
+
+def test_gap_closed_pcc_and_mcnemar(tmp_path):
+    oracle, random = [1] * 10, [0] * 10
+    trained = {"oracle": oracle, "random": random, **{m: [1] * 10 for m in MODELS}}
+    _robot_set(tmp_path, "trained", trained, dict.fromkeys(MODELS, 0.8))
+    # Held out: the any-arm NavAff solves 9 of 10, the rest 5; PointNet++ any-arm's maps
+    # fall 0.1 below its trained PCC.
+    held = {"oracle": oracle, "random": random, "navaff-anyarm": [1] * 9 + [0]}
+    held |= {m: [1] * 5 + [0] * 5 for m in ("navaff", "pointnet2-12ep", "pointnet2-anyarm")}
+    pcc = {"navaff": 0.78, "pointnet2-12ep": 0.79, "navaff-anyarm": 0.77, "pointnet2-anyarm": 0.7}
+    _robot_set(tmp_path, "gen3", held, pcc)
+    out = _report(tmp_path)
+    assert out.returncode == 0, out.stderr
+    report = json.loads((tmp_path / "report.json").read_text())
+    gen3 = report["sets"]["gen3"]["models"]
+    assert gen3["navaff-anyarm"]["gap_closed"] == 0.9
+    assert gen3["navaff"]["gap_closed"] == 0.5
+    goals = report["goals"]
+    assert goals["navaff-anyarm"]["gen3"]["gap_closed_met"]
+    assert goals["navaff-anyarm"]["gen3"]["pcc_met"]
+    assert not goals["navaff"]["gen3"]["gap_closed_met"]
+    assert not goals["pointnet2-anyarm"]["gen3"]["pcc_met"]
+    pooled = report["mcnemar"]["navaff-anyarm vs navaff"]["held-out, pooled"]
+    assert (pooled["only_a"], pooled["only_b"]) == (4, 0)
+    assert "| trained (trained) | 10 |" in out.stdout
+    assert "NavAff, any-arm: met on 1 of 1" in out.stdout
+
+
+def test_missing_folders_are_one_line(tmp_path):
+    out = _report(tmp_path)
+    assert out.returncode == 2
+    assert out.stderr.count("\n") == 1 and "trained" in out.stderr
