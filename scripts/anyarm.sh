@@ -18,6 +18,11 @@
 # 4. On each held-out robot and on step 1's test split (the trained robots): msr Top-1 of
 #    the four models with the oracle and random (seed 0, every configuration), and the map
 #    metrics; then scripts/anyarm_report.py writes results/anyarm/report.{json,md}.
+# 5. The paper's six at their own mounts: the retrained NavAff on the 300-scene
+#    benchmark's test split (SIX_DATA, its test scenes made if missing) as the bundled
+#    model was measured there (evaluate; msr, seed 0, Top-5), compared with the bundled
+#    model's archived results on the same bytes (scripts/run_compare.py), or, on other
+#    bytes, with the bundled model run there again.
 #
 # Every step resumes: generation skips finished scenes, training goes on from its last
 # checkpoint, and results newer than their model are kept. Run it again after a stop.
@@ -32,6 +37,7 @@ REPO=$(cd "$(dirname "$0")/.." && pwd)
 OUT=${OUT:-$REPO/results/anyarm}
 RECIPES=$REPO/scripts/recipes
 ANYARM=$DATA/anyarm
+SIX_DATA=${SIX_DATA:-$DATA/gt2-300}
 mkdir -p "$RUNS" "$OUT"
 
 stamp() { echo "[$(date -u +%FT%TZ)] $*"; }
@@ -97,3 +103,29 @@ for spec in "${HELDOUT[@]}"; do
   score "$DATA/heldout-$name" all "$name"
 done
 python3 "$REPO/scripts/anyarm_report.py" "$OUT"
+
+stamp "the six at their own mounts: $SIX_DATA (test split)"
+momakitchen generate --out "$SIX_DATA" --scenes 300 --first-scene-id 20000 --split test \
+  --workers "$WORKERS" --quiet
+sum=$(python3 -c 'import json, sys
+from momakitchen.data.manifest import split_checksum
+print(split_checksum(json.load(open(sys.argv[1])), "test"))' "$SIX_DATA/manifest.json")
+six() {  # run dir, result dir: its test.json and msr.json on SIX_DATA
+  mkdir -p "$2"
+  if [[ ! -f "$2/test.json" || "$1/model.safetensors" -nt "$2/test.json" ]]; then
+    stamp "maps of $1 on the six"
+    momakitchen evaluate --data "$SIX_DATA" --checkpoint "$1" --json "$2/test.json" --quiet >/dev/null
+  fi
+  if [[ ! -f "$2/msr.json" || "$1/model.safetensors" -nt "$2/msr.json" ]]; then
+    stamp "closed loop of $1 on the six"
+    momakitchen msr --data "$SIX_DATA" --checkpoint "$1" --seed 0 --json "$2/msr.json" --quiet >/dev/null
+  fi
+}
+six "$RUNS/navaff-anyarm" "$OUT/six/navaff-anyarm"
+BEFORE=$REPO/results/runs/navaff-12ep-noise-mild  # the bundled model's archived run
+if [[ "$(cat "$BEFORE/test-shards.sha256")" != "$sum" ]]; then
+  BEFORE=$OUT/six/navaff
+  six "$BUNDLED" "$BEFORE"
+fi
+python3 "$REPO/scripts/run_compare.py" "bundled=$BEFORE" "anyarm=$OUT/six/navaff-anyarm" \
+  | tee "$OUT/six/compare.md"

@@ -4,8 +4,9 @@ the models; and the checks against the any-arm figures to reach.
 
     python scripts/anyarm_report.py results/anyarm
 
-DIR holds one folder per robot set (``trained``: the any-arm test split, the robots the
-retraining saw; the others: held-out robots), each with the ``msr.json`` of ``msr
+DIR holds one folder per robot set (``trained``, optional: the any-arm test split, the
+robots the retraining saw, against which the PCC goal is judged; the others: held-out
+robots), each with the ``msr.json`` of ``msr
 --top-k 1`` (every model, the oracle and random on the same views) and one
 ``MODEL-maps.json`` of ``evaluate`` per model. Writes ``DIR/report.json`` and
 ``DIR/report.md``.
@@ -56,7 +57,7 @@ def robot_set(folder: Path) -> dict[str, Any]:
         "models": {},
         "outcomes": {"oracle": oracle, "random": random},
     }
-    for name in MODELS:
+    for name in [m for m in MODELS if m in msr["methods"]]:
         won = top1_outcomes(msr, name)
         top1 = sum(won) / len(won)
         maps = read_json_object(folder / f"{name}-maps.json")["metrics"]
@@ -73,7 +74,8 @@ def robot_set(folder: Path) -> dict[str, Any]:
 def pair_tests(sets: dict[str, dict[str, Any]]) -> dict[str, Any]:
     """McNemar of each pair per robot set and pooled over the held-out sets."""
     tests: dict[str, Any] = {}
-    for a, b in PAIRS:
+    first = next(iter(sets.values()))["models"]
+    for a, b in [(a, b) for a, b in PAIRS if a in first and b in first]:
         row: dict[str, Any] = {}
         pooled_a: list[int] = []
         pooled_b: list[int] = []
@@ -91,21 +93,22 @@ def pair_tests(sets: dict[str, dict[str, Any]]) -> dict[str, Any]:
 
 def goals(sets: dict[str, dict[str, Any]]) -> dict[str, Any]:
     """Each model's figures against the goals on every held-out robot set."""
-    trained = sets[TRAINED]["models"]
+    trained = sets[TRAINED]["models"] if TRAINED in sets else None
     out: dict[str, Any] = {}
-    for name in MODELS:
+    for name in next(iter(sets.values()))["models"]:
         rows = {}
         for set_name, s in sets.items():
             if set_name == TRAINED:
                 continue
             m = s["models"][name]
-            drop = trained[name]["pcc"] - m["pcc"]
+            # Without the trained robots' set the PCC goal cannot be judged: None.
+            drop = None if trained is None else trained[name]["pcc"] - m["pcc"]
             closed = m["gap_closed"]
             rows[set_name] = {
                 "gap_closed": closed,
                 "gap_closed_met": closed is not None and closed >= GAP_CLOSED,
                 "pcc_drop": drop,
-                "pcc_met": drop <= PCC_DROP,
+                "pcc_met": None if drop is None else drop <= PCC_DROP,
             }
         out[name] = rows
     return out
@@ -119,9 +122,16 @@ def markdown(report: dict[str, Any]) -> str:
         + " |",
         "| --- | ---: | ---: | ---: | " + " | ".join("---:" for _ in MODELS) + " |",
     ]
+    models = [m for m in MODELS if m in next(iter(sets.values()))["models"]]
+    lines[0] = (
+        "| robots | configurations | oracle | random | "
+        + " | ".join(f"{MODELS[m]} Top-1 (gap closed, PCC)" for m in models)
+        + " |"
+    )
+    lines[1] = "| --- | ---: | ---: | ---: | " + " | ".join("---:" for _ in models) + " |"
     for name, s in sets.items():
         cells = []
-        for model in MODELS:
+        for model in models:
             m = s["models"][model]
             closed = "–" if m["gap_closed"] is None else f"{m['gap_closed']:.2f}"
             cells.append(f"{100 * m['top1']:.1f} % ({closed}, {m['pcc']:.3f})")
@@ -136,11 +146,12 @@ def markdown(report: dict[str, Any]) -> str:
         lines.append(f"| {pair} | " + " | ".join(cells) + " |")
     lines += ["", f"Goals (gap closed >= {GAP_CLOSED}, PCC within {PCC_DROP} of `trained`):", ""]
     for model, rows in report["goals"].items():
+        # A goal that cannot be judged (no trained set: pcc_met None) counts as missed.
         met = [k for k, v in rows.items() if v["gap_closed_met"] and v["pcc_met"]]
         missed = {k: v for k, v in rows.items() if not (v["gap_closed_met"] and v["pcc_met"])}
         text = ", ".join(
             f"{k} (gap closed {'–' if v['gap_closed'] is None else format(v['gap_closed'], '.2f')},"
-            f" PCC -{v['pcc_drop']:.3f})"
+            + (" PCC not judged)" if v["pcc_drop"] is None else f" PCC -{v['pcc_drop']:.3f})")
             for k, v in missed.items()
         )
         lines.append(
@@ -155,8 +166,8 @@ def main() -> None:
     ap.add_argument("dir", type=Path)
     args = ap.parse_args()
     folders = sorted(p for p in args.dir.iterdir() if (p / "msr.json").is_file())
-    if TRAINED not in [p.name for p in folders] or len(folders) < 2:
-        raise MomaError(f"{args.dir} wants a '{TRAINED}' folder and held-out ones with msr.json")
+    if not [p for p in folders if p.name != TRAINED]:
+        raise MomaError(f"{args.dir} holds no held-out robot folder with an msr.json")
     # The trained robots first, then the held-out sets in name order.
     folders.sort(key=lambda p: (p.name != TRAINED, p.name))
     sets = {p.name: robot_set(p) for p in folders}

@@ -61,4 +61,4 @@ def test_gap_closed_pcc_and_mcnemar(tmp_path):
 def test_missing_folders_are_one_line(tmp_path):
     out = _report(tmp_path)
     assert out.returncode == 2
-    assert out.stderr.count("\n") == 1 and "trained" in out.stderr
+    assert out.stderr.count("\n") == 1 and "held-out" in out.stderr
