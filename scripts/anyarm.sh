@@ -78,7 +78,7 @@ for spec in "${HELDOUT[@]}"; do
 done
 
 MODELS=("$BUNDLED" "$REPO/results/runs/pointnet2-12ep" "$RUNS/navaff-anyarm" "$RUNS/pointnet2-anyarm")
-NAMES=(navaff pointnet2 navaff-anyarm pointnet2-anyarm)
+NAMES=(navaff pointnet2 navaff-anyarm pointnet2-anyarm)  # the maps files of anyarm_report.py
 score() {  # dataset, split, result name
   local dir=$OUT/$3 i ckpt=() newest=0
   mkdir -p "$dir"

@@ -25,19 +25,20 @@ from momakitchen.eval.robot_check import top1_outcomes
 from momakitchen.eval.stats import mcnemar
 from momakitchen.fileio import atomic_write_text, dumps_strict, read_json_object
 
-# msr's name of each model (its run directory's), and the report's.
+# msr's name of each model (the model's, then ":run" for a second run of one model), and
+# the report's; its maps are in MAPS-maps.json, MAPS the name's last part.
 MODELS = {
     "navaff": "NavAff (bundled)",
-    "pointnet2-12ep": "PointNet++ (12 epochs)",
-    "navaff-anyarm": "NavAff, any-arm",
-    "pointnet2-anyarm": "PointNet++, any-arm",
+    "pointnet2": "PointNet++ (12 epochs)",
+    "navaff:navaff-anyarm": "NavAff, any-arm",
+    "pointnet2:pointnet2-anyarm": "PointNet++, any-arm",
 }
 # (a, b): McNemar of a against b on every robot set and pooled over the held-out ones.
 PAIRS = [
-    ("navaff-anyarm", "navaff"),
-    ("pointnet2-anyarm", "pointnet2-12ep"),
-    ("navaff", "pointnet2-12ep"),
-    ("navaff-anyarm", "pointnet2-anyarm"),
+    ("navaff:navaff-anyarm", "navaff"),
+    ("pointnet2:pointnet2-anyarm", "pointnet2"),
+    ("navaff", "pointnet2"),
+    ("navaff:navaff-anyarm", "pointnet2:pointnet2-anyarm"),
 ]
 TRAINED = "trained"
 GAP_CLOSED, PCC_DROP = 0.90, 0.05  # the figures to reach on every held-out robot
@@ -60,12 +61,14 @@ def robot_set(folder: Path) -> dict[str, Any]:
     for name in [m for m in MODELS if m in msr["methods"]]:
         won = top1_outcomes(msr, name)
         top1 = sum(won) / len(won)
-        maps = read_json_object(folder / f"{name}-maps.json")["metrics"]
+        # The map metrics are optional: closed loop alone makes a table too.
+        maps_file = folder / f"{name.split(':')[-1]}-maps.json"
+        maps = read_json_object(maps_file)["metrics"] if maps_file.is_file() else {}
         out["models"][name] = {
             "top1": top1,
             "gap_closed": (top1 - r) / (o - r) if o > r else None,
-            "pcc": maps["pcc"],
-            "sim": maps["sim"],
+            "pcc": maps.get("pcc"),
+            "sim": maps.get("sim"),
         }
         out["outcomes"][name] = won
     return out
@@ -102,7 +105,8 @@ def goals(sets: dict[str, dict[str, Any]]) -> dict[str, Any]:
                 continue
             m = s["models"][name]
             # Without the trained robots' set the PCC goal cannot be judged: None.
-            drop = None if trained is None else trained[name]["pcc"] - m["pcc"]
+            pccs = None if trained is None else (trained[name]["pcc"], m["pcc"])
+            drop = None if pccs is None or None in pccs else pccs[0] - pccs[1]
             closed = m["gap_closed"]
             rows[set_name] = {
                 "gap_closed": closed,
@@ -134,7 +138,8 @@ def markdown(report: dict[str, Any]) -> str:
         for model in models:
             m = s["models"][model]
             closed = "–" if m["gap_closed"] is None else f"{m['gap_closed']:.2f}"
-            cells.append(f"{100 * m['top1']:.1f} % ({closed}, {m['pcc']:.3f})")
+            pcc = "–" if m["pcc"] is None else f"{m['pcc']:.3f}"
+            cells.append(f"{100 * m['top1']:.1f} % ({closed}, {pcc})")
         lines.append(
             f"| {name} ({', '.join(s['robots'])}) | {s['configurations']} | "
             f"{100 * s['oracle']:.1f} % | {100 * s['random']:.1f} % | " + " | ".join(cells) + " |"

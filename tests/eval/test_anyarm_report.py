@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 
 SCRIPTS = Path(__file__).resolve().parents[2] / "scripts"
-MODELS = ["navaff", "pointnet2-12ep", "navaff-anyarm", "pointnet2-anyarm"]
+MODELS = ["navaff", "pointnet2", "navaff:navaff-anyarm", "pointnet2:pointnet2-anyarm"]
 
 
 def _robot_set(root: Path, name: str, outcomes: dict[str, list[int]], pcc: dict[str, float]):
@@ -23,7 +23,9 @@ def _robot_set(root: Path, name: str, outcomes: dict[str, list[int]], pcc: dict[
     methods = {m: {"per_robot": {name: {}}} for m in outcomes}
     (folder / "msr.json").write_text(json.dumps({"methods": methods, "records": records}))
     for m in MODELS:
-        (folder / f"{m}-maps.json").write_text(json.dumps({"metrics": {"pcc": pcc[m], "sim": 0.5}}))
+        (folder / f"{m.split(':')[-1]}-maps.json").write_text(
+            json.dumps({"metrics": {"pcc": pcc[m], "sim": 0.5}})
+        )
 
 
 def _report(root: Path) -> subprocess.CompletedProcess:
@@ -37,22 +39,22 @@ def test_gap_closed_pcc_and_mcnemar(tmp_path):
     _robot_set(tmp_path, "trained", trained, dict.fromkeys(MODELS, 0.8))
     # Held out: the any-arm NavAff solves 9 of 10, the rest 5; PointNet++ any-arm's maps
     # fall 0.1 below its trained PCC.
-    held = {"oracle": oracle, "random": random, "navaff-anyarm": [1] * 9 + [0]}
-    held |= {m: [1] * 5 + [0] * 5 for m in ("navaff", "pointnet2-12ep", "pointnet2-anyarm")}
-    pcc = {"navaff": 0.78, "pointnet2-12ep": 0.79, "navaff-anyarm": 0.77, "pointnet2-anyarm": 0.7}
+    held = {"oracle": oracle, "random": random, "navaff:navaff-anyarm": [1] * 9 + [0]}
+    held |= {m: [1] * 5 + [0] * 5 for m in ("navaff", "pointnet2", "pointnet2:pointnet2-anyarm")}
+    pcc = dict(zip(MODELS, [0.78, 0.79, 0.77, 0.7], strict=True))
     _robot_set(tmp_path, "gen3", held, pcc)
     out = _report(tmp_path)
     assert out.returncode == 0, out.stderr
     report = json.loads((tmp_path / "report.json").read_text())
     gen3 = report["sets"]["gen3"]["models"]
-    assert gen3["navaff-anyarm"]["gap_closed"] == 0.9
+    assert gen3["navaff:navaff-anyarm"]["gap_closed"] == 0.9
     assert gen3["navaff"]["gap_closed"] == 0.5
     goals = report["goals"]
-    assert goals["navaff-anyarm"]["gen3"]["gap_closed_met"]
-    assert goals["navaff-anyarm"]["gen3"]["pcc_met"]
+    assert goals["navaff:navaff-anyarm"]["gen3"]["gap_closed_met"]
+    assert goals["navaff:navaff-anyarm"]["gen3"]["pcc_met"]
     assert not goals["navaff"]["gen3"]["gap_closed_met"]
-    assert not goals["pointnet2-anyarm"]["gen3"]["pcc_met"]
-    pooled = report["mcnemar"]["navaff-anyarm vs navaff"]["held-out, pooled"]
+    assert not goals["pointnet2:pointnet2-anyarm"]["gen3"]["pcc_met"]
+    pooled = report["mcnemar"]["navaff:navaff-anyarm vs navaff"]["held-out, pooled"]
     assert (pooled["only_a"], pooled["only_b"]) == (4, 0)
     assert "| trained (trained) | 10 |" in out.stdout
     assert "NavAff, any-arm: met on 1 of 1" in out.stdout
