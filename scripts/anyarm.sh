@@ -5,19 +5,22 @@
 #
 #   bash scripts/anyarm.sh             # DATA=~/mk-data RUNS=~/mk-runs by default
 #   SCENES=60 HELDOUT_SCENES=6 bash scripts/anyarm.sh
+#   RETRAIN=0 bash scripts/anyarm.sh   # score the bundled any-arm run, results/runs/navaff-anyarm
 #
 # 1. The any-arm data (scripts/recipes/anyarm_generate.yaml): the Panda, Flexiv, UR5e,
 #    Realman and UR10e, each configuration's mount drawn in 0.45-1.15 m; scenes from 30000.
 # 2. Retraining (scripts/recipes/anyarm_finetune.yaml): the bundled NavAff and the
 #    12-epoch PointNet++ (results/runs/pointnet2-12ep) fine-tuned on its train split,
-#    side by side, one thread each.
+#    side by side, one thread each. RETRAIN=0: no training; the any-arm NavAff is the one
+#    in results/runs/navaff-anyarm (made by this step), and only the test split of step 1
+#    is made.
 # 3. Held-out robots, each labelled alone on the same kitchens (scenes from 910000, used
 #    by no development step): the Elephant (the shortest reach) and the xArm6 (the lowest
 #    mount), both left out of step 1; the Kinova Gen3 (an arm no training saw); the Panda
 #    at 1.30 m and the UR5e at 0.35 m (mounts outside step 1's range).
 # 4. On each held-out robot and on step 1's test split (the trained robots): msr Top-1 of
-#    the four models with the oracle and random (seed 0, every configuration), and the map
-#    metrics; then scripts/anyarm_report.py writes results/anyarm/report.{json,md}.
+#    the models with the oracle and random (seed 0, every configuration), and the NavAff
+#    models' map metrics (the PCC goal is theirs); then scripts/anyarm_report.py writes results/anyarm/report.{json,md}.
 # 5. The paper's six at their own mounts: the retrained NavAff on the 300-scene
 #    benchmark's test split (SIX_DATA, its test scenes made if missing) as the bundled
 #    model was measured there (evaluate; msr, seed 0, Top-5), compared with the bundled
@@ -38,6 +41,7 @@ OUT=${OUT:-$REPO/results/anyarm}
 RECIPES=$REPO/scripts/recipes
 ANYARM=$DATA/anyarm
 SIX_DATA=${SIX_DATA:-$DATA/gt2-300}
+RETRAIN=${RETRAIN:-1}
 mkdir -p "$RUNS" "$OUT"
 
 stamp() { echo "[$(date -u +%FT%TZ)] $*"; }
@@ -51,9 +55,11 @@ HELDOUT=(
   "ur5e-0.35 ur5e $RECIPES/mount_0.35.yaml"
 )
 
-stamp "any-arm data: $SCENES scenes from 30000 in $ANYARM"
+split=()
+[[ $RETRAIN == 0 ]] && split=(--split test)
+stamp "any-arm data: $SCENES scenes from 30000 in $ANYARM ${split[*]}"
 momakitchen generate --out "$ANYARM" --scenes "$SCENES" --first-scene-id 30000 \
-  --config "$RECIPES/anyarm_generate.yaml" --workers "$WORKERS" --quiet
+  --config "$RECIPES/anyarm_generate.yaml" --workers "$WORKERS" "${split[@]}" --quiet
 
 train_one() {  # name, model, initial run
   local resume=()
@@ -65,9 +71,18 @@ train_one() {  # name, model, initial run
   touch "$RUNS/$1/done"
 }
 BUNDLED=$(python3 -c "from momakitchen.train.checkpoint import default_checkpoint as d; print(d())")
-train_one navaff-anyarm navaff bundled &
-train_one pointnet2-anyarm pointnet2 "$REPO/results/runs/pointnet2-12ep" &
-wait
+MODELS=("$BUNDLED" "$REPO/results/runs/pointnet2-12ep")
+NAMES=(navaff pointnet2)  # the maps files of anyarm_report.py
+if [[ $RETRAIN == 0 ]]; then
+  MODELS+=("$REPO/results/runs/navaff-anyarm")
+  NAMES+=(navaff-anyarm)
+else
+  train_one navaff-anyarm navaff bundled &
+  train_one pointnet2-anyarm pointnet2 "$REPO/results/runs/pointnet2-12ep" &
+  wait
+  MODELS+=("$RUNS/navaff-anyarm" "$RUNS/pointnet2-anyarm")
+  NAMES+=(navaff-anyarm pointnet2-anyarm)
+fi
 
 for spec in "${HELDOUT[@]}"; do
   read -r name robot config <<<"$spec"
@@ -77,19 +92,18 @@ for spec in "${HELDOUT[@]}"; do
     --workers "$WORKERS" --quiet
 done
 
-MODELS=("$BUNDLED" "$REPO/results/runs/pointnet2-12ep" "$RUNS/navaff-anyarm" "$RUNS/pointnet2-anyarm")
-NAMES=(navaff pointnet2 navaff-anyarm pointnet2-anyarm)  # the maps files of anyarm_report.py
 score() {  # dataset, split, result name
   local dir=$OUT/$3 i ckpt=() newest=0
   mkdir -p "$dir"
   for i in "${!MODELS[@]}"; do
     ckpt+=(--checkpoint "${MODELS[$i]}")
+    [[ "${MODELS[$i]}/model.safetensors" -nt "$dir/msr.json" ]] && newest=1
+    [[ ${NAMES[$i]} == navaff* ]] || continue  # PointNet++ enters the closed loop only
     if [[ ! -f "$dir/${NAMES[$i]}-maps.json" || "${MODELS[$i]}/model.safetensors" -nt "$dir/${NAMES[$i]}-maps.json" ]]; then
       stamp "maps of ${NAMES[$i]} on $3"
       momakitchen evaluate --data "$1" --split "$2" --checkpoint "${MODELS[$i]}" \
         --json "$dir/${NAMES[$i]}-maps.json" --quiet >/dev/null
     fi
-    [[ "${MODELS[$i]}/model.safetensors" -nt "$dir/msr.json" ]] && newest=1
   done
   if [[ ! -f "$dir/msr.json" || $newest == 1 ]]; then
     stamp "closed loop on $3"
@@ -121,7 +135,7 @@ six() {  # run dir, result dir: its test.json and msr.json on SIX_DATA
     momakitchen msr --data "$SIX_DATA" --checkpoint "$1" --seed 0 --json "$2/msr.json" --quiet >/dev/null
   fi
 }
-six "$RUNS/navaff-anyarm" "$OUT/six/navaff-anyarm"
+six "${MODELS[2]}" "$OUT/six/navaff-anyarm"
 BEFORE=$REPO/results/runs/navaff-12ep-noise-mild  # the bundled model's archived run
 if [[ "$(cat "$BEFORE/test-shards.sha256")" != "$sum" ]]; then
   BEFORE=$OUT/six/navaff
