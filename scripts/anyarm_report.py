@@ -150,7 +150,11 @@ def markdown(report: dict[str, Any]) -> str:
         missed = {k: v for k, v in rows.items() if not (v["gap_closed_met"] and v["pcc_met"])}
         text = ", ".join(
             f"{k} (gap closed {'–' if v['gap_closed'] is None else format(v['gap_closed'], '.2f')},"
-            + (" PCC not judged)" if v["pcc_drop"] is None else f" PCC {-v['pcc_drop']:+.3f} vs trained)")
+            + (
+                " PCC not judged)"
+                if v["pcc_drop"] is None
+                else f" PCC {-v['pcc_drop']:+.3f} vs trained)"
+            )
             for k, v in missed.items()
         )
         lines.append(
