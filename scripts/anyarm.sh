@@ -20,7 +20,8 @@
 #    at 1.30 m and the UR5e at 0.35 m (mounts outside step 1's range).
 # 4. On each held-out robot and on step 1's test split (the trained robots): msr Top-1 of
 #    the models with the oracle and random (seed 0, every configuration), and the NavAff
-#    models' map metrics (the PCC goal is theirs); then scripts/anyarm_report.py writes results/anyarm/report.{json,md}.
+#    models' map metrics (the PCC goal is theirs); then scripts/anyarm_report.py writes
+#    results/anyarm/report.{json,md}.
 # 5. The paper's six at their own mounts: the retrained NavAff on the 300-scene
 #    benchmark's test split (SIX_DATA, its test scenes made if missing) as the bundled
 #    model was measured there (evaluate; msr, seed 0, Top-5), compared with the bundled
@@ -74,13 +75,15 @@ BUNDLED=$(python3 -c "from momakitchen.train.checkpoint import default_checkpoin
 MODELS=("$BUNDLED" "$REPO/results/runs/pointnet2-12ep")
 NAMES=(navaff pointnet2)  # the maps files of anyarm_report.py
 if [[ $RETRAIN == 0 ]]; then
-  MODELS+=("$REPO/results/runs/navaff-anyarm")
+  NAVAFF_ANYARM=$REPO/results/runs/navaff-anyarm
+  MODELS+=("$NAVAFF_ANYARM")
   NAMES+=(navaff-anyarm)
 else
   train_one navaff-anyarm navaff bundled &
   train_one pointnet2-anyarm pointnet2 "$REPO/results/runs/pointnet2-12ep" &
   wait
-  MODELS+=("$RUNS/navaff-anyarm" "$RUNS/pointnet2-anyarm")
+  NAVAFF_ANYARM=$RUNS/navaff-anyarm
+  MODELS+=("$NAVAFF_ANYARM" "$RUNS/pointnet2-anyarm")
   NAMES+=(navaff-anyarm pointnet2-anyarm)
 fi
 
@@ -135,7 +138,7 @@ six() {  # run dir, result dir: its test.json and msr.json on SIX_DATA
     momakitchen msr --data "$SIX_DATA" --checkpoint "$1" --seed 0 --json "$2/msr.json" --quiet >/dev/null
   fi
 }
-six "${MODELS[2]}" "$OUT/six/navaff-anyarm"
+six "$NAVAFF_ANYARM" "$OUT/six/navaff-anyarm"
 BEFORE=$REPO/results/runs/navaff-12ep-noise-mild  # the bundled model's archived run
 if [[ "$(cat "$BEFORE/test-shards.sha256")" != "$sum" ]]; then
   BEFORE=$OUT/six/navaff
