@@ -163,7 +163,20 @@ class RobotSpec:
 
 
 class RobotRegistry(Registry[RobotSpec]):
-    """The robots by name; user robots can also be taken out again."""
+    """The robots by name; user robots can also be taken out again.
+
+    A name of the form ``NAME-xS.SS`` not yet registered is a built-in arm with scaled
+    links (``scaled.py``): it is built and registered the first time it is asked for.
+    """
+
+    def get_entry(self, name: str) -> RobotSpec:
+        if isinstance(name, str) and name not in self._entries:
+            from momakitchen.robots.scaled import parse_scaled_name, scaled_robot_spec
+
+            parsed = parse_scaled_name(name)
+            if parsed is not None and parsed[0] in self._entries:
+                return self.register(scaled_robot_spec(name, self._entries[parsed[0]]))
+        return super().get_entry(name)
 
     def unregister(self, name: str) -> None:
         """Remove ``name`` if registered (user robots; the caller checks which)."""
