@@ -6,6 +6,7 @@
 #   bash scripts/anyarm.sh             # DATA=~/mk-data RUNS=~/mk-runs by default
 #   SCENES=60 HELDOUT_SCENES=6 bash scripts/anyarm.sh
 #   RETRAIN=0 bash scripts/anyarm.sh   # score the bundled any-arm run, results/runs/navaff-anyarm
+#   SCALED=1 bash scripts/anyarm.sh    # the same with arms of scaled links, after a run of the above
 #
 # 1. The any-arm data (scripts/recipes/anyarm_generate.yaml): the Panda, Flexiv, UR5e,
 #    Realman and UR10e, each configuration's mount drawn in 0.45-1.15 m; scenes from 30000.
@@ -28,6 +29,14 @@
 #    model's archived results on the same bytes (scripts/run_compare.py), or, on other
 #    bytes, with the bundled model run there again.
 #
+# SCALED=1 (after a run without it, whose results it adds to): step 1's data adds arms with
+# scaled links (scripts/recipes/anyarm_scaled_generate.yaml, its train split in
+# DATA/anyarm-scaled; the trained robots' test set stays step 1's), step 2 fine-tunes the
+# bundled NavAff alone on it (RUNS/navaff-anyarm-scaled, or the committed
+# results/runs/navaff-anyarm-scaled with RETRAIN=0), and steps 4-5 score that model beside
+# the bundled one (msr-scaled.json; the report checks that the bundled model's outcomes
+# there equal its outcomes in msr.json).
+#
 # Every step resumes: generation skips finished scenes, training goes on from its last
 # checkpoint, and results newer than their model are kept. Run it again after a stop.
 set -euo pipefail
@@ -43,6 +52,7 @@ RECIPES=$REPO/scripts/recipes
 ANYARM=$DATA/anyarm
 SIX_DATA=${SIX_DATA:-$DATA/gt2-300}
 RETRAIN=${RETRAIN:-1}
+SCALED=${SCALED:-0}
 mkdir -p "$RUNS" "$OUT"
 
 stamp() { echo "[$(date -u +%FT%TZ)] $*"; }
@@ -57,24 +67,46 @@ HELDOUT=(
 )
 
 split=()
-[[ $RETRAIN == 0 ]] && split=(--split test)
+[[ $RETRAIN == 0 || $SCALED == 1 ]] && split=(--split test)
 stamp "any-arm data: $SCENES scenes from 30000 in $ANYARM ${split[*]}"
 momakitchen generate --out "$ANYARM" --scenes "$SCENES" --first-scene-id 30000 \
   --config "$RECIPES/anyarm_generate.yaml" --workers "$WORKERS" "${split[@]}" --quiet
+TRAIN_DATA=$ANYARM
+if [[ $SCALED == 1 ]]; then
+  TRAIN_DATA=$DATA/anyarm-scaled
+  if [[ $RETRAIN == 1 ]]; then
+    stamp "any-arm data with scaled links: $SCENES scenes from 30000 in $TRAIN_DATA (train split)"
+    momakitchen generate --out "$TRAIN_DATA" --scenes "$SCENES" --first-scene-id 30000 \
+      --config "$RECIPES/anyarm_scaled_generate.yaml" --workers "$WORKERS" --split train --quiet
+  fi
+fi
 
-train_one() {  # name, model, initial run
+train_one() {  # name, model, initial run, more train options
   local resume=()
   [[ -f "$RUNS/$1/trainer_state.json" ]] && resume=(--resume)
   if [[ -f "$RUNS/$1/done" ]]; then return 0; fi
   stamp "train $1 (from $3)"
-  momakitchen train --data "$ANYARM" --out "$RUNS/$1" --model "$2" --init "$3" \
-    --config "$RECIPES/anyarm_finetune.yaml" "${resume[@]}" --quiet >"$RUNS/$1.log" 2>&1
+  momakitchen train --data "$TRAIN_DATA" --out "$RUNS/$1" --model "$2" --init "$3" \
+    --config "$RECIPES/anyarm_finetune.yaml" "${resume[@]}" "${@:4}" --quiet >"$RUNS/$1.log" 2>&1
   touch "$RUNS/$1/done"
 }
 BUNDLED=$(python3 -c "from momakitchen.train.checkpoint import default_checkpoint as d; print(d())")
 MODELS=("$BUNDLED" "$REPO/results/runs/pointnet2-12ep")
 NAMES=(navaff pointnet2)  # the maps files of anyarm_report.py
-if [[ $RETRAIN == 0 ]]; then
+MSR=msr.json
+BASELINES=(--method oracle --method random)
+if [[ $SCALED == 1 ]]; then
+  # The bundled model again beside the new one: the same outcomes as in msr.json, checked.
+  MSR=msr-scaled.json
+  BASELINES=()
+  NAVAFF_ANYARM=$REPO/results/runs/navaff-anyarm-scaled
+  if [[ $RETRAIN == 1 ]]; then
+    train_one navaff-anyarm-scaled navaff bundled --threads 2  # alone: both cores
+    NAVAFF_ANYARM=$RUNS/navaff-anyarm-scaled
+  fi
+  MODELS=("$BUNDLED" "$NAVAFF_ANYARM")
+  NAMES=(navaff navaff-anyarm-scaled)
+elif [[ $RETRAIN == 0 ]]; then
   NAVAFF_ANYARM=$REPO/results/runs/navaff-anyarm
   MODELS+=("$NAVAFF_ANYARM")
   NAMES+=(navaff-anyarm)
@@ -100,7 +132,7 @@ score() {  # dataset, split, result name
   mkdir -p "$dir"
   for i in "${!MODELS[@]}"; do
     ckpt+=(--checkpoint "${MODELS[$i]}")
-    [[ "${MODELS[$i]}/model.safetensors" -nt "$dir/msr.json" ]] && newest=1
+    [[ "${MODELS[$i]}/model.safetensors" -nt "$dir/$MSR" ]] && newest=1
     [[ ${NAMES[$i]} == navaff* ]] || continue  # PointNet++ enters the closed loop only
     if [[ ! -f "$dir/${NAMES[$i]}-maps.json" || "${MODELS[$i]}/model.safetensors" -nt "$dir/${NAMES[$i]}-maps.json" ]]; then
       stamp "maps of ${NAMES[$i]} on $3"
@@ -108,10 +140,10 @@ score() {  # dataset, split, result name
         --json "$dir/${NAMES[$i]}-maps.json" --quiet >/dev/null
     fi
   done
-  if [[ ! -f "$dir/msr.json" || $newest == 1 ]]; then
+  if [[ ! -f "$dir/$MSR" || $newest == 1 ]]; then
     stamp "closed loop on $3"
     momakitchen msr --data "$1" --split "$2" --top-k 1 --seed 0 "${ckpt[@]}" \
-      --method oracle --method random --json "$dir/msr.json" --quiet >/dev/null
+      "${BASELINES[@]}" --json "$dir/$MSR" --quiet >/dev/null
   fi
 }
 score "$ANYARM" test trained
@@ -138,11 +170,12 @@ six() {  # run dir, result dir: its test.json and msr.json on SIX_DATA
     momakitchen msr --data "$SIX_DATA" --checkpoint "$1" --seed 0 --json "$2/msr.json" --quiet >/dev/null
   fi
 }
-six "$NAVAFF_ANYARM" "$OUT/six/navaff-anyarm"
+SIX_NAME=$(basename "$NAVAFF_ANYARM")
+six "$NAVAFF_ANYARM" "$OUT/six/$SIX_NAME"
 BEFORE=$REPO/results/runs/navaff-12ep-noise-mild  # the bundled model's archived run
 if [[ "$(cat "$BEFORE/test-shards.sha256")" != "$sum" ]]; then
   BEFORE=$OUT/six/navaff
   six "$BUNDLED" "$BEFORE"
 fi
-python3 "$REPO/scripts/run_compare.py" "bundled=$BEFORE" "anyarm=$OUT/six/navaff-anyarm" \
-  | tee "$OUT/six/compare.md"
+python3 "$REPO/scripts/run_compare.py" "bundled=$BEFORE" "anyarm=$OUT/six/$SIX_NAME" \
+  | tee "$OUT/six/compare$([[ $SCALED == 1 ]] && echo -scaled).md"

@@ -7,9 +7,10 @@ the models; and the checks against the any-arm figures to reach.
 DIR holds one folder per robot set (``trained``, optional: the any-arm test split, the
 robots the retraining saw, against which the PCC goal is judged; the others: held-out
 robots), each with the ``msr.json`` of ``msr
---top-k 1`` (every model, the oracle and random on the same views) and one
-``MODEL-maps.json`` of ``evaluate`` per model. Writes ``DIR/report.json`` and
-``DIR/report.md``.
+--top-k 1`` (every model, the oracle and random on the same views), optionally more
+``msr-*.json`` of the same configurations adding models (a model in two files must have
+the same outcomes in both), and one ``MODEL-maps.json`` of ``evaluate`` per model. Writes
+``DIR/report.json`` and ``DIR/report.md``.
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ MODELS = {
     "pointnet2": "PointNet++ (12 epochs)",
     "navaff:navaff-anyarm": "NavAff, any-arm",
     "pointnet2:pointnet2-anyarm": "PointNet++, any-arm",
+    "navaff:navaff-anyarm-scaled": "NavAff, any-arm + scaled links",
 }
 # (a, b): McNemar of a against b on every robot set and pooled over the held-out ones.
 PAIRS = [
@@ -39,14 +41,42 @@ PAIRS = [
     ("pointnet2:pointnet2-anyarm", "pointnet2"),
     ("navaff", "pointnet2"),
     ("navaff:navaff-anyarm", "pointnet2:pointnet2-anyarm"),
+    ("navaff:navaff-anyarm-scaled", "navaff"),
+    ("navaff:navaff-anyarm-scaled", "navaff:navaff-anyarm"),
+    ("navaff:navaff-anyarm-scaled", "pointnet2"),
 ]
 TRAINED = "trained"
 GAP_CLOSED, PCC_DROP = 0.90, 0.05  # the figures to reach on every held-out robot
 
 
+def _config_keys(msr: dict[str, Any]) -> list[tuple[Any, Any]]:
+    return [(r.get("scene_id"), r.get("config_index")) for r in msr["records"]]
+
+
+def read_msr(folder: Path) -> dict[str, Any]:
+    """``folder/msr.json`` with the methods of every ``folder/msr-*.json`` added; MomaError
+    if one covers other configurations or gives a method already there other outcomes."""
+    msr = read_json_object(folder / "msr.json")
+    for extra_file in sorted(folder.glob("msr-*.json")):
+        extra = read_json_object(extra_file)
+        if _config_keys(extra) != _config_keys(msr):
+            raise MomaError(f"{extra_file}: not the configurations of {folder / 'msr.json'}")
+        for name, method in extra["methods"].items():
+            if name in msr["methods"]:
+                if top1_outcomes(extra, name) != top1_outcomes(msr, name):
+                    raise MomaError(
+                        f"{extra_file}: {name}'s outcomes differ from those in msr.json"
+                    )
+                continue
+            msr["methods"][name] = method
+            for record, new in zip(msr["records"], extra["records"], strict=True):
+                record["methods"][name] = new["methods"][name]
+    return msr
+
+
 def robot_set(folder: Path) -> dict[str, Any]:
     """One robot set's rates, gap shares, PCCs and paired Top-1 outcomes."""
-    msr = read_json_object(folder / "msr.json")
+    msr = read_msr(folder)
     oracle = top1_outcomes(msr, "oracle")
     random = top1_outcomes(msr, "random")
     o, r = sum(oracle) / len(oracle), sum(random) / len(random)

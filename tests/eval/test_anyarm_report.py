@@ -64,3 +64,35 @@ def test_missing_folders_are_one_line(tmp_path):
     out = _report(tmp_path)
     assert out.returncode == 2
     assert out.stderr.count("\n") == 1 and "held-out" in out.stderr
+
+
+def test_more_msr_files_add_models_and_must_agree(tmp_path):
+    oracle, random = [1] * 10, [0] * 10
+    base = {"oracle": oracle, "random": random, "navaff": [1] * 5 + [0] * 5}
+    for name in ("trained", "gen3"):
+        _robot_set(tmp_path, name, base, dict.fromkeys(MODELS, 0.8))
+    scaled = "navaff:navaff-anyarm-scaled"
+    (tmp_path / "gen3" / "navaff-anyarm-scaled-maps.json").write_text(
+        json.dumps({"metrics": {"pcc": 0.76, "sim": 0.5}})
+    )
+
+    def extra(folder: str, navaff: list[int], new: list[int]) -> None:
+        records = [
+            {"methods": {"navaff": {"outcomes": [a]}, scaled: {"outcomes": [b]}}}
+            for a, b in zip(navaff, new, strict=True)
+        ]
+        methods = {m: {"per_robot": {folder: {}}} for m in ("navaff", scaled)}
+        path = tmp_path / folder / "msr-scaled.json"
+        path.write_text(json.dumps({"methods": methods, "records": records}))
+
+    extra("gen3", base["navaff"], [1] * 9 + [0])
+    out = _report(tmp_path)
+    assert out.returncode == 0, out.stderr
+    report = json.loads((tmp_path / "report.json").read_text())
+    assert report["sets"]["gen3"]["models"][scaled]["gap_closed"] == 0.9
+    assert scaled not in report["sets"]["trained"]["models"]
+    # The bundled model's outcomes in the added file must be those of msr.json.
+    extra("gen3", [0] * 10, [1] * 10)
+    out = _report(tmp_path)
+    assert out.returncode == 2
+    assert "navaff's outcomes differ" in out.stderr
