@@ -90,3 +90,25 @@ def test_scaled_forward_kinematics_is_the_original_scaled(client, base, scale):
     finally:
         for robot in robots.values():
             robot.remove()
+
+
+def _reach_in_fresh_process(name: str) -> float:
+    return get_robot_spec(name).reach
+
+
+def test_a_fresh_process_builds_it_from_the_name_alone():
+    """Generation workers and other commands know a scaled arm by its name only."""
+    import multiprocessing
+
+    with multiprocessing.get_context("spawn").Pool(1) as pool:
+        reach = pool.apply(_reach_in_fresh_process, ("flexiv-x0.80",))
+    assert reach == pytest.approx(0.8 * get_robot_spec("flexiv").reach)
+
+
+def test_a_generation_config_takes_scaled_arms():
+    from momakitchen.scene.configuration import SceneConfig
+
+    config = SceneConfig(robots=("ur5e-x0.65", "ur10e-x0.86"), mount_height=(0.45, 1.15))
+    assert config.robot_names == ("ur5e-x0.65", "ur10e-x0.86")
+    with pytest.raises(MomaError, match="link scale"):
+        SceneConfig(robots=("ur5e-x1.90",))
