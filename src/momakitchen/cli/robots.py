@@ -94,6 +94,8 @@ def robot_rows() -> list[dict]:
 
 
 def run(args: argparse.Namespace) -> int:
+    from momakitchen.robots.scaled import SCALE_RANGE
+
     # The --robot-yaml files (of either level) are registered by the entry point.
     if args.robots_command == "export-urdf":
         return _export(args)
@@ -117,6 +119,10 @@ def run(args: argparse.Namespace) -> int:
     for row in table:
         print("  ".join(cell.ljust(w) for cell, w in zip(row, widths, strict=True)).rstrip())
     defaults = ", ".join(r["name"] for r in rows if r["generate_default"])
+    print(
+        "arms with scaled links: NAME-xS.SS (a table-built arm above, lengths times S in "
+        f"{SCALE_RANGE[0]}-{SCALE_RANGE[1]}, e.g. ur5e-x0.65)"
+    )
     print(f"generate's robots by default: {defaults}; the others by --robot NAME")
     return 0
 
