@@ -177,5 +177,5 @@ if [[ "$(cat "$BEFORE/test-shards.sha256")" != "$sum" ]]; then
   BEFORE=$OUT/six/navaff
   six "$BUNDLED" "$BEFORE"
 fi
-python3 "$REPO/scripts/run_compare.py" "bundled=$BEFORE" "anyarm=$OUT/six/$SIX_NAME" \
+python3 "$REPO/scripts/run_compare.py" "bundled=$BEFORE" "${SIX_NAME#navaff-}=$OUT/six/$SIX_NAME" \
   | tee "$OUT/six/compare$([[ $SCALED == 1 ]] && echo -scaled).md"
