@@ -18,9 +18,13 @@ from __future__ import annotations
 
 import dataclasses
 import re
+from typing import TYPE_CHECKING
 
 from momakitchen.errors import MomaError
 from momakitchen.robots.arms import BuiltArm, JointDef, RobotModel
+
+if TYPE_CHECKING:  # spec.py imports this module
+    from momakitchen.robots.spec import RobotSpec
 
 # Link length factors a scaled arm may have: half to one and a half times the original.
 SCALE_RANGE = (0.5, 1.5)
@@ -43,6 +47,10 @@ def parse_scaled_name(name: str) -> tuple[str, float] | None:
     return match["base"], float(match["scale"])
 
 
+def _times(v: tuple[float, float, float], scale: float) -> tuple[float, float, float]:
+    return (scale * v[0], scale * v[1], scale * v[2])
+
+
 def scaled_arm(arm: BuiltArm, scale: float) -> BuiltArm:
     """``arm`` with every length (joint origins, flange offset, radii, base housing)
     multiplied by ``scale``; angles, axes, limits, masses and motor limits unchanged."""
@@ -50,20 +58,20 @@ def scaled_arm(arm: BuiltArm, scale: float) -> BuiltArm:
     def joint(jd: JointDef) -> JointDef:
         return dataclasses.replace(
             jd,
-            xyz=tuple(scale * v for v in jd.xyz),
+            xyz=_times(jd.xyz, scale),
             radius=max(MIN_RADIUS, scale * jd.radius),
         )
 
     return dataclasses.replace(
         arm,
         joints=tuple(joint(jd) for jd in arm.joints),
-        flange_xyz=tuple(scale * v for v in arm.flange_xyz),
+        flange_xyz=_times(arm.flange_xyz, scale),
         base_radius=max(MIN_RADIUS, scale * arm.base_radius),
         base_height=scale * arm.base_height,
     )
 
 
-def scaled_robot_spec(name: str, base_spec):  # -> RobotSpec (spec.py imports this module)
+def scaled_robot_spec(name: str, base_spec: RobotSpec) -> RobotSpec:
     """The spec of the scaled arm called ``name`` from ``base_spec``, the spec its name's
     base part names; MomaError if the scale is outside :data:`SCALE_RANGE` or the base arm
     is not built from a joint table."""
