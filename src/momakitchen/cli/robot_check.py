@@ -212,10 +212,9 @@ def run(args: argparse.Namespace) -> int:
     from momakitchen.eval.robot_check import check_summary, format_check, top1_outcomes
     from momakitchen.eval.stats import mcnemar
     from momakitchen.fileio import atomic_write_text, dumps_strict
-    from momakitchen.robots.spec import ROBOTS
+    from momakitchen.robots.spec import get_robot_spec
 
-    if args.robot not in ROBOTS:
-        raise MomaError(f"unknown robot {args.robot!r}; robots: {', '.join(ROBOTS)}")
+    get_robot_spec(args.robot)  # an unknown robot fails here, before anything is written
     if args.checkpoint != "bundled" and not (Path(args.checkpoint) / "config.json").is_file():
         raise MomaError(f"--checkpoint {args.checkpoint!r} is not a run directory")
     if args.finetune_scenes and args.finetune_first_scene_id in range(

@@ -21,7 +21,7 @@ import torch
 from torch.utils.data import Dataset
 
 from momakitchen.errors import MomaError
-from momakitchen.robots.spec import DEFAULT_ROBOTS, ROBOTS, get_robot_spec, robot_descriptor
+from momakitchen.robots.spec import DEFAULT_ROBOTS, get_robot_spec, robot_descriptor
 
 EPISODES_PER_CONFIG = 10
 CONFIGS_PER_SCENE = 2
@@ -134,7 +134,7 @@ def make_episode(config: SyntheticConfig, index: int) -> dict:
     crng = np.random.default_rng([config.seed, cfg_index, 1])
     rng = np.random.default_rng([config.seed, index, 2])
     robot_name = config.robots[int(crng.integers(len(config.robots)))]
-    spec = ROBOTS[robot_name]
+    spec = get_robot_spec(robot_name)
     desc = np.asarray(robot_descriptor(spec), np.float32)
 
     # Counter along a wall facing the robot; each episode of a configuration is a slightly
