@@ -32,10 +32,10 @@
 # SCALED=1 (after a run without it, whose results it adds to): step 1's data adds arms with
 # scaled links (scripts/recipes/anyarm_scaled_generate.yaml, its train split in
 # DATA/anyarm-scaled; the trained robots' test set stays step 1's), step 2 fine-tunes the
-# bundled NavAff alone on it (RUNS/navaff-anyarm-scaled, or the committed
-# results/runs/navaff-anyarm-scaled with RETRAIN=0), and steps 4-5 score that model beside
-# the bundled one (msr-scaled.json; the report checks that the bundled model's outcomes
-# there equal its outcomes in msr.json).
+# bundled NavAff and the 12-epoch PointNet++ on it (RUNS/navaff-anyarm-scaled,
+# RUNS/pointnet2-anyarm-scaled, or the committed results/runs/ ones with RETRAIN=0), and
+# steps 4-5 score those beside the two they started from (msr-scaled.json; the report
+# checks that the outcomes of those two there equal theirs in msr.json).
 #
 # Every step resumes: generation skips finished scenes, training goes on from its last
 # checkpoint, and results newer than their model are kept. Run it again after a stop.
@@ -96,16 +96,20 @@ NAMES=(navaff pointnet2)  # the maps files of anyarm_report.py
 MSR=msr.json
 BASELINES=(--method oracle --method random)
 if [[ $SCALED == 1 ]]; then
-  # The bundled model again beside the new one: the same outcomes as in msr.json, checked.
+  # The two models again beside the new ones: the same outcomes as in msr.json, checked.
   MSR=msr-scaled.json
   BASELINES=()
   NAVAFF_ANYARM=$REPO/results/runs/navaff-anyarm-scaled
+  POINTNET2_ANYARM=$REPO/results/runs/pointnet2-anyarm-scaled
   if [[ $RETRAIN == 1 ]]; then
-    train_one navaff-anyarm-scaled navaff bundled --threads 2  # alone: both cores
+    train_one navaff-anyarm-scaled navaff bundled --threads 2 &  # as the committed run
+    train_one pointnet2-anyarm-scaled pointnet2 "${MODELS[1]}" &
+    wait
     NAVAFF_ANYARM=$RUNS/navaff-anyarm-scaled
+    POINTNET2_ANYARM=$RUNS/pointnet2-anyarm-scaled
   fi
-  MODELS=("$BUNDLED" "$NAVAFF_ANYARM")
-  NAMES=(navaff navaff-anyarm-scaled)
+  MODELS+=("$NAVAFF_ANYARM" "$POINTNET2_ANYARM")
+  NAMES+=(navaff-anyarm-scaled pointnet2-anyarm-scaled)
 elif [[ $RETRAIN == 0 ]]; then
   NAVAFF_ANYARM=$REPO/results/runs/navaff-anyarm
   MODELS+=("$NAVAFF_ANYARM")

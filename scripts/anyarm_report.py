@@ -34,6 +34,7 @@ MODELS = {
     "navaff:navaff-anyarm": "NavAff, any-arm",
     "pointnet2:pointnet2-anyarm": "PointNet++, any-arm",
     "navaff:navaff-anyarm-scaled": "NavAff, any-arm + scaled links",
+    "pointnet2:pointnet2-anyarm-scaled": "PointNet++, any-arm + scaled links",
 }
 # (a, b): McNemar of a against b on every robot set and pooled over the held-out ones.
 PAIRS = [
@@ -44,6 +45,8 @@ PAIRS = [
     ("navaff:navaff-anyarm-scaled", "navaff"),
     ("navaff:navaff-anyarm-scaled", "navaff:navaff-anyarm"),
     ("navaff:navaff-anyarm-scaled", "pointnet2"),
+    ("pointnet2:pointnet2-anyarm-scaled", "pointnet2"),
+    ("navaff:navaff-anyarm-scaled", "pointnet2:pointnet2-anyarm-scaled"),
 ]
 TRAINED = "trained"
 GAP_CLOSED, PCC_DROP = 0.90, 0.05  # the figures to reach on every held-out robot
