@@ -8,23 +8,19 @@ limits, the home pose, masses, motor limits, the tool and the mobile base are th
 original's: a scaled arm has the same joint space and the same gripper, only longer or
 shorter links.
 
-Scaled robots are not listed; :func:`scaled_robot_spec` builds one from its name when the
-registry is first asked for it (``get_robot_spec``), in any process, so a dataset, a
-worker or a checkpoint can name one like any robot. Only arms built from joint tables scale
-(the shipped Panda and xArm6 have meshes, user robots their own URDF).
+Scaled robots are not listed; the registry (``spec.py``) builds one from its name with
+:func:`scaled_model` when it is first asked for it (``get_robot_spec``), in any process,
+so a dataset, a worker or a checkpoint can name one like any robot. Only arms built from
+joint tables scale (the shipped Panda and xArm6 have meshes, user robots their own URDF).
 """
 
 from __future__ import annotations
 
 import dataclasses
 import re
-from typing import TYPE_CHECKING
 
 from momakitchen.errors import MomaError
 from momakitchen.robots.arms import BuiltArm, JointDef, RobotModel
-
-if TYPE_CHECKING:  # spec.py imports this module
-    from momakitchen.robots.spec import RobotSpec
 
 # Link length factors a scaled arm may have: half to one and a half times the original.
 SCALE_RANGE = (0.5, 1.5)
@@ -71,10 +67,10 @@ def scaled_arm(arm: BuiltArm, scale: float) -> BuiltArm:
     )
 
 
-def scaled_robot_spec(name: str, base_spec: RobotSpec) -> RobotSpec:
-    """The spec of the scaled arm called ``name`` from ``base_spec``, the spec its name's
-    base part names; MomaError if the scale is outside :data:`SCALE_RANGE` or the base arm
-    is not built from a joint table."""
+def scaled_model(name: str, model: RobotModel) -> tuple[RobotModel, float]:
+    """``(scaled model, scale)`` of the scaled arm called ``name`` from ``model``, the
+    model of the robot its name's base part names; MomaError if the scale is outside
+    :data:`SCALE_RANGE` or the base arm is not built from a joint table."""
     parsed = parse_scaled_name(name)
     if parsed is None:
         raise MomaError(f"{name!r} is not a scaled arm's name (NAME-xS.SS, e.g. ur5e-x0.65)")
@@ -82,17 +78,14 @@ def scaled_robot_spec(name: str, base_spec: RobotSpec) -> RobotSpec:
     lo, hi = SCALE_RANGE
     if not lo <= scale <= hi:
         raise MomaError(f"robot {name!r}: link scale must be in [{lo}, {hi}], got {scale}")
-    model: RobotModel = base_spec.model
     if not isinstance(model.arm, BuiltArm):
         raise MomaError(
             f"robot {name!r}: only arms built from joint tables scale; {base!r} comes from "
             "a URDF file"
         )
-    scaled_model = dataclasses.replace(
+    scaled = dataclasses.replace(
         model,
         arm=scaled_arm(model.arm, scale),
         source=f"{model.source}; links scaled by {scale:.2f}",
     )
-    return dataclasses.replace(
-        base_spec, name=name, reach=round(base_spec.reach * scale, 4), model=scaled_model
-    )
+    return scaled, scale

@@ -11,6 +11,7 @@ Importing this module does not import PyBullet (only ``pybullet_data``, a path).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 
@@ -32,6 +33,7 @@ from momakitchen.robots.arms import (
     RobotModel,
     SuctionCup,
 )
+from momakitchen.robots.scaled import parse_scaled_name, scaled_model
 
 END_EFFECTORS = ("parallel_gripper", "suction")
 
@@ -171,11 +173,12 @@ class RobotRegistry(Registry[RobotSpec]):
 
     def get_entry(self, name: str) -> RobotSpec:
         if isinstance(name, str) and name not in self._entries:
-            from momakitchen.robots.scaled import parse_scaled_name, scaled_robot_spec
-
             parsed = parse_scaled_name(name)
             if parsed is not None and parsed[0] in self._entries:
-                return self.register(scaled_robot_spec(name, self._entries[parsed[0]]))
+                base = self._entries[parsed[0]]
+                model, scale = scaled_model(name, base.model)
+                reach = round(base.reach * scale, 4)
+                return self.register(dataclasses.replace(base, name=name, reach=reach, model=model))
         return super().get_entry(name)
 
     def unregister(self, name: str) -> None:
