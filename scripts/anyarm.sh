@@ -95,32 +95,30 @@ MODELS=("$BUNDLED" "$REPO/results/runs/pointnet2-12ep")
 NAMES=(navaff pointnet2)  # the maps files of anyarm_report.py
 MSR=msr.json
 BASELINES=(--method oracle --method random)
+RUN=anyarm
+NAVAFF_OPTIONS=()
 if [[ $SCALED == 1 ]]; then
   # The two models again beside the new ones: the same outcomes as in msr.json, checked.
   MSR=msr-scaled.json
   BASELINES=()
-  NAVAFF_ANYARM=$REPO/results/runs/navaff-anyarm-scaled
-  POINTNET2_ANYARM=$REPO/results/runs/pointnet2-anyarm-scaled
-  if [[ $RETRAIN == 1 ]]; then
-    train_one navaff-anyarm-scaled navaff bundled --threads 2 &  # as the committed run
-    train_one pointnet2-anyarm-scaled pointnet2 "${MODELS[1]}" &
-    wait
-    NAVAFF_ANYARM=$RUNS/navaff-anyarm-scaled
-    POINTNET2_ANYARM=$RUNS/pointnet2-anyarm-scaled
-  fi
-  MODELS+=("$NAVAFF_ANYARM" "$POINTNET2_ANYARM")
-  NAMES+=(navaff-anyarm-scaled pointnet2-anyarm-scaled)
-elif [[ $RETRAIN == 0 ]]; then
-  NAVAFF_ANYARM=$REPO/results/runs/navaff-anyarm
-  MODELS+=("$NAVAFF_ANYARM")
-  NAMES+=(navaff-anyarm)
-else
-  train_one navaff-anyarm navaff bundled &
-  train_one pointnet2-anyarm pointnet2 "$REPO/results/runs/pointnet2-12ep" &
+  RUN=anyarm-scaled
+  NAVAFF_OPTIONS=(--threads 2)  # as the committed run, trained alone
+fi
+if [[ $RETRAIN == 1 ]]; then
+  train_one "navaff-$RUN" navaff bundled "${NAVAFF_OPTIONS[@]}" &
+  train_one "pointnet2-$RUN" pointnet2 "${MODELS[1]}" &
   wait
-  NAVAFF_ANYARM=$RUNS/navaff-anyarm
-  MODELS+=("$NAVAFF_ANYARM" "$RUNS/pointnet2-anyarm")
-  NAMES+=(navaff-anyarm pointnet2-anyarm)
+  NAVAFF_ANYARM=$RUNS/navaff-$RUN
+  POINTNET2_ANYARM=$RUNS/pointnet2-$RUN
+else
+  NAVAFF_ANYARM=$REPO/results/runs/navaff-$RUN
+  POINTNET2_ANYARM=$REPO/results/runs/pointnet2-$RUN  # committed for the scaled run only
+fi
+MODELS+=("$NAVAFF_ANYARM")
+NAMES+=("navaff-$RUN")
+if [[ -d $POINTNET2_ANYARM ]]; then
+  MODELS+=("$POINTNET2_ANYARM")
+  NAMES+=("pointnet2-$RUN")
 fi
 
 for spec in "${HELDOUT[@]}"; do
@@ -174,12 +172,11 @@ six() {  # run dir, result dir: its test.json and msr.json on SIX_DATA
     momakitchen msr --data "$SIX_DATA" --checkpoint "$1" --seed 0 --json "$2/msr.json" --quiet >/dev/null
   fi
 }
-SIX_NAME=$(basename "$NAVAFF_ANYARM")
-six "$NAVAFF_ANYARM" "$OUT/six/$SIX_NAME"
+six "$NAVAFF_ANYARM" "$OUT/six/navaff-$RUN"
 BEFORE=$REPO/results/runs/navaff-12ep-noise-mild  # the bundled model's archived run
 if [[ "$(cat "$BEFORE/test-shards.sha256")" != "$sum" ]]; then
   BEFORE=$OUT/six/navaff
   six "$BUNDLED" "$BEFORE"
 fi
-python3 "$REPO/scripts/run_compare.py" "bundled=$BEFORE" "${SIX_NAME#navaff-}=$OUT/six/$SIX_NAME" \
-  | tee "$OUT/six/compare$([[ $SCALED == 1 ]] && echo -scaled).md"
+python3 "$REPO/scripts/run_compare.py" "bundled=$BEFORE" "$RUN=$OUT/six/navaff-$RUN" \
+  | tee "$OUT/six/compare${RUN#anyarm}.md"

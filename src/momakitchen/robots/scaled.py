@@ -37,7 +37,7 @@ def scaled_name(base: str, scale: float) -> str:
 
 def parse_scaled_name(name: str) -> tuple[str, float] | None:
     """``(base, scale)`` if ``name`` is a scaled arm's name (``NAME-xS.SS``), else None."""
-    match = _NAME.match(name) if isinstance(name, str) else None
+    match = _NAME.match(name)
     if match is None:
         return None
     return match["base"], float(match["scale"])
@@ -67,25 +67,20 @@ def scaled_arm(arm: BuiltArm, scale: float) -> BuiltArm:
     )
 
 
-def scaled_model(name: str, model: RobotModel) -> tuple[RobotModel, float]:
-    """``(scaled model, scale)`` of the scaled arm called ``name`` from ``model``, the
-    model of the robot its name's base part names; MomaError if the scale is outside
-    :data:`SCALE_RANGE` or the base arm is not built from a joint table."""
-    parsed = parse_scaled_name(name)
-    if parsed is None:
-        raise MomaError(f"{name!r} is not a scaled arm's name (NAME-xS.SS, e.g. ur5e-x0.65)")
-    base, scale = parsed
+def scaled_model(name: str, model: RobotModel, scale: float) -> RobotModel:
+    """The model of the scaled arm called ``name``: ``model`` (its base robot's) with links
+    scaled by ``scale``; MomaError if the scale is outside :data:`SCALE_RANGE` or the base
+    arm is not built from a joint table."""
     lo, hi = SCALE_RANGE
     if not lo <= scale <= hi:
         raise MomaError(f"robot {name!r}: link scale must be in [{lo}, {hi}], got {scale}")
     if not isinstance(model.arm, BuiltArm):
         raise MomaError(
-            f"robot {name!r}: only arms built from joint tables scale; {base!r} comes from "
-            "a URDF file"
+            f"robot {name!r}: only arms built from joint tables scale; "
+            f"{name.rsplit('-x', 1)[0]!r} comes from a URDF file"
         )
-    scaled = dataclasses.replace(
+    return dataclasses.replace(
         model,
         arm=scaled_arm(model.arm, scale),
         source=f"{model.source}; links scaled by {scale:.2f}",
     )
-    return scaled, scale

@@ -175,8 +175,8 @@ class RobotRegistry(Registry[RobotSpec]):
         if isinstance(name, str) and name not in self._entries:
             parsed = parse_scaled_name(name)
             if parsed is not None and parsed[0] in self._entries:
-                base = self._entries[parsed[0]]
-                model, scale = scaled_model(name, base.model)
+                base, scale = self._entries[parsed[0]], parsed[1]
+                model = scaled_model(name, base.model, scale)
                 reach = round(base.reach * scale, 4)
                 return self.register(dataclasses.replace(base, name=name, reach=reach, model=model))
         return super().get_entry(name)
