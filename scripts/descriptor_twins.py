@@ -1,0 +1,99 @@
+"""Two arms the robot descriptor cannot tell apart: how far one's ground truth serves the
+other (docs/RESULTS.md, "Robots the model never saw").
+
+A model reads the scene and the descriptor (reach, mount height, DoF, suction), so two
+arms with the same descriptor on the same configuration get the same map and the same
+picks. Given two datasets labelled on the same configurations by such arms (A and B):
+
+1. the **joint ceiling** from the labelled grid: per configuration, the best a single pick
+   can do for both, max over grid positions of (success_A + success_B) / 2; its mean
+   bounds the mean of the two arms' Top-1 rates for any descriptor-driven model (up to
+   picks between grid points);
+2. a predictions file of B's ground-truth maps on A's views (``--out``), for
+   ``momakitchen msr --data A --predictions FILE``: A standing where B's ground truth
+   says, executed in physics.
+
+    python3 scripts/descriptor_twins.py DATA_A DATA_B --out twin.npz
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from momakitchen.data.shard import SceneShard, list_shards
+from momakitchen.errors import MomaError
+from momakitchen.eval.predictions import episode_key
+from momakitchen.fileio import atomic_path
+from momakitchen.frames import base_to_world_xy
+from momakitchen.robots.spec import get_robot_spec, robot_descriptor
+
+
+def _descriptor(labels) -> tuple[float, ...]:
+    return robot_descriptor(get_robot_spec(labels.robot), labels.mount_height)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("data_a")
+    ap.add_argument("data_b")
+    ap.add_argument("--out", help="predictions file (.npz): B's ground truth on A's views")
+    args = ap.parse_args(argv)
+    a_shards, b_shards = list_shards(args.data_a), list_shards(args.data_b)
+    if sorted(a_shards) != sorted(b_shards):
+        raise MomaError("the two datasets hold different scenes")
+    joint, only_a, only_b, both, n = [], 0, 0, 0, 0
+    maps: dict[str, np.ndarray] = {}
+    for sid in sorted(a_shards):
+        with SceneShard(a_shards[sid]) as sa, SceneShard(b_shards[sid]) as sb:
+            for ci in sa.config_indices():
+                la, lb = sa.configuration(ci), sb.configuration(ci)
+                if _descriptor(la) != _descriptor(lb):
+                    raise MomaError(f"{la.robot} and {lb.robot}: the descriptors differ")
+                if la.anchor != lb.anchor or not np.array_equal(
+                    la.trial_positions, lb.trial_positions
+                ):
+                    raise MomaError(f"scene {sid} configuration {ci}: not the same configuration")
+                sa_ok, sb_ok = la.trial_stages == 0, lb.trial_stages == 0
+                n += 1
+                joint.append(float(np.max((sa_ok.astype(float) + sb_ok) / 2, initial=0.0)))
+                both += bool((sa_ok & sb_ok).any())
+                only_a += bool(sa_ok.any() and not (sa_ok & sb_ok).any())
+                only_b += bool(sb_ok.any() and not (sa_ok & sb_ok).any())
+                if args.out:  # B's ground-truth floor labels, moved onto A's floor points
+                    b_eps = [e for e in sb.episode_indices(ci) if sb.num_points(ci, e)[1] > 0]
+                    for ea in sa.episode_indices(ci):
+                        a_ep = sa.episode(ci, ea)
+                        if len(a_ep.floor_xyz) == 0:
+                            continue
+                        key = episode_key(sid, ci, ea)
+                        if not b_eps:  # B saw no floor in this configuration
+                            maps[key] = np.zeros(len(a_ep.floor_xyz), np.float32)
+                            continue
+                        b_ep = sb.episode(ci, ea if ea in b_eps else b_eps[0])
+                        xa = base_to_world_xy(a_ep.floor_xyz[:, :2].astype(float), a_ep.base_pose)
+                        xb = base_to_world_xy(b_ep.floor_xyz[:, :2].astype(float), b_ep.base_pose)
+                        _, nearest = cKDTree(xb).query(xa)
+                        maps[key] = b_ep.floor_label[nearest].astype(np.float32)
+    print(
+        f"{n} configurations; a position succeeds for both arms in {both}, for "
+        f"{la.robot} only in {only_a}, for {lb.robot} only in {only_b}"
+    )
+    print(f"joint ceiling (mean of the two Top-1 rates, grid picks): {100 * np.mean(joint):.1f} %")
+    if args.out:
+        with atomic_path(args.out) as tmp:
+            with open(tmp, "wb") as f:
+                np.savez_compressed(f, **maps)
+        print(f"{len(maps)} episodes -> {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    try:
+        sys.exit(main())
+    except MomaError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        sys.exit(2)

@@ -1,0 +1,86 @@
+"""scripts/descriptor_twins.py: one arm's ground truth on another arm's views."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+SCRIPT = Path(__file__).resolve().parents[2] / "scripts" / "descriptor_twins.py"
+
+
+def _dataset(root: Path, robot: str) -> Path:
+    from momakitchen.data.config import GenerationConfig, ViewConfig
+    from momakitchen.data.generator import GenerateRequest, generate_dataset
+    from momakitchen.generation.producer import scene_records
+    from momakitchen.scene.configuration import SceneConfig
+
+    cfg = GenerationConfig(
+        scene=SceneConfig(configs_per_scene=2, robots=(robot,)), views=ViewConfig(episodes=2)
+    )
+    out = root / robot
+    generate_dataset(
+        GenerateRequest(out=out, num_scenes=1),
+        scene_records,
+        cfg,
+        progress=False,
+        write_card=False,
+    )
+    return out
+
+
+@pytest.fixture(scope="module")
+def twins(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    # The Elephant (reach 0.63 m, 6 DoF, gripper) and the Realman scaled to 0.70 share
+    # the descriptor at the Elephant's own mount.
+    root = tmp_path_factory.mktemp("twins")
+    return _dataset(root, "elephant"), _dataset(root, "realman-x0.70")
+
+
+def _run(*args: str | Path) -> subprocess.CompletedProcess:
+    cmd = [sys.executable, str(SCRIPT), *map(str, args)]
+    return subprocess.run(cmd, capture_output=True, text=True, check=False)
+
+
+def test_own_ground_truth_comes_back(twins, tmp_path):
+    from momakitchen.data.shard import SceneShard, list_shards
+
+    elephant, _ = twins
+    out = _run(elephant, elephant, "--out", tmp_path / "self.npz")
+    assert out.returncode == 0, out.stderr
+    maps = np.load(tmp_path / "self.npz")
+    [path] = list_shards(elephant).values()
+    with SceneShard(path) as shard:
+        feasible = []
+        for ci in shard.config_indices():
+            feasible.append(shard.configuration(ci).feasible)
+            for e in shard.episode_indices(ci):
+                ep = shard.episode(ci, e)
+                key = f"{ep.scene_id}/{ci}/{e}"
+                assert np.array_equal(maps[key], ep.floor_label.astype(np.float32))
+    # An arm is its own twin: the joint ceiling is its share of feasible configurations.
+    assert (
+        f"joint ceiling (mean of the two Top-1 rates, grid picks): {100 * np.mean(feasible):.1f} %"
+        in out.stdout
+    )
+
+
+def test_twin_maps_cover_every_view(twins, tmp_path):
+    elephant, realman = twins
+    out = _run(elephant, realman, "--out", tmp_path / "twin.npz")
+    assert out.returncode == 0, out.stderr
+    maps = np.load(tmp_path / "twin.npz")
+    assert len(maps.files) > 0
+    assert all(0.0 <= maps[k].min() and maps[k].max() <= 1.0 for k in maps.files)
+
+
+def test_arms_the_descriptor_tells_apart_are_refused(twins, tmp_path):
+    elephant, _ = twins
+    other = _dataset(tmp_path, "flexiv")
+    out = _run(elephant, other, "--out", tmp_path / "x.npz")
+    assert out.returncode == 2
+    assert out.stderr.strip().count("\n") == 0 and "descriptors differ" in out.stderr
+    assert not (tmp_path / "x.npz").exists()
