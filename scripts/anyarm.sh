@@ -6,7 +6,9 @@
 #   bash scripts/anyarm.sh             # DATA=~/mk-data RUNS=~/mk-runs by default
 #   SCENES=60 HELDOUT_SCENES=6 bash scripts/anyarm.sh
 #   RETRAIN=0 bash scripts/anyarm.sh   # score the bundled any-arm run, results/runs/navaff-anyarm
-#   SCALED=1 bash scripts/anyarm.sh    # the same with arms of scaled links, after a run of the above
+#   VARIANT=scaled bash scripts/anyarm.sh  # the same with arms of scaled links, after a run of the above
+#   VARIANT=dense bash scripts/anyarm.sh   # several arms at every reach (NavAff only)
+#   VARIANT=dense HELDOUT_FIRST=920000 bash scripts/anyarm.sh  # on other held-out scenes
 #
 # 1. The any-arm data (scripts/recipes/anyarm_generate.yaml): the Panda, Flexiv, UR5e,
 #    Realman and UR10e, each configuration's mount drawn in 0.45-1.15 m; scenes from 30000.
@@ -29,13 +31,19 @@
 #    model's archived results on the same bytes (scripts/run_compare.py), or, on other
 #    bytes, with the bundled model run there again.
 #
-# SCALED=1 (after a run without it, whose results it adds to): step 1's data adds arms with
-# scaled links (scripts/recipes/anyarm_scaled_generate.yaml, its train split in
-# DATA/anyarm-scaled; the trained robots' test set stays step 1's), step 2 fine-tunes the
-# bundled NavAff and the 12-epoch PointNet++ on it (RUNS/navaff-anyarm-scaled,
-# RUNS/pointnet2-anyarm-scaled, or the committed results/runs/ ones with RETRAIN=0), and
-# steps 4-5 score those beside the two they started from (msr-scaled.json; the report
-# checks that the outcomes of those two there equal theirs in msr.json).
+# VARIANT=scaled (SCALED=1) or dense (after a run without it, whose results it adds to):
+# step 1's data is that of scripts/recipes/anyarm_VARIANT_generate.yaml (its train split in
+# DATA/anyarm-VARIANT; the trained robots' test set stays step 1's): arms with scaled
+# links, or several arms of scaled links at every reach. Step 2 fine-tunes the bundled
+# NavAff on it (RUNS/navaff-anyarm-VARIANT), and for scaled the 12-epoch PointNet++ too
+# (RUNS/pointnet2-anyarm-scaled), or takes the committed results/runs/ ones with
+# RETRAIN=0. Steps 4-5 score those beside the two they started from (msr-VARIANT.json;
+# the report checks that the outcomes of those two there equal theirs in msr.json).
+#
+# HELDOUT_FIRST (default 910000): the held-out scenes' first id. Other ids make their own
+# held-out data (DATA/heldout-NAME-ID) and results (results/anyarm-ID), where every model
+# (the two, the scaled NavAff's committed run and the VARIANT's) and the baselines are
+# scored together in msr.json; the six of step 5 stay in results/anyarm/six.
 #
 # Every step resumes: generation skips finished scenes, training goes on from its last
 # checkpoint, and results newer than their model are kept. Run it again after a stop.
@@ -47,12 +55,21 @@ SCENES=${SCENES:-60}
 HELDOUT_SCENES=${HELDOUT_SCENES:-6}
 WORKERS=${WORKERS:-2}
 REPO=$(cd "$(dirname "$0")/.." && pwd)
-OUT=${OUT:-$REPO/results/anyarm}
+HELDOUT_FIRST=${HELDOUT_FIRST:-910000}
+SUFFIX=""
+[[ $HELDOUT_FIRST != 910000 ]] && SUFFIX=-$HELDOUT_FIRST
+OUT=${OUT:-$REPO/results/anyarm$SUFFIX}
+SIX_OUT=$REPO/results/anyarm/six
 RECIPES=$REPO/scripts/recipes
 ANYARM=$DATA/anyarm
 SIX_DATA=${SIX_DATA:-$DATA/gt2-300}
 RETRAIN=${RETRAIN:-1}
-SCALED=${SCALED:-0}
+VARIANT=${VARIANT:-}
+[[ ${SCALED:-0} == 1 ]] && VARIANT=scaled
+case $VARIANT in
+  "" | scaled | dense) ;;
+  *) echo "VARIANT must be scaled, dense or empty, got '$VARIANT'" >&2; exit 2 ;;
+esac
 mkdir -p "$RUNS" "$OUT"
 
 stamp() { echo "[$(date -u +%FT%TZ)] $*"; }
@@ -67,17 +84,17 @@ HELDOUT=(
 )
 
 split=()
-[[ $RETRAIN == 0 || $SCALED == 1 ]] && split=(--split test)
+[[ $RETRAIN == 0 || -n $VARIANT ]] && split=(--split test)
 stamp "any-arm data: $SCENES scenes from 30000 in $ANYARM ${split[*]}"
 momakitchen generate --out "$ANYARM" --scenes "$SCENES" --first-scene-id 30000 \
   --config "$RECIPES/anyarm_generate.yaml" --workers "$WORKERS" "${split[@]}" --quiet
 TRAIN_DATA=$ANYARM
-if [[ $SCALED == 1 ]]; then
-  TRAIN_DATA=$DATA/anyarm-scaled
+if [[ -n $VARIANT ]]; then
+  TRAIN_DATA=$DATA/anyarm-$VARIANT
   if [[ $RETRAIN == 1 ]]; then
-    stamp "any-arm data with scaled links: $SCENES scenes from 30000 in $TRAIN_DATA (train split)"
+    stamp "any-arm data, $VARIANT: $SCENES scenes from 30000 in $TRAIN_DATA (train split)"
     momakitchen generate --out "$TRAIN_DATA" --scenes "$SCENES" --first-scene-id 30000 \
-      --config "$RECIPES/anyarm_scaled_generate.yaml" --workers "$WORKERS" --split train --quiet
+      --config "$RECIPES/anyarm_${VARIANT}_generate.yaml" --workers "$WORKERS" --split train --quiet
   fi
 fi
 
@@ -97,16 +114,25 @@ MSR=msr.json
 BASELINES=(--method oracle --method random)
 RUN=anyarm
 NAVAFF_OPTIONS=()
-if [[ $SCALED == 1 ]]; then
+if [[ -n $VARIANT ]]; then
   # The two models again beside the new ones: the same outcomes as in msr.json, checked.
-  MSR=msr-scaled.json
+  MSR=msr-$VARIANT.json
   BASELINES=()
-  RUN=anyarm-scaled
-  NAVAFF_OPTIONS=(--threads 2)  # as the committed run, trained alone
+  RUN=anyarm-$VARIANT
+  NAVAFF_OPTIONS=(--threads 2)  # as the committed runs, trained alone
+fi
+if [[ -n $SUFFIX ]]; then  # new held-out scenes: everything scored together
+  MSR=msr.json
+  BASELINES=(--method oracle --method random)
+  if [[ $VARIANT != scaled ]]; then
+    MODELS+=("$REPO/results/runs/navaff-anyarm-scaled")
+    NAMES+=(navaff-anyarm-scaled)
+  fi
 fi
 if [[ $RETRAIN == 1 ]]; then
   train_one "navaff-$RUN" navaff bundled "${NAVAFF_OPTIONS[@]}" &
-  train_one "pointnet2-$RUN" pointnet2 "${MODELS[1]}" &
+  # PointNet++ beside it for the first two data (the descriptor comparison of the issue).
+  [[ $VARIANT != dense ]] && train_one "pointnet2-$RUN" pointnet2 "${MODELS[1]}" &
   wait
   NAVAFF_ANYARM=$RUNS/navaff-$RUN
   POINTNET2_ANYARM=$RUNS/pointnet2-$RUN
@@ -123,9 +149,9 @@ fi
 
 for spec in "${HELDOUT[@]}"; do
   read -r name robot config <<<"$spec"
-  stamp "held-out $name: $HELDOUT_SCENES scenes from 910000"
-  momakitchen generate --out "$DATA/heldout-$name" --scenes "$HELDOUT_SCENES" \
-    --first-scene-id 910000 --robot "$robot" ${config:+--config "$config"} \
+  stamp "held-out $name: $HELDOUT_SCENES scenes from $HELDOUT_FIRST"
+  momakitchen generate --out "$DATA/heldout-$name$SUFFIX" --scenes "$HELDOUT_SCENES" \
+    --first-scene-id "$HELDOUT_FIRST" --robot "$robot" ${config:+--config "$config"} \
     --workers "$WORKERS" --quiet
 done
 
@@ -151,7 +177,7 @@ score() {  # dataset, split, result name
 score "$ANYARM" test trained
 for spec in "${HELDOUT[@]}"; do
   read -r name _ <<<"$spec"
-  score "$DATA/heldout-$name" all "$name"
+  score "$DATA/heldout-$name$SUFFIX" all "$name"
 done
 python3 "$REPO/scripts/anyarm_report.py" "$OUT"
 
@@ -172,11 +198,11 @@ six() {  # run dir, result dir: its test.json and msr.json on SIX_DATA
     momakitchen msr --data "$SIX_DATA" --checkpoint "$1" --seed 0 --json "$2/msr.json" --quiet >/dev/null
   fi
 }
-six "$NAVAFF_ANYARM" "$OUT/six/navaff-$RUN"
+six "$NAVAFF_ANYARM" "$SIX_OUT/navaff-$RUN"
 BEFORE=$REPO/results/runs/navaff-12ep-noise-mild  # the bundled model's archived run
 if [[ "$(cat "$BEFORE/test-shards.sha256")" != "$sum" ]]; then
-  BEFORE=$OUT/six/navaff
+  BEFORE=$SIX_OUT/navaff
   six "$BUNDLED" "$BEFORE"
 fi
-python3 "$REPO/scripts/run_compare.py" "bundled=$BEFORE" "$RUN=$OUT/six/navaff-$RUN" \
-  | tee "$OUT/six/compare${RUN#anyarm}.md"
+python3 "$REPO/scripts/run_compare.py" "bundled=$BEFORE" "$RUN=$SIX_OUT/navaff-$RUN" \
+  | tee "$SIX_OUT/compare${RUN#anyarm}.md"

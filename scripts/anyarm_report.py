@@ -35,6 +35,7 @@ MODELS = {
     "pointnet2:pointnet2-anyarm": "PointNet++, any-arm",
     "navaff:navaff-anyarm-scaled": "NavAff, any-arm + scaled links",
     "pointnet2:pointnet2-anyarm-scaled": "PointNet++, any-arm + scaled links",
+    "navaff:navaff-anyarm-dense": "NavAff, several arms per reach",
 }
 # (a, b): McNemar of a against b on every robot set and pooled over the held-out ones.
 PAIRS = [
@@ -47,6 +48,9 @@ PAIRS = [
     ("navaff:navaff-anyarm-scaled", "pointnet2"),
     ("pointnet2:pointnet2-anyarm-scaled", "pointnet2"),
     ("navaff:navaff-anyarm-scaled", "pointnet2:pointnet2-anyarm-scaled"),
+    ("navaff:navaff-anyarm-dense", "navaff"),
+    ("navaff:navaff-anyarm-dense", "navaff:navaff-anyarm-scaled"),
+    ("navaff:navaff-anyarm-dense", "pointnet2"),
 ]
 TRAINED = "trained"
 GAP_CLOSED, PCC_DROP = 0.90, 0.05  # the figures to reach on every held-out robot
