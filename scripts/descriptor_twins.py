@@ -19,10 +19,10 @@ picks. Given two datasets labelled on the same configurations by such arms (A an
 from __future__ import annotations
 
 import argparse
-import sys
 
 import numpy as np
 from scipy.spatial import cKDTree
+from script_cli import run_main
 
 from momakitchen.data.shard import SceneShard, list_shards
 from momakitchen.errors import MomaError
@@ -36,15 +36,17 @@ def _descriptor(labels) -> tuple[float, ...]:
     return robot_descriptor(get_robot_spec(labels.robot), labels.mount_height)
 
 
-def main(argv: list[str] | None = None) -> int:
+def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("data_a")
     ap.add_argument("data_b")
     ap.add_argument("--out", help="predictions file (.npz): B's ground truth on A's views")
-    args = ap.parse_args(argv)
+    args = ap.parse_args()
     a_shards, b_shards = list_shards(args.data_a), list_shards(args.data_b)
+    if not a_shards:
+        raise MomaError(f"{args.data_a!r} holds no scene shards")
     if sorted(a_shards) != sorted(b_shards):
-        raise MomaError("the two datasets hold different scenes")
+        raise MomaError(f"{args.data_a!r} and {args.data_b!r} hold different scenes")
     joint, only_a, only_b, both, n = [], 0, 0, 0, 0
     maps: dict[str, np.ndarray] = {}
     for sid in sorted(a_shards):
@@ -88,12 +90,7 @@ def main(argv: list[str] | None = None) -> int:
             with open(tmp, "wb") as f:
                 np.savez_compressed(f, **maps)
         print(f"{len(maps)} episodes -> {args.out}")
-    return 0
 
 
 if __name__ == "__main__":
-    try:
-        sys.exit(main())
-    except MomaError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        sys.exit(2)
+    run_main(main, "descriptor_twins.py")
