@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import pytest
 
 from momakitchen.cli.main import main
@@ -15,6 +16,7 @@ from momakitchen.eval.robot_check import (
     UNDECIDED,
     check_summary,
     format_check,
+    gap_closed_interval,
     gap_interval,
     verdict,
 )
@@ -31,6 +33,21 @@ def test_gap_interval_is_paired_and_seeded():
     assert gap_interval([0, 1, 1], [0, 1, 1]) == (0.0, 0.0, 0.0)
     with pytest.raises(MomaError, match="paired outcomes"):
         gap_interval([1], [1, 0])
+
+
+def test_gap_closed_interval_is_paired_and_seeded():
+    oracle = [1] * 30 + [0] * 10
+    random = [1] * 4 + [0] * 36
+    model = [1] * 27 + [0] * 13  # closes (27 - 4) / (30 - 4) of the gap
+    lo, hi = gap_closed_interval(model, oracle, random)
+    assert 0.6 < lo < 23 / 26 < hi <= 1.0
+    assert gap_closed_interval(model, oracle, random) == (lo, hi)  # seeded
+    # Paired: where the model fails exactly where the oracle does, no resample differs.
+    assert gap_closed_interval(oracle, oracle, random) == (1.0, 1.0)
+    # The oracle no better than random: the share is undefined.
+    assert all(np.isnan(gap_closed_interval([1, 0], [0, 0], [0, 0])))
+    with pytest.raises(MomaError, match="paired outcomes"):
+        gap_closed_interval([1], [1, 0], [0, 0])
 
 
 def test_verdict_needs_the_whole_interval():

@@ -55,6 +55,44 @@ def gap_interval(
     return gap, float(ci.low), float(ci.high)
 
 
+def gap_closed_interval(
+    model: Sequence[int],
+    oracle: Sequence[int],
+    random: Sequence[int],
+    confidence: float = 0.95,
+    seed: int = 0,
+) -> tuple[float, float]:
+    """The ``confidence`` interval of the share of the random -> oracle gap a model closes,
+    ``(rate(model) - rate(random)) / (rate(oracle) - rate(random))``, by a paired bootstrap
+    over configurations (NaN bounds if some resample has the oracle no better than random,
+    where the share is undefined)."""
+    from scipy.stats import bootstrap
+
+    if not len(model) == len(oracle) == len(random) or not len(model):
+        raise MomaError(f"want paired outcomes, got {len(model)}, {len(oracle)} and {len(random)}")
+
+    def share(m: np.ndarray, o: np.ndarray, r: np.ndarray, axis: int = -1) -> np.ndarray:
+        span = o.mean(axis) - r.mean(axis)
+        closed = m.mean(axis) - r.mean(axis)
+        return np.where(span > 0, closed / np.where(span > 0, span, 1.0), np.nan)
+
+    data = tuple(np.asarray(x, float) for x in (model, oracle, random))
+    if np.isnan(share(*data)) or all(np.all(x == x[0]) for x in data):
+        value = float(share(*data))
+        return value, value
+    ci = bootstrap(
+        data,
+        share,
+        paired=True,
+        vectorized=True,
+        confidence_level=confidence,
+        n_resamples=BOOTSTRAP_RESAMPLES,
+        method="percentile",
+        rng=np.random.default_rng(seed),
+    ).confidence_interval
+    return float(ci.low), float(ci.high)
+
+
 def verdict(gap: float, low: float, high: float, tolerance: float) -> str:
     """:data:`SERVES` when the whole interval lies within ``tolerance`` of the oracle,
     :data:`DOES_NOT_SERVE` when all of it lies beyond, else :data:`UNDECIDED`."""
