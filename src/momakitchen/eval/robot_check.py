@@ -76,12 +76,12 @@ def gap_closed_interval(
         closed = m.mean(axis) - r.mean(axis)
         return np.where(span > 0, closed / np.where(span > 0, span, 1.0), np.nan)
 
-    data = tuple(np.asarray(x, float) for x in (model, oracle, random))
-    if np.isnan(share(*data)) or all(np.all(x == x[0]) for x in data):
-        value = float(share(*data))
+    m, o, r = (np.asarray(x, float) for x in (model, oracle, random))
+    value = float(share(m, o, r))
+    if np.isnan(value) or all(np.all(x == x[0]) for x in (m, o, r)):
         return value, value
     ci = bootstrap(
-        data,
+        (m, o, r),
         share,
         paired=True,
         vectorized=True,
