@@ -9,7 +9,10 @@ picks. Given two datasets labelled on the same configurations by such arms (A an
    can do for both, max over grid positions of (success_A + success_B) / 2; its mean
    bounds the mean of the two arms' Top-1 rates for any descriptor-driven model (up to
    picks between grid points);
-2. a predictions file of B's ground-truth maps on A's views (``--out``), for
+2. per target (category and part), the grid positions that succeed for A, for B and for
+   both, and the stages at which A fails where only B succeeds (and the other way): where
+   the two arms differ, and why;
+3. a predictions file of B's ground-truth maps on A's views (``--out``), for
    ``momakitchen msr --data A --predictions FILE``: A standing where B's ground truth
    says, executed in physics.
 
@@ -19,6 +22,7 @@ picks. Given two datasets labelled on the same configurations by such arms (A an
 from __future__ import annotations
 
 import argparse
+from collections import Counter, defaultdict
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -30,6 +34,46 @@ from momakitchen.eval.predictions import episode_key
 from momakitchen.fileio import atomic_path
 from momakitchen.frames import base_to_world_xy
 from momakitchen.robots.spec import get_robot_spec, robot_descriptor
+from momakitchen.sim.config import STAGE_NAMES
+
+
+class _Target:
+    """Per target: configurations, successful grid positions of A, B and both, and the
+    stages of the positions that succeed for one arm only (A's failures, B's failures)."""
+
+    def __init__(self) -> None:
+        self.configurations = 0
+        self.a = self.b = self.both = 0
+        self.a_fails: Counter[str] = Counter()
+        self.b_fails: Counter[str] = Counter()
+
+    def add(self, stages_a: np.ndarray, stages_b: np.ndarray) -> None:
+        ok_a, ok_b = stages_a == 0, stages_b == 0
+        self.configurations += 1
+        self.a += int(ok_a.sum())
+        self.b += int(ok_b.sum())
+        self.both += int((ok_a & ok_b).sum())
+        self.a_fails.update(STAGE_NAMES[s] for s in stages_a[ok_b & ~ok_a])
+        self.b_fails.update(STAGE_NAMES[s] for s in stages_b[ok_a & ~ok_b])
+
+
+def _stages(c: Counter[str]) -> str:
+    return ", ".join(f"{name} {n}" for name, n in c.most_common()) or "–"
+
+
+def _target_table(robot_a: str, robot_b: str, targets: dict[str, _Target]) -> str:
+    rows = [
+        f"| target | configurations | positions {robot_a} | {robot_b} | both "
+        f"| {robot_a} fails where only {robot_b} succeeds | {robot_b} fails where only "
+        f"{robot_a} succeeds |",
+        "| --- | ---: | ---: | ---: | ---: | --- | --- |",
+    ]
+    for name, t in sorted(targets.items()):
+        rows.append(
+            f"| {name} | {t.configurations} | {t.a} | {t.b} | {t.both} "
+            f"| {_stages(t.a_fails)} | {_stages(t.b_fails)} |"
+        )
+    return "\n".join(rows)
 
 
 def _descriptor(labels) -> tuple[float, ...]:
@@ -49,6 +93,7 @@ def main() -> None:
         raise MomaError(f"{args.data_a!r} and {args.data_b!r} hold different scenes")
     joint, only_a, only_b, both, n = [], 0, 0, 0, 0
     maps: dict[str, np.ndarray] = {}
+    targets: dict[str, _Target] = defaultdict(_Target)
     for sid in sorted(a_shards):
         with SceneShard(a_shards[sid]) as sa, SceneShard(b_shards[sid]) as sb:
             for ci in sa.config_indices():
@@ -61,6 +106,7 @@ def main() -> None:
                     raise MomaError(f"scene {sid} configuration {ci}: not the same configuration")
                 sa_ok, sb_ok = la.trial_stages == 0, lb.trial_stages == 0
                 n += 1
+                targets[la.target].add(la.trial_stages, lb.trial_stages)
                 joint.append(float(np.max((sa_ok.astype(float) + sb_ok) / 2, initial=0.0)))
                 both += bool((sa_ok & sb_ok).any())
                 only_a += bool(sa_ok.any() and not (sa_ok & sb_ok).any())
@@ -85,6 +131,7 @@ def main() -> None:
         f"{la.robot} only in {only_a}, for {lb.robot} only in {only_b}"
     )
     print(f"joint ceiling (mean of the two Top-1 rates, grid picks): {100 * np.mean(joint):.1f} %")
+    print(_target_table(la.robot, lb.robot, targets))
     if args.out:
         with atomic_path(args.out) as tmp:
             with open(tmp, "wb") as f:

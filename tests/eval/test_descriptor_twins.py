@@ -84,3 +84,46 @@ def test_arms_the_descriptor_tells_apart_are_refused(twins, tmp_path):
     assert out.returncode == 2
     assert out.stderr.strip().count("\n") == 0 and "descriptors differ" in out.stderr
     assert not (tmp_path / "x.npz").exists()
+
+
+def _target_rows(stdout: str) -> list[list[str]]:
+    lines = [ln for ln in stdout.splitlines() if ln.startswith("| ") and "---" not in ln]
+    return [[c.strip() for c in ln.strip("|").split("|")] for ln in lines[1:]]
+
+
+def test_per_target_counts_add_up(twins):
+    from momakitchen.data.shard import SceneShard, list_shards
+
+    elephant, realman = twins
+    own = _run(elephant, elephant)
+    assert own.returncode == 0, own.stderr
+    for _, _, a, b, both, fails_a, fails_b in _target_rows(own.stdout):
+        assert a == b == both and fails_a == fails_b == "–"
+    out = _run(elephant, realman)
+    assert out.returncode == 0, out.stderr
+    rows = _target_rows(out.stdout)
+    totals = []
+    for data in twins:
+        [path] = list_shards(data).values()
+        with SceneShard(path) as shard:
+            totals.append(
+                sum(
+                    int((shard.configuration(ci).trial_stages == 0).sum())
+                    for ci in shard.config_indices()
+                )
+            )
+    assert [sum(int(r[i]) for r in rows) for i in (2, 3)] == totals
+    assert sum(int(r[1]) for r in rows) == 2  # configurations
+    for _, _, a, b, both, fails_a, fails_b in rows:
+        # Every position one arm alone solves has a failing stage of the other.
+        n_a = (
+            sum(int(part.rsplit(" ", 1)[1]) for part in fails_a.split(", "))
+            if fails_a != "–"
+            else 0
+        )
+        n_b = (
+            sum(int(part.rsplit(" ", 1)[1]) for part in fails_b.split(", "))
+            if fails_b != "–"
+            else 0
+        )
+        assert (n_a, n_b) == (int(b) - int(both), int(a) - int(both))
