@@ -1,9 +1,9 @@
 """The Realman scaled x0.70 with the Elephant's gripper (realman-x0.70-eg; 40 N per finger)
 or only its finger force (realman-x0.70-f40), registered in this process, then one of:
 
-    python3 scripts/gripper_twins.py generate OUT       # label scenes 910000-910005
+    python3 scripts/gripper_twins.py generate OUT eg|f40  # label scenes 910000-910005
     python3 scripts/gripper_twins.py twins A B [--out F]  # scripts/descriptor_twins.py
-    python3 scripts/gripper_twins.py cli ARGS...        # any momakitchen command
+    python3 scripts/gripper_twins.py cli ARGS...          # any momakitchen command
 
 (results/anyarm/twins/README.md, "The gripper").
 """
@@ -11,10 +11,12 @@ or only its finger force (realman-x0.70-f40), registered in this process, then o
 from __future__ import annotations
 
 import dataclasses
-import runpy
 import sys
 from pathlib import Path
 
+from script_cli import run_main
+
+from momakitchen.errors import MomaError
 from momakitchen.robots.spec import get_robot_spec, register_robot
 
 BASE = get_robot_spec("realman-x0.70")
@@ -32,23 +34,33 @@ for _v, _ee in VARIANTS.items():
         )
     )
 
-if __name__ == "__main__":
-    what, *rest = sys.argv[1:]
-    if what == "generate":  # OUT VARIANT
+
+def main() -> None:
+    what, *rest = sys.argv[1:] or [""]
+    if what == "generate":
         from momakitchen.data.config import GenerationConfig
         from momakitchen.data.generator import GenerateRequest, generate_dataset
         from momakitchen.generation.producer import scene_records
         from momakitchen.scene.configuration import SceneConfig
 
+        if len(rest) != 2 or rest[1] not in VARIANTS:
+            raise MomaError(f"generate needs OUT and a variant of {sorted(VARIANTS)}, got {rest}")
         out, variant = rest
         cfg = GenerationConfig(scene=SceneConfig(robots=(f"realman-x0.70-{variant}",)))
         request = GenerateRequest(out=Path(out), num_scenes=6, first_scene_id=910000)
         generate_dataset(request, scene_records, cfg, progress=False)
     elif what == "twins":
-        sys.path.insert(0, str(Path(__file__).parent))
-        sys.argv = ["descriptor_twins.py", *rest]
-        runpy.run_path(str(Path(__file__).parent / "descriptor_twins.py"), run_name="__main__")
-    else:
-        from momakitchen.cli.main import main
+        import descriptor_twins
 
-        sys.exit(main(rest))
+        sys.argv = ["descriptor_twins.py", *rest]
+        descriptor_twins.main()
+    elif what == "cli":
+        from momakitchen.cli.main import main as cli
+
+        sys.exit(cli(rest))
+    else:
+        raise MomaError(f"the first word must be generate, twins or cli, got {what!r}")
+
+
+if __name__ == "__main__":
+    run_main(main, "gripper_twins.py")

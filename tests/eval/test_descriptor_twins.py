@@ -91,6 +91,11 @@ def _target_rows(stdout: str) -> list[list[str]]:
     return [[c.strip() for c in ln.strip("|").split("|")] for ln in lines[1:]]
 
 
+def _count(stages: str) -> int:
+    """The total of a "stage n, stage m" cell ("–": none)."""
+    return 0 if stages == "–" else sum(int(p.rsplit(" ", 1)[1]) for p in stages.split(", "))
+
+
 def test_per_target_counts_add_up(twins):
     from momakitchen.data.shard import SceneShard, list_shards
 
@@ -116,14 +121,4 @@ def test_per_target_counts_add_up(twins):
     assert sum(int(r[1]) for r in rows) == 2  # configurations
     for _, _, a, b, both, fails_a, fails_b in rows:
         # Every position one arm alone solves has a failing stage of the other.
-        n_a = (
-            sum(int(part.rsplit(" ", 1)[1]) for part in fails_a.split(", "))
-            if fails_a != "–"
-            else 0
-        )
-        n_b = (
-            sum(int(part.rsplit(" ", 1)[1]) for part in fails_b.split(", "))
-            if fails_b != "–"
-            else 0
-        )
-        assert (n_a, n_b) == (int(b) - int(both), int(a) - int(both))
+        assert (_count(fails_a), _count(fails_b)) == (int(b) - int(both), int(a) - int(both))
