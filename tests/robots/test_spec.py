@@ -4,9 +4,11 @@ model, the descriptor, and no simulator on import."""
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 from momakitchen.errors import MomaError
@@ -20,6 +22,12 @@ from momakitchen.robots import (
     robot_descriptor,
 )
 from momakitchen.robots.arms import BuiltArm, RobotModel, SuctionCup
+from momakitchen.robots.spec import (
+    DESCRIPTOR_DIM,
+    DESCRIPTOR_LAYOUTS,
+    descriptor_dim,
+    upgrade_descriptor,
+)
 
 NAMES = ["panda", "flexiv", "ur5e", "xarm6", "realman", "elephant"]
 
@@ -62,11 +70,36 @@ def test_a_spec_must_agree_with_its_model():
     assert "bad" not in ROBOTS
 
 
-def test_descriptor_is_reach_mount_height_dof_tool():
-    assert DESCRIPTOR_VERSION == 1
+def test_descriptor_is_reach_mount_height_dof_tool_grip():
+    assert DESCRIPTOR_VERSION == 2
     assert DESCRIPTOR_NAMES[:2] == ("reach_m", "mount_height_m")
-    assert robot_descriptor(get_robot_spec("ur5e")) == (0.85, 1.03, 6 / 7, 1.0)
-    assert robot_descriptor(get_robot_spec("xarm6")) == (0.70, 0.33, 6 / 7, 0.0)
+    assert robot_descriptor(get_robot_spec("ur5e")) == (0.85, 1.03, 6 / 7, 1.0, 0.0)
+    assert robot_descriptor(get_robot_spec("xarm6")) == (0.70, 0.33, 6 / 7, 0.0, 0.4)
+    assert robot_descriptor(get_robot_spec("panda"))[4] == 0.7
+
+
+def test_each_descriptor_layout_extends_the_one_before():
+    versions = sorted(DESCRIPTOR_LAYOUTS)
+    assert versions == list(range(1, DESCRIPTOR_VERSION + 1))
+    for old, new in itertools.pairwise(versions):
+        assert DESCRIPTOR_LAYOUTS[new][: len(DESCRIPTOR_LAYOUTS[old])] == DESCRIPTOR_LAYOUTS[old]
+    assert [descriptor_dim(v) for v in versions] == [4, 5]
+    for bad in (0, 3, True, "1", None):
+        with pytest.raises(MomaError, match=r"descriptor version .* is unknown"):
+            descriptor_dim(bad)
+
+
+def test_a_version_1_descriptor_gains_its_robots_finger_force():
+    old = np.asarray([0.63, 0.9, 6 / 7, 0.0], np.float32)  # a drawn mount stays as stored
+    new = upgrade_descriptor(old, 1, "elephant")
+    assert new.dtype == np.float32 and new.shape == (DESCRIPTOR_DIM,)
+    assert np.array_equal(new[:4], old) and new[4] == np.float32(0.4)
+    assert upgrade_descriptor(new, DESCRIPTOR_VERSION, "elephant") is new
+    assert upgrade_descriptor(old, 1, "ur5e")[4] == 0.0  # suction
+    with pytest.raises(MomaError, match="version-1 robot descriptor has 4 values"):
+        upgrade_descriptor(new, 1, "elephant")
+    with pytest.raises(MomaError, match="unknown robot 'nobody'"):
+        upgrade_descriptor(old, 1, "nobody")
 
 
 @pytest.mark.parametrize("module", ["momakitchen.robots", "momakitchen.robots.spec"])
@@ -112,4 +145,4 @@ def test_mount_heights_are_checked_against_the_documented_range():
 def test_descriptor_takes_a_configurations_mount_height():
     ur5e = get_robot_spec("ur5e")
     assert robot_descriptor(ur5e, None) == robot_descriptor(ur5e)
-    assert robot_descriptor(ur5e, 0.62) == (0.85, 0.62, 6 / 7, 1.0)
+    assert robot_descriptor(ur5e, 0.62) == (0.85, 0.62, 6 / 7, 1.0, 0.0)

@@ -65,6 +65,7 @@ from momakitchen.data.shard import (
     write_shard_bytes,
 )
 from momakitchen.errors import MomaError
+from momakitchen.robots.spec import DESCRIPTOR_VERSION
 from momakitchen.scene.ids import check_scene_range
 from momakitchen.version import __version__
 
@@ -157,6 +158,12 @@ def prepare_root(
             raise MomaError(
                 f"{root} was generated with other user robot files (first difference: "
                 f"robot {changed!r}); use another --out or the same --robot-yaml files"
+            )
+        if old.get("descriptor_version") != DESCRIPTOR_VERSION:
+            raise MomaError(
+                f"{root} was generated with robot descriptor version "
+                f"{old.get('descriptor_version')}, this version of momakitchen writes "
+                f"{DESCRIPTOR_VERSION}; use another --out"
             )
         if old.get("generator_version") != __version__:
             raise MomaError(

@@ -14,7 +14,7 @@ from momakitchen.data.config import manifest_preprocessing
 from momakitchen.data.episode import SEMANTIC_CLASSES
 from momakitchen.data.shard import EPISODE_ARRAYS, SceneShard, file_sha256, list_shards
 from momakitchen.errors import MomaError
-from momakitchen.robots.spec import DESCRIPTOR_DIM, DESCRIPTOR_VERSION
+from momakitchen.robots.spec import DESCRIPTOR_DIM
 from momakitchen.sim.config import STAGE_NAMES
 
 # Floor points are those below 2 cm (docs/DESIGN.md §3.4) unless the manifest's generation
@@ -84,10 +84,11 @@ def _open_checked(
     sid: int, entry: dict[str, Any], path: Path, verify_hash: bool = False
 ) -> tuple[SceneShard, list[int], list[int]]:
     """Open a shard after checking it against its manifest entry: there, of the recorded
-    size (and checksum with ``verify_hash``), complete, of this schema and descriptor
-    version, holding the recorded scene, configurations and episodes (metadata only: a few
-    ms). Returns the open shard, its configuration indices and episodes per configuration;
-    MomaError naming the shard otherwise."""
+    size (and checksum with ``verify_hash``), complete, of this schema and a known
+    descriptor version (older ones are read as current), holding the recorded scene,
+    configurations and episodes (metadata only: a few ms). Returns the open shard, its
+    configuration indices and episodes per configuration; MomaError naming the shard
+    otherwise."""
     name = entry["file"]
     if not path.is_file():
         raise MomaError(f"shard {name} listed in the manifest is missing")
@@ -105,11 +106,6 @@ def _open_checked(
     try:
         if shard.scene_id != sid:
             raise MomaError(f"shard {name}: holds scene {shard.scene_id}")
-        if shard.descriptor_version != DESCRIPTOR_VERSION:
-            raise MomaError(
-                f"shard {name}: descriptor version {shard.descriptor_version}, "
-                f"expected {DESCRIPTOR_VERSION}"
-            )
         try:
             configs = shard.config_indices()
             per_config = [len(shard.episode_indices(c)) for c in configs]

@@ -16,7 +16,7 @@ Layout of ``scenes/scene_{scene_id:06d}.h5`` (schema ``SCHEMA_VERSION``)::
                                            base_pose (3,)
             rgb (H, W, 3) u1        depth (H, W) f4      semantic (H, W) u1
             intrinsics (4,) f8      camera_pose (4, 4) f8  camera_to_base (4, 4) f8
-            descriptor (D,) f4
+            descriptor (D,) f4      (D: the length of descriptor_version's layout)
             global_xyz (Ng, 3) f4   global_rgb (Ng, 3) u1  global_align (Ng,) i1
             floor_xyz (Nf, 3) f4    floor_label (Nf,) f4
 
@@ -27,6 +27,9 @@ the same records always give the same bytes, whatever process writes them.
 Writes are atomic: the shard is written to a hidden temporary file in the same directory,
 the ``complete`` attribute is set last, the file is flushed, fsynced and renamed onto its
 final name. Readers accept only files with the final name *and* the completion mark.
+
+A shard written with an older robot descriptor version is read as a current one: its
+descriptors gain the columns added since from the episode's robot (``SceneShard.arrays``).
 """
 
 from __future__ import annotations
@@ -46,7 +49,12 @@ from momakitchen.data.episode import SEMANTIC_CLASSES, ConfigurationLabels, Epis
 from momakitchen.errors import MomaError
 from momakitchen.fileio import DISK_FULL, dumps_strict
 from momakitchen.frames import float3
-from momakitchen.robots.spec import DESCRIPTOR_NAMES, DESCRIPTOR_VERSION
+from momakitchen.robots.spec import (
+    DESCRIPTOR_LAYOUTS,
+    DESCRIPTOR_NAMES,
+    DESCRIPTOR_VERSION,
+    upgrade_descriptor,
+)
 from momakitchen.sim.config import STAGE_NAMES
 from momakitchen.version import __version__
 
@@ -362,6 +370,12 @@ class SceneShard:
         self.num_configurations = int(attrs["num_configurations"])
         self.num_episodes = int(attrs["num_episodes"])
         self.descriptor_version = int(attrs["descriptor_version"])
+        if self.descriptor_version not in DESCRIPTOR_LAYOUTS:
+            self.close()
+            raise MomaError(
+                f"shard {self.path}: robot descriptor version {self.descriptor_version}, "
+                f"this reader understands {sorted(DESCRIPTOR_LAYOUTS)}"
+            )
 
     def close(self) -> None:
         f = getattr(self, "_file", None)
@@ -439,7 +453,8 @@ class SceneShard:
     def arrays(
         self, config_index: int, episode_index: int, names: Sequence[str]
     ) -> dict[str, np.ndarray]:
-        """Only the named per-episode arrays (e.g. the clouds, without the images)."""
+        """Only the named per-episode arrays (e.g. the clouds, without the images); the
+        descriptor always of the current version."""
         e = self._group(config_key(config_index), episode_key(episode_index))
         out = {}
         for name in names:
@@ -454,6 +469,16 @@ class SceneShard:
                 raise MomaError(
                     f"shard {self.path}: episode {config_index}/{episode_index} {name!r} "
                     f"unreadable ({_short(exc)})"
+                ) from None
+        if "descriptor" in out and self.descriptor_version != DESCRIPTOR_VERSION:
+            robot = _text(e.attrs["robot"])
+            try:
+                out["descriptor"] = upgrade_descriptor(
+                    out["descriptor"], self.descriptor_version, robot
+                )
+            except MomaError as exc:
+                raise MomaError(
+                    f"shard {self.path}: episode {config_index}/{episode_index}: {exc}"
                 ) from None
         return out
 

@@ -15,7 +15,7 @@ from torch.utils.data import Dataset
 from momakitchen.data import manifest as mf
 from momakitchen.data.shard import SceneShard
 from momakitchen.errors import MomaError
-from momakitchen.robots.spec import DESCRIPTOR_DIM, DESCRIPTOR_VERSION
+from momakitchen.robots.spec import DESCRIPTOR_DIM, DESCRIPTOR_LAYOUTS
 
 SPLIT_CHOICES = ("train", "test", "all")
 # The stored arrays a model sample is made of.
@@ -154,11 +154,12 @@ class EpisodeDataset(Dataset):
             raise MomaError(f"max_open_files must be >= 1, got {max_open_files}")
         self.root = Path(root)
         self.manifest = mf.load_manifest(self.root)
-        if self.manifest.get("descriptor_version") != DESCRIPTOR_VERSION:
+        # Older descriptors are read as current ones (SceneShard.arrays).
+        if self.manifest.get("descriptor_version") not in DESCRIPTOR_LAYOUTS:
             raise MomaError(
                 f"{self.root}: robot descriptor version "
-                f"{self.manifest.get('descriptor_version')}, this version of "
-                f"momakitchen uses {DESCRIPTOR_VERSION}"
+                f"{self.manifest.get('descriptor_version')!r}, this version of "
+                f"momakitchen knows {sorted(DESCRIPTOR_LAYOUTS)}"
             )
         self.split = split
         self.transform = transform

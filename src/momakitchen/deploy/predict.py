@@ -145,9 +145,15 @@ def load_extrinsics(tf: np.ndarray | str | os.PathLike) -> np.ndarray:
 
 def robot_input(robot: str | Sequence[float] | Mapping[str, float]) -> tuple[str, np.ndarray]:
     """A robot name from the registry, or a descriptor: ``{"reach", "mount_height"}`` (plus
-    optional ``"dof"`` (6) and ``"suction"`` (False)) or the full descriptor vector."""
+    optional ``"dof"`` (6), ``"suction"`` (False) and ``"finger_force"`` (N per finger,
+    40)) or the descriptor vector (of the current layout, or of version 1, whose gripper
+    then has the default force). Returns the name ("custom" for a descriptor) and the
+    descriptor, shape ``(DESCRIPTOR_DIM,)``."""
+    from momakitchen.robots.grip import FORCE_RANGE
     from momakitchen.robots.spec import (
+        DEFAULT_FINGER_FORCE,
         DESCRIPTOR_DIM,
+        descriptor_dim,
         descriptor_values,
         get_robot_spec,
         robot_descriptor,
@@ -159,20 +165,33 @@ def robot_input(robot: str | Sequence[float] | Mapping[str, float]) -> tuple[str
         missing = {"reach", "mount_height"} - set(robot)
         if missing:
             raise MomaError(f"robot descriptor needs {sorted(missing)}")
-        for key, lo, hi in (("reach", 0.2, 3.0), ("mount_height", 0.0, 3.0)):
+        lo_f, hi_f = FORCE_RANGE
+        for key, lo, hi, unit in (
+            ("reach", 0.2, 3.0, "m"),
+            ("mount_height", 0.0, 3.0, "m"),
+            ("finger_force", lo_f, hi_f, "N"),
+        ):
+            if key not in robot:
+                continue
             value = float(robot[key])
             if not (np.isfinite(value) and lo <= value <= hi):  # named here, not as a vector
-                raise MomaError(f"robot {key} must be in [{lo:g}, {hi:g}] m, got {robot[key]}")
+                raise MomaError(f"robot {key} must be in [{lo:g}, {hi:g}] {unit}, got {robot[key]}")
         vec = list(
             descriptor_values(
                 robot["reach"],
                 robot["mount_height"],
                 float(robot.get("dof", 6)),
                 bool(robot.get("suction", False)),
+                float(robot.get("finger_force", DEFAULT_FINGER_FORCE)),
             )
         )
     else:
         vec = list(robot)
+        if len(vec) == descriptor_dim(1):  # a version-1 vector: reach, mount, dof/7, suction
+            values = np.asarray(vec, np.float64)
+            if np.isfinite(values).all():
+                reach, mount, dof_7, suction = values
+                vec = list(descriptor_values(reach, mount, dof_7 * 7.0, bool(suction >= 0.5)))
     d = np.asarray(vec, np.float32)
     if (
         d.shape != (DESCRIPTOR_DIM,)

@@ -81,13 +81,21 @@ class AffordanceHead(nn.Module):
         - output: (B, Nf) in [0, 1]
     """
 
-    def __init__(self, in_channels: int, hidden: int, use_robot: bool, dropout: float) -> None:
+    def __init__(
+        self,
+        in_channels: int,
+        hidden: int,
+        use_robot: bool,
+        dropout: float,
+        descriptor_dim: int = DESCRIPTOR_DIM,
+    ) -> None:
         super().__init__()
         self.use_robot = use_robot
+        self.descriptor_dim = descriptor_dim
         robot_ch = 0
         if use_robot:
             robot_ch = max(8, hidden // 4)
-            self.robot_mlp = PointMLP(DESCRIPTOR_DIM, [robot_ch, robot_ch])
+            self.robot_mlp = PointMLP(descriptor_dim, [robot_ch, robot_ch])
         self.mlp = PointMLP(in_channels + robot_ch, [hidden])
         self.drop = nn.Dropout(dropout)
         self.out = nn.Linear(hidden, 1)
@@ -100,7 +108,8 @@ class AffordanceHead(nn.Module):
 
     def forward(self, feats: torch.Tensor, robot: torch.Tensor) -> torch.Tensor:
         if self.use_robot:
-            r = self.robot_mlp(robot).unsqueeze(1).expand(-1, feats.shape[1], -1)
+            r = self.robot_mlp(robot[:, : self.descriptor_dim])
+            r = r.unsqueeze(1).expand(-1, feats.shape[1], -1)
             feats = torch.cat([feats, r], -1)
         return torch.sigmoid(self.out(self.drop(self.mlp(feats))).squeeze(-1))
 
@@ -121,7 +130,13 @@ class AffordanceModel(nn.Module):
         self.config = config
         self.backbone = backbone
         hidden = max(16, backbone.out_channels)
-        self.head = AffordanceHead(backbone.out_channels, hidden, head_uses_robot, config.dropout)
+        self.head = AffordanceHead(
+            backbone.out_channels,
+            hidden,
+            head_uses_robot,
+            config.dropout,
+            config.descriptor_dim,
+        )
         self.criterion = WeightedMSELoss(
             config.lambda_zero,
             config.zero_weight_prob,

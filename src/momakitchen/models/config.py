@@ -7,6 +7,7 @@ from typing import Any
 
 from momakitchen import codec
 from momakitchen.errors import MomaError
+from momakitchen.robots.spec import DESCRIPTOR_LAYOUTS, DESCRIPTOR_VERSION, descriptor_dim
 
 
 @dataclass(frozen=True)
@@ -52,6 +53,10 @@ class ModelConfig:
             it, full-length runs can settle on a shortcut (floor position, target offset
             and robot alone) and leave the global cloud unused (docs/RESULTS.md); 0: none
             (the ``cpu`` preset: 0.5).
+        descriptor_version: the robot descriptor layout the model reads
+            (``momakitchen.robots.spec.DESCRIPTOR_LAYOUTS``): of a newer descriptor it
+            takes the first columns. Recorded as the checkpoint's ``descriptor_version``
+            (runs made before this field read version 1).
     """
 
     embed_dim: int = 512
@@ -73,6 +78,7 @@ class ModelConfig:
     target_points: int = 0
     robot_head: bool = False
     relative_dropout: float = 0.0
+    descriptor_version: int = DESCRIPTOR_VERSION
 
     def __post_init__(self) -> None:
         def bad(name: str, rule: str) -> MomaError:
@@ -119,6 +125,13 @@ class ModelConfig:
             raise bad("robot_head", "must be true or false")
         if not 0.0 <= self.relative_dropout < 1.0:
             raise bad("relative_dropout", "must be in [0, 1)")
+        if self.descriptor_version not in DESCRIPTOR_LAYOUTS:
+            raise bad("descriptor_version", f"must be one of {sorted(DESCRIPTOR_LAYOUTS)}")
+
+    @property
+    def descriptor_dim(self) -> int:
+        """How many descriptor columns the model reads."""
+        return descriptor_dim(self.descriptor_version)
 
     def ch(self, channels: int) -> int:
         """A reference MLP width scaled by ``width`` (at least 8)."""

@@ -226,17 +226,18 @@ class RobotTokenizer(nn.Module):
         - input: (B, D); output: (B, R, E)
     """
 
-    def __init__(self, dim: int, num_tokens: int) -> None:
+    def __init__(self, dim: int, num_tokens: int, descriptor_dim: int = DESCRIPTOR_DIM) -> None:
         super().__init__()
         self.num_tokens = num_tokens
+        self.descriptor_dim = descriptor_dim
         self.mlp = nn.Sequential(
-            nn.Linear(DESCRIPTOR_DIM, dim), nn.ReLU(inplace=True), nn.Linear(dim, dim * num_tokens)
+            nn.Linear(descriptor_dim, dim), nn.ReLU(inplace=True), nn.Linear(dim, dim * num_tokens)
         )
         self.embed = nn.Parameter(torch.randn(num_tokens, dim) * 0.02)
 
     def forward(self, robot: torch.Tensor) -> torch.Tensor:
         b = robot.shape[0]
-        return self.mlp(robot).view(b, self.num_tokens, -1) + self.embed
+        return self.mlp(robot[:, : self.descriptor_dim]).view(b, self.num_tokens, -1) + self.embed
 
 
 class NavAffBackbone(Backbone):
@@ -267,7 +268,7 @@ class NavAffBackbone(Backbone):
             in_ch = fourier_channels(cfg.pos_freqs) + 3 + (1 if use_alignment else 0)
             self.global_encoder = GlobalEncoder(cfg, in_ch)
         if use_robot:
-            self.robot_tokenizer = RobotTokenizer(dim, cfg.num_robot_tokens)
+            self.robot_tokenizer = RobotTokenizer(dim, cfg.num_robot_tokens, cfg.descriptor_dim)
         self.pos_freqs = cfg.pos_freqs
         self.relative = use_global and use_alignment
         self.relative_dropout = cfg.relative_dropout

@@ -15,6 +15,8 @@ import dataclasses
 import math
 from dataclasses import dataclass, field
 
+import numpy as np
+
 from momakitchen.errors import MomaError
 from momakitchen.registry import Registry
 from momakitchen.robots.arms import (
@@ -33,6 +35,7 @@ from momakitchen.robots.arms import (
     RobotModel,
     SuctionCup,
 )
+from momakitchen.robots.grip import grip_model, parse_grip_name
 from momakitchen.robots.scaled import parse_scaled_name, scaled_model
 
 END_EFFECTORS = ("parallel_gripper", "suction")
@@ -168,18 +171,32 @@ class RobotRegistry(Registry[RobotSpec]):
     """The robots by name; user robots can also be taken out again.
 
     A name of the form ``NAME-xS.SS`` not yet registered is a built-in arm with scaled
-    links (``scaled.py``): it is built and registered the first time it is asked for.
+    links (``scaled.py``), one of the form ``NAME-fN`` robot ``NAME`` with fingers of
+    ``N`` newtons (``grip.py``): each is built and registered the first time it is asked
+    for.
     """
 
     def get_entry(self, name: str) -> RobotSpec:
         if isinstance(name, str) and name not in self._entries:
-            parsed = parse_scaled_name(name)
-            if parsed is not None and parsed[0] in self._entries:
-                base, scale = self._entries[parsed[0]], parsed[1]
+            scaled = parse_scaled_name(name)
+            if scaled is not None and scaled[0] in self._entries:
+                base, scale = self._entries[scaled[0]], scaled[1]
                 model = scaled_model(name, base.model, scale)
                 reach = round(base.reach * scale, 4)
                 return self.register(dataclasses.replace(base, name=name, reach=reach, model=model))
+            grip = parse_grip_name(name)
+            if grip is not None and self._known(grip[0]):
+                base = self.get_entry(grip[0])
+                model = grip_model(name, base.model, grip[1])
+                return self.register(dataclasses.replace(base, name=name, model=model))
         return super().get_entry(name)
+
+    def _known(self, name: str) -> bool:
+        """Whether ``name`` is registered or can be built from its name."""
+        if name in self._entries:
+            return True
+        scaled = parse_scaled_name(name)
+        return scaled is not None and scaled[0] in self._entries
 
     def unregister(self, name: str) -> None:
         """Remove ``name`` if registered (user robots; the caller checks which)."""
@@ -354,11 +371,39 @@ for _spec in (
 DEFAULT_ROBOTS = ("panda", "flexiv", "ur5e", "xarm6", "realman", "elephant")
 
 
-# Robot descriptor for learning. Version it: a model trained on one descriptor layout must
-# not silently receive another.
-DESCRIPTOR_VERSION = 1
-DESCRIPTOR_NAMES = ("reach_m", "mount_height_m", "dof_over_7", "is_suction")
+# Robot descriptor for learning. Versioned: a model trained on one descriptor layout must
+# not silently receive another. Each layout extends the one before, so a model of an
+# older version reads the first columns of a newer descriptor, and data stored with an
+# older one gain the new columns from the robot's spec when they are read
+# (:func:`upgrade_descriptor`).
+DESCRIPTOR_LAYOUTS: dict[int, tuple[str, ...]] = {
+    1: ("reach_m", "mount_height_m", "dof_over_7", "is_suction"),
+    # The fingers' closing force decides which targets can be opened at all (a fridge
+    # door's seal): robots alike in reach and mount differ in it (docs/ROBOTS.md).
+    2: ("reach_m", "mount_height_m", "dof_over_7", "is_suction", "finger_force_per_100n"),
+}
+DESCRIPTOR_VERSION = max(DESCRIPTOR_LAYOUTS)
+DESCRIPTOR_NAMES = DESCRIPTOR_LAYOUTS[DESCRIPTOR_VERSION]
 DESCRIPTOR_DIM = len(DESCRIPTOR_NAMES)
+# The finger force of a gripper whose force nobody gave (the built grippers' default), N.
+DEFAULT_FINGER_FORCE = 40.0
+
+
+def descriptor_dim(version: object) -> int:
+    """The length of a version-``version`` descriptor; MomaError for an unknown version."""
+    if isinstance(version, bool) or version not in DESCRIPTOR_LAYOUTS:
+        raise MomaError(
+            f"robot descriptor version {version!r} is unknown; this version of momakitchen "
+            f"knows {sorted(DESCRIPTOR_LAYOUTS)}"
+        )
+    return len(DESCRIPTOR_LAYOUTS[version])
+
+
+def finger_force(spec: RobotSpec) -> float:
+    """Closing force per finger of the robot's gripper in N; 0 for a suction cup."""
+    if spec.end_effector == "suction":
+        return 0.0
+    return float(getattr(spec.model.end_effector, "finger_force", DEFAULT_FINGER_FORCE))
 
 
 def robot_descriptor(spec: RobotSpec, mount_height: float | None = None) -> tuple[float, ...]:
@@ -370,11 +415,35 @@ def robot_descriptor(spec: RobotSpec, mount_height: float | None = None) -> tupl
     robot's own.
     """
     mount = spec.mount_height if mount_height is None else mount_height
-    return descriptor_values(spec.reach, mount, spec.dof, spec.end_effector == "suction")
+    suction = spec.end_effector == "suction"
+    return descriptor_values(spec.reach, mount, spec.dof, suction, finger_force(spec))
 
 
 def descriptor_values(
-    reach: float, mount_height: float, dof: float, suction: bool
+    reach: float,
+    mount_height: float,
+    dof: float,
+    suction: bool,
+    finger_force: float = DEFAULT_FINGER_FORCE,
 ) -> tuple[float, ...]:
-    """The descriptor of a robot given by its numbers (one not in the registry)."""
-    return (float(reach), float(mount_height), dof / 7.0, 1.0 if suction else 0.0)
+    """The descriptor of a robot given by its numbers (one not in the registry);
+    ``finger_force`` in N per finger, ignored for suction."""
+    force = 0.0 if suction else float(finger_force) / 100.0
+    return (float(reach), float(mount_height), dof / 7.0, 1.0 if suction else 0.0, force)
+
+
+def upgrade_descriptor(descriptor: np.ndarray, version: int, robot: str) -> np.ndarray:
+    """A version-``version`` descriptor of robot ``robot`` (a NumPy array of shape
+    ``(descriptor_dim(version),)``) as a current one (``(DESCRIPTOR_DIM,)``, same dtype):
+    the columns added since are the robot's (its spec by name; a user robot must be
+    registered). Returned as given when already current."""
+    d = np.asarray(descriptor)
+    if version == DESCRIPTOR_VERSION:
+        return d
+    if d.shape != (descriptor_dim(version),):
+        raise MomaError(
+            f"a version-{version} robot descriptor has {descriptor_dim(version)} values, "
+            f"got shape {d.shape}"
+        )
+    full = np.asarray(robot_descriptor(get_robot_spec(robot)), d.dtype)
+    return np.concatenate([d, full[d.shape[0] :]])

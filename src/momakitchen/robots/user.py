@@ -14,6 +14,7 @@ Example ``myarm.yaml`` (paths relative to the YAML file)::
     home: [0, -1.0, 1.2, 0, 0.5, 0]  # rest configuration (IK seed), one value per joint
     footprint: [0.55, 0.45]        # base length and width in metres
     mount_offset_x: 0.0            # arm mount position along the base's x axis
+    finger_force: 40.0             # closing force per finger, N (grippers; default 40)
 
 The robot is mounted on the same mobile base as the built-in ones, at any height of
 :data:`~momakitchen.robots.spec.MOUNT_RANGE`. On the command line, ``--robot-yaml FILE``
@@ -38,7 +39,9 @@ import yaml
 from momakitchen.errors import MomaError
 from momakitchen.fileio import existing_file
 from momakitchen.robots.arms import RobotModel, ShippedArm, UserTool
+from momakitchen.robots.grip import FORCE_RANGE
 from momakitchen.robots.spec import (
+    DEFAULT_FINGER_FORCE,
     ROBOTS,
     RobotSpec,
     mount_height_problem,
@@ -62,6 +65,7 @@ _OPTIONAL: dict[str, type] = {
     "home": list,
     "footprint": list,
     "mount_offset_x": float,
+    "finger_force": float,
 }
 _LOADED: dict[str, str] = {}  # resolved YAML path -> robot name
 
@@ -115,6 +119,9 @@ class UserRobotConfig:
         home: rest configuration, or empty for mid-range.
         footprint: base (length, width) in metres.
         mount_offset_x: arm mount position along the base's x axis, metres.
+        finger_force: closing force per finger of a gripper, N (in
+            ``grip.FORCE_RANGE``; it decides e.g. whether a fridge door opens), or None
+            for the default (``DEFAULT_FINGER_FORCE``); grippers only.
         source: the YAML path (for error messages).
     """
 
@@ -129,6 +136,7 @@ class UserRobotConfig:
     home: tuple[float, ...] = ()
     footprint: tuple[float, float] = (0.55, 0.45)
     mount_offset_x: float = 0.0
+    finger_force: float | None = None
     source: str = ""
 
     def __post_init__(self) -> None:
@@ -147,6 +155,15 @@ class UserRobotConfig:
             problem = mount_range_problem(self.mount_range)
         if problem:
             raise MomaError(f"{where}: {problem}")
+        if self.finger_force is not None:
+            lo, hi = FORCE_RANGE
+            if self.end_effector == "suction":
+                raise MomaError(f"{where}: finger_force is for grippers; end_effector is 'suction'")
+            if not lo <= self.finger_force <= hi:
+                raise MomaError(
+                    f"{where}: finger_force must be in [{lo:g}, {hi:g}] N, "
+                    f"got {self.finger_force:g}"
+                )
 
 
 def _typed(value, kind, key: str, where: str):
@@ -289,7 +306,12 @@ def _model(cfg: UserRobotConfig) -> tuple[RobotModel, int]:
         raise MomaError(f"{cfg.source}: home needs {dof} values (arm joints), got {len(cfg.home)}")
     model = RobotModel(
         ShippedArm(urdf=cfg.urdf, root_link=roots[0], flange_link=cfg.end_effector_link),
-        UserTool(cfg.end_effector, cfg.end_effector_link, tuple(fingers)),
+        UserTool(
+            cfg.end_effector,
+            cfg.end_effector_link,
+            tuple(fingers),
+            DEFAULT_FINGER_FORCE if cfg.finger_force is None else cfg.finger_force,
+        ),
         home=cfg.home,
         source=f"user robot {cfg.source}",
     )

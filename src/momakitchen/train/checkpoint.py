@@ -41,7 +41,7 @@ from momakitchen.errors import MomaError
 from momakitchen.fileio import atomic_write_bytes, atomic_write_text, dumps_strict, existing_dir
 from momakitchen.models.base import AffordanceModel
 from momakitchen.models.registry import build_model
-from momakitchen.robots.spec import DESCRIPTOR_NAMES, DESCRIPTOR_VERSION
+from momakitchen.robots.spec import DESCRIPTOR_LAYOUTS
 from momakitchen.train.config import TrainConfig
 
 FORMAT = "momakitchen-checkpoint"
@@ -77,8 +77,8 @@ def write_run_config(
         "format_version": FORMAT_VERSION,
         "model": config.model,
         "preset": config.preset,
-        "descriptor_version": DESCRIPTOR_VERSION,
-        "descriptor_names": list(DESCRIPTOR_NAMES),
+        "descriptor_version": config.model_config.descriptor_version,
+        "descriptor_names": list(DESCRIPTOR_LAYOUTS[config.model_config.descriptor_version]),
         "train_config": config.to_dict(),
         "preprocessing": codec.to_dict(preprocessing or Preprocessing()),
     }
@@ -142,13 +142,21 @@ def read_run_config(run_dir: Path) -> tuple[TrainConfig, dict[str, Any]]:
         raise MomaError(f"cannot read {path}: {exc}") from None
     if not isinstance(info, dict) or info.get("format") != FORMAT:
         raise MomaError(f"{path} is not a momakitchen checkpoint config")
-    if info.get("descriptor_version") != DESCRIPTOR_VERSION:
+    version = info.get("descriptor_version")
+    if isinstance(version, bool) or version not in DESCRIPTOR_LAYOUTS:
         raise MomaError(
-            f"checkpoint {str(run_dir)!r} uses robot descriptor version "
-            f"{info.get('descriptor_version')}, this version of momakitchen uses "
-            f"{DESCRIPTOR_VERSION}"
+            f"checkpoint {str(run_dir)!r} uses robot descriptor version {version!r}, this "
+            f"version of momakitchen knows {sorted(DESCRIPTOR_LAYOUTS)}"
         )
     train_config = info.get("train_config")
+    if isinstance(train_config, dict) and isinstance(train_config.get("model_config"), dict):
+        # Runs made before models recorded it read the checkpoint's version.
+        model_config = train_config["model_config"]
+        if model_config.setdefault("descriptor_version", version) != version:
+            raise MomaError(
+                f"{path}: descriptor_version {version} but model_config.descriptor_version "
+                f"{model_config['descriptor_version']!r}"
+            )
     model = train_config.get("model") if isinstance(train_config, dict) else None
     if isinstance(model, str) and model:  # a plug-in not importable here is not a bad config
         from momakitchen.models.registry import check_loadable
@@ -274,12 +282,37 @@ def _safetensors(path: Path, what: str) -> dict[str, torch.Tensor]:
     return tensors
 
 
-def load_weights(path: Path, model: torch.nn.Module) -> None:
+def widen_descriptor_inputs(
+    state: dict[str, torch.Tensor], model: torch.nn.Module, from_dim: int
+) -> dict[str, torch.Tensor]:
+    """``state`` (the weights of a model that read ``from_dim`` descriptor columns) made
+    to fit ``model``, which reads more: the first layer of each module that reads the
+    descriptor (those with a ``descriptor_dim``) gains zero input columns, so the widened
+    model predicts what the original did until training gives the new columns a use."""
+    out = dict(state)
+    for prefix, module in model.named_modules():
+        dim = getattr(module, "descriptor_dim", None)
+        if not isinstance(dim, int) or dim <= from_dim:
+            continue
+        first = next(m for m in module.modules() if isinstance(m, torch.nn.Linear))
+        key = next(f"{prefix}.{n}" for n, p in module.named_parameters() if p is first.weight)
+        weight = out.get(key)
+        if weight is not None and weight.ndim == 2 and weight.shape[1] == from_dim:
+            pad = weight.new_zeros(weight.shape[0], dim - from_dim)
+            out[key] = torch.cat([weight, pad], dim=1)
+    return out
+
+
+def load_weights(path: Path, model: torch.nn.Module, descriptor_from: int | None = None) -> None:
     """Load ``model``'s weights from a safetensors file; MomaError naming the file when it
     is missing, unreadable, or holds tensors other than the model's (names or shapes: a
-    ``config.json`` describing another model than the weights)."""
+    ``config.json`` describing another model than the weights). ``descriptor_from``: the
+    weights are those of a model that read that many descriptor columns, widened to the
+    model's (:func:`widen_descriptor_inputs`)."""
     path = Path(path)
     state = _safetensors(path, "checkpoint weights")
+    if descriptor_from is not None:
+        state = widen_descriptor_inputs(state, model, descriptor_from)
     expected = model.state_dict()
     problems = [f"tensor {k!r} is missing" for k in expected if k not in state]
     problems += [f"unexpected tensor {k!r}" for k in state if k not in expected]

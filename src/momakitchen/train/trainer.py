@@ -195,6 +195,8 @@ def _check_resume(
         )
     unused = get_model_entry(config.model).unused_config
     before, now = saved.model_config.to_dict(), config.model_config.to_dict()
+    # The descriptor a run reads is the run's own (resumed as saved, like the sizes).
+    unused = unused | {"descriptor_version"}
     differ = [
         f"{k} {before[k]!r} vs {now[k]!r}" for k in now if k not in unused and before[k] != now[k]
     ]
@@ -307,19 +309,27 @@ def validate(
     }
 
 
-def _initial_run(config: TrainConfig) -> Path:
-    """The run directory whose weights start a fine-tuning (``config.init``); MomaError
-    when it is missing or holds another model or another size."""
+def _initial_run(config: TrainConfig) -> tuple[Path, int]:
+    """The run directory whose weights start a fine-tuning (``config.init``) and how many
+    descriptor columns its model read; MomaError when it is missing or holds another model
+    or another size (or a newer descriptor)."""
     from momakitchen.train.checkpoint import default_checkpoint, read_run_config
 
     src = default_checkpoint() if config.init == "bundled" else Path(config.init)
     other, _ = read_run_config(src)
-    if other.model != config.model or other.model_config != config.model_config:
+    # A run of an older descriptor starts a newer one (its weights widened, load_weights).
+    version = config.model_config.descriptor_version
+    sizes = replace(other.model_config, descriptor_version=version)
+    if (
+        other.model != config.model
+        or sizes != config.model_config
+        or other.model_config.descriptor_version > version
+    ):
         raise MomaError(
             f"TrainConfig.init {config.init!r} holds a {other.model!r} model of other sizes "
             f"than this {config.model!r} run's; fine-tuning needs the same model and sizes"
         )
-    return src
+    return src, other.model_config.descriptor_dim
 
 
 def train(
@@ -399,7 +409,7 @@ def _train(
         if note:
             print(f"momakitchen train: warning: {note}", file=sys.stderr)
     elif init is not None:
-        load_weights(init / WEIGHTS_FILE, model)
+        load_weights(init[0] / WEIGHTS_FILE, model, descriptor_from=init[1])
     if world > 1 or not resuming:
         torch.manual_seed(config.seed * 7919 + 1 + rank + 131 * progress["epoch"])
 
