@@ -141,6 +141,27 @@ def test_predict_bad_input(episode, tiny_run):
         )
 
 
+def test_robot_input_takes_a_finger_force_and_version_1_vectors():
+    from momakitchen.deploy.predict import robot_input
+    from momakitchen.robots.spec import DESCRIPTOR_DIM, get_robot_spec, robot_descriptor
+
+    name, d = robot_input("elephant")
+    assert name == "elephant" and d.shape == (DESCRIPTOR_DIM,) and d[4] == np.float32(0.4)
+    _, strong = robot_input({"reach": 0.8, "mount_height": 1.0, "finger_force": 120})
+    _, default = robot_input({"reach": 0.8, "mount_height": 1.0})
+    _, cup = robot_input({"reach": 0.8, "mount_height": 1.0, "suction": True})
+    assert (strong[4], default[4], cup[4]) == (np.float32(1.2), np.float32(0.4), 0.0)
+    # A version-1 vector (reach, mount, dof / 7, suction) gets the default force.
+    old = robot_descriptor(get_robot_spec("ur5e"))[:4]
+    assert np.array_equal(
+        robot_input(list(old))[1], np.float32(robot_descriptor(get_robot_spec("ur5e")))
+    )
+    with pytest.raises(MomaError, match=r"robot finger_force must be in \[10, 200\] N, got 500"):
+        robot_input({"reach": 0.8, "mount_height": 1.0, "finger_force": 500})
+    with pytest.raises(MomaError, match="must be 5 finite numbers"):
+        robot_input([0.8, 1.0, 1.0])
+
+
 def test_predict_cli(episode, tiny_run, tmp_path, capsys):
     from PIL import Image
 

@@ -71,6 +71,23 @@ def test_explicit_reach_is_kept(tiny_robot_files, tmp_path):
         unregister_user_robot(spec.name)
 
 
+def test_finger_force_reaches_the_fingers_and_the_descriptor(
+    registered, tiny_robot_files, tmp_path
+):
+    spec, _ = registered
+    assert robot_descriptor(spec)[4] == 0.4  # the default, 40 N
+    data = yaml.safe_load(tiny_robot_files[1].read_text())
+    data.update(name="tiny_strong", finger_force=120)
+    strong = register_user_robot(_write(tmp_path, yaml.safe_dump(data), "strong.yaml"))
+    client = p.connect(p.DIRECT)
+    try:
+        assert robot_descriptor(strong)[4] == 1.2
+        assert Robot(client, strong.name).tool.finger_force == 120.0
+    finally:
+        p.disconnect(client)
+        unregister_user_robot(strong.name)
+
+
 def _write(tmp_path, text, name="bad.yaml"):
     path = tmp_path / name
     path.write_text(text)
@@ -89,6 +106,12 @@ def _write(tmp_path, text, name="bad.yaml"):
         (lambda d: d.update(home=[0, 1]), "home needs 4 values"),
         (lambda d: d.update(mount_height=7.0), "mount_height must be in"),
         (lambda d: d.update(name="Tiny"), "lower-case"),
+        (lambda d: d.update(finger_force=500), r"finger_force must be in \[10, 200\] N, got 500"),
+        (lambda d: d.update(finger_force="strong"), "field 'finger_force' must be a number"),
+        (
+            lambda d: d.update(end_effector="suction", finger_force=40, finger_joints=[]),
+            "finger_force is for grippers",
+        ),
     ],
 )
 def test_bad_yaml_names_file_and_problem(tiny_robot_files, tmp_path, mutate, message):
