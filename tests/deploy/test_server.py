@@ -230,6 +230,19 @@ def test_bad_requests_get_a_4xx_and_one_line(server, episodes):
             fields,
         ),
         "field 'robot' must be text": ({**files, "robot": b"panda"}, without(fields, "robot")),
+        "suction must be 0 or 1, got 'yes'": (
+            files,
+            {**without(fields, "robot"), "reach": "0.8", "mount_height": "1", "suction": "yes"},
+        ),
+        r"robot finger_force must be in \[10, 200\] N, got 500": (
+            files,
+            {
+                **without(fields, "robot"),
+                "reach": "0.8",
+                "mount_height": "1",
+                "finger_force": "500",
+            },
+        ),
     }
     for message, (f, d) in cases.items():
         status, doc, _ = _post(server, f, d)
@@ -246,6 +259,37 @@ def test_bad_requests_get_a_4xx_and_one_line(server, episodes):
     # the server is still well after all that
     status, doc, _ = _post(server, *_request(ep, floor_points="0"))
     assert status == 200
+
+
+def test_a_robot_given_by_its_numbers(server, episodes):
+    from momakitchen.deploy.client import _robot_fields
+    from momakitchen.robots.spec import get_robot_spec, robot_descriptor
+
+    ep = episodes[0]
+    numbers = dict(_robot_fields(robot_descriptor(get_robot_spec("elephant"), 0.9)))
+    assert numbers == {
+        "reach": "0.63",
+        "mount_height": "0.9",
+        "dof": "6",
+        "suction": "0",
+        "finger_force": "40",
+    }
+    files, fields = _request(ep, floor_points="0")
+    del fields["robot"]
+    status, doc, _ = _post(server, files, {**fields, **numbers})
+    assert status == 200, doc
+    expected = momakitchen.predict(
+        np.round(ep.depth * 1000) / 1000,
+        ep.intrinsics,
+        ep.camera_to_base,
+        ep.semantic == TARGET,
+        {"reach": 0.63, "mount_height": 0.9, "dof": 6, "finger_force": 40},
+        rgb=ep.rgb,
+        obstacle_masks=[ep.semantic == OBSTACLE],
+        mc_samples=0,
+    )
+    _check(doc, expected, floor_points=False)
+    assert "finger_force" not in dict(_robot_fields(robot_descriptor(get_robot_spec("ur5e"))))
 
 
 def test_the_documented_client(server, episodes):

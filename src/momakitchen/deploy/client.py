@@ -73,11 +73,20 @@ def multipart(fields: list[tuple[str, str | bytes]]) -> tuple[bytes, str]:
 
 
 def _robot_fields(robot: Any) -> list[tuple[str, str | bytes]]:
-    """A registered name as ``robot``; a descriptor (a drawn mount height) as its reach
-    and mount height, the two numbers the API takes."""
+    """A registered name as ``robot``; a descriptor (a drawn mount height) as the numbers
+    the API takes: reach, mount height, joints, suction and a gripper's finger force."""
     if isinstance(robot, str):
         return [("robot", robot)]
-    return [("reach", f"{robot[0]:.6g}"), ("mount_height", f"{robot[1]:.6g}")]
+    suction = bool(robot[3] >= 0.5)
+    fields: list[tuple[str, str | bytes]] = [
+        ("reach", f"{robot[0]:.6g}"),
+        ("mount_height", f"{robot[1]:.6g}"),
+        ("dof", f"{round(robot[2] * 7)}"),
+        ("suction", "1" if suction else "0"),
+    ]
+    if not suction and len(robot) > 4:
+        fields.append(("finger_force", f"{robot[4] * 100:.6g}"))
+    return fields
 
 
 class ServerPerceiver:

@@ -169,6 +169,7 @@ def robot_input(robot: str | Sequence[float] | Mapping[str, float]) -> tuple[str
         for key, lo, hi, unit in (
             ("reach", 0.2, 3.0, "m"),
             ("mount_height", 0.0, 3.0, "m"),
+            ("dof", 3, 10, "joints"),
             ("finger_force", lo_f, hi_f, "N"),
         ):
             if key not in robot:

@@ -26,7 +26,19 @@ NUMBERS: dict[str, tuple[type, float, float]] = {
     "pick_radius": (float, 0.0, 1.0),
     "min_spread": (float, 0.0, 5.0),
 }
-TEXT = ("intrinsics", "camera_to_base", "robot", "reach", "mount_height", "floor_points")
+TEXT = (
+    "intrinsics",
+    "camera_to_base",
+    "robot",
+    "reach",
+    "mount_height",
+    "dof",
+    "suction",
+    "finger_force",
+    "floor_points",
+)
+# With reach and mount_height, optional: the rest of a robot given by its numbers.
+ROBOT_NUMBERS = ("dof", "finger_force")
 FIELDS = (*FILES, *NUMBERS, *TEXT)
 
 
@@ -183,10 +195,18 @@ def check_fields(
             raise MomaError("give either 'robot' or 'reach' and 'mount_height', not both")
         kwargs["robot"] = text["robot"]
     elif "reach" in text and "mount_height" in text:
-        kwargs["robot"] = {
+        robot: dict[str, Any] = {
             "reach": _numbers(text["reach"], "reach", 1)[0],
             "mount_height": _numbers(text["mount_height"], "mount_height", 1)[0],
         }
+        for name in ROBOT_NUMBERS:
+            if name in text:
+                robot[name] = _numbers(text[name], name, 1)[0]
+        if "suction" in text:
+            if text["suction"] not in ("0", "1"):
+                raise MomaError(f"suction must be 0 or 1, got {text['suction'][:20]!r}")
+            robot["suction"] = text["suction"] == "1"
+        kwargs["robot"] = robot
     else:
         raise MomaError("missing field 'robot' (or both 'reach' and 'mount_height')")
     for name in NUMBERS:
