@@ -9,6 +9,8 @@
 #   VARIANT=scaled bash scripts/anyarm.sh  # the same with arms of scaled links, after a run of the above
 #   VARIANT=dense bash scripts/anyarm.sh   # several arms at every reach (NavAff only)
 #   VARIANT=dense HELDOUT_FIRST=920000 bash scripts/anyarm.sh  # on other held-out scenes
+#   VARIANT=grip bash scripts/anyarm.sh    # and each gripper at 40 N too (descriptor v2)
+#   VARIANT=grip HELDOUT_FIRST=930000 ALONE=1 bash scripts/anyarm.sh  # add it to a scored set
 #
 # 1. The any-arm data (scripts/recipes/anyarm_generate.yaml): the Panda, Flexiv, UR5e,
 #    Realman and UR10e, each configuration's mount drawn in 0.45-1.15 m; scenes from 30000.
@@ -31,10 +33,12 @@
 #    model's archived results on the same bytes (scripts/run_compare.py), or, on other
 #    bytes, with the bundled model run there again.
 #
-# VARIANT=scaled (SCALED=1) or dense (after a run without it, whose results it adds to):
-# step 1's data is that of scripts/recipes/anyarm_VARIANT_generate.yaml (its train split in
-# DATA/anyarm-VARIANT; the trained robots' test set stays step 1's): arms with scaled
-# links, or several arms of scaled links at every reach. Step 2 fine-tunes the bundled
+# VARIANT=scaled (SCALED=1), dense or grip (after a run without it, whose results it adds
+# to): step 1's data is that of scripts/recipes/anyarm_VARIANT_generate.yaml (its train
+# split in DATA/anyarm-VARIANT; the trained robots' test set stays step 1's): arms with
+# scaled links, several arms of scaled links at every reach, or those and each gripper
+# among them at 40 N too (robot descriptor version 2, which carries the finger force: the
+# bundled model's weights are widened to it). Step 2 fine-tunes the bundled
 # NavAff on it (RUNS/navaff-anyarm-VARIANT), and for scaled the 12-epoch PointNet++ too
 # (RUNS/pointnet2-anyarm-scaled), or takes the committed results/runs/ ones with
 # RETRAIN=0. Steps 4-5 score those beside the two they started from (msr-VARIANT.json;
@@ -43,7 +47,9 @@
 # HELDOUT_FIRST (default 910000): the held-out scenes' first id. Other ids make their own
 # held-out data (DATA/heldout-NAME-ID) and results (results/anyarm-ID), where every model
 # (the two, the scaled NavAff's committed run and the VARIANT's) and the baselines are
-# scored together in msr.json; the six of step 5 stay in results/anyarm/six.
+# scored together in msr.json; the six of step 5 stay in results/anyarm/six. ALONE=1 (with
+# a VARIANT, on held-out scenes already scored): only the VARIANT's model is scored, in
+# msr-VARIANT.json, which the report adds to msr.json (the same configurations).
 #
 # Every step resumes: generation skips finished scenes, training goes on from its last
 # checkpoint, and results newer than their model are kept. Run it again after a stop.
@@ -67,8 +73,8 @@ RETRAIN=${RETRAIN:-1}
 VARIANT=${VARIANT:-}
 [[ ${SCALED:-0} == 1 ]] && VARIANT=scaled
 case $VARIANT in
-  "" | scaled | dense) ;;
-  *) echo "VARIANT must be scaled, dense or empty, got '$VARIANT'" >&2; exit 2 ;;
+  "" | scaled | dense | grip) ;;
+  *) echo "VARIANT must be scaled, dense, grip or empty, got '$VARIANT'" >&2; exit 2 ;;
 esac
 mkdir -p "$RUNS" "$OUT"
 
@@ -132,7 +138,7 @@ fi
 if [[ $RETRAIN == 1 ]]; then
   train_one "navaff-$RUN" navaff bundled "${NAVAFF_OPTIONS[@]}" &
   # PointNet++ beside it for the first two data (the descriptor comparison of the issue).
-  [[ $VARIANT != dense ]] && train_one "pointnet2-$RUN" pointnet2 "${MODELS[1]}" &
+  [[ $VARIANT == scaled ]] && train_one "pointnet2-$RUN" pointnet2 "${MODELS[1]}" &
   wait
   NAVAFF_ANYARM=$RUNS/navaff-$RUN
   POINTNET2_ANYARM=$RUNS/pointnet2-$RUN
@@ -145,6 +151,15 @@ NAMES+=("navaff-$RUN")
 if [[ -d $POINTNET2_ANYARM ]]; then
   MODELS+=("$POINTNET2_ANYARM")
   NAMES+=("pointnet2-$RUN")
+fi
+if [[ ${ALONE:-0} == 1 ]]; then
+  if [[ -z $SUFFIX || -z $VARIANT ]]; then
+    echo "ALONE=1 needs a VARIANT and a HELDOUT_FIRST other than 910000" >&2; exit 2
+  fi
+  MODELS=("$NAVAFF_ANYARM")
+  NAMES=("navaff-$RUN")
+  MSR=msr-$VARIANT.json
+  BASELINES=()
 fi
 
 for spec in "${HELDOUT[@]}"; do

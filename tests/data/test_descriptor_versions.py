@@ -71,9 +71,13 @@ def test_a_version_1_dataset_passes_its_check(both):
 
 def test_generate_does_not_extend_a_dataset_of_another_version(both):
     old = both[1]
+    before = sorted((old / "scenes").iterdir())
     with pytest.raises(MomaError, match=f"descriptor version 1.*writes {DESCRIPTOR_VERSION}"):
         make_dataset(old, scenes=4)
     assert mf.load_manifest(old)["descriptor_version"] == 1  # nothing written
+    assert sorted((old / "scenes").iterdir()) == before
+    # Asked for the scenes it holds, it has nothing to do (scripts resume finished data).
+    assert make_dataset(old, scenes=3)["descriptor_version"] == 1
 
 
 def test_an_unknown_descriptor_version_is_refused(both, tmp_path):
