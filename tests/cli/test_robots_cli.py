@@ -74,7 +74,9 @@ def test_table(capsys):
     out = capsys.readouterr().out.splitlines()
     assert out[0].split()[:2] == ["name", "reach"]
     realman = next(line for line in out if line.startswith("realman"))
-    assert realman.split() == ["realman", "0.900", "1.03", "6", "parallel_gripper"]
+    assert realman.split() == ["realman", "0.900", "1.03", "6", "parallel_gripper", "80"]
+    ur5e = next(line for line in out if line.startswith("ur5e"))
+    assert ur5e.split() == ["ur5e", "0.850", "1.03", "6", "suction"]
 
 
 @pytest.mark.parametrize("name", sorted(MANUFACTURER_REACH))

@@ -71,6 +71,7 @@ def robot_rows() -> list[dict]:
         DESCRIPTOR_NAMES,
         DESCRIPTOR_VERSION,
         ROBOTS,
+        finger_force,
         robot_descriptor,
     )
 
@@ -85,6 +86,7 @@ def robot_rows() -> list[dict]:
                 "generate_default": spec.name in DEFAULT_ROBOTS,
                 "dof": spec.dof,
                 "end_effector": spec.end_effector,
+                "finger_force_n": None if spec.end_effector == "suction" else finger_force(spec),
                 "footprint_m": list(spec.footprint),
                 "descriptor": dict(zip(DESCRIPTOR_NAMES, robot_descriptor(spec), strict=True)),
                 "descriptor_version": DESCRIPTOR_VERSION,
@@ -94,6 +96,7 @@ def robot_rows() -> list[dict]:
 
 
 def run(args: argparse.Namespace) -> int:
+    from momakitchen.robots.grip import FORCE_RANGE
     from momakitchen.robots.scaled import SCALE_RANGE
 
     # The --robot-yaml files (of either level) are registered by the entry point.
@@ -103,7 +106,15 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print(dumps_strict(rows, indent=2))
         return 0
-    header = ("name", "reach (m)", "mount height (m)", "DoF", "end-effector", "mount range (m)")
+    header = (
+        "name",
+        "reach (m)",
+        "mount height (m)",
+        "DoF",
+        "end-effector",
+        "grip (N)",
+        "mount range (m)",
+    )
     table = [header] + [
         (
             r["name"],
@@ -111,6 +122,7 @@ def run(args: argparse.Namespace) -> int:
             f"{r['mount_height_m']:.2f}",
             str(r["dof"]),
             r["end_effector"],
+            "" if r["finger_force_n"] is None else f"{r['finger_force_n']:g}",
             "" if r["mount_range_m"] is None else "{:.2f}-{:.2f}".format(*r["mount_range_m"]),
         )
         for r in rows
@@ -122,6 +134,10 @@ def run(args: argparse.Namespace) -> int:
     print(
         "arms with scaled links: NAME-xS.SS (a table-built arm above, lengths times S in "
         f"{SCALE_RANGE[0]}-{SCALE_RANGE[1]}, e.g. ur5e-x0.65)"
+    )
+    print(
+        "grippers of another force: NAME-fN (N newtons per finger in "
+        f"{FORCE_RANGE[0]:g}-{FORCE_RANGE[1]:g}, e.g. realman-f40)"
     )
     print(f"generate's robots by default: {defaults}; the others by --robot NAME")
     return 0
