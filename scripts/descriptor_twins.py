@@ -1,9 +1,9 @@
 """Two arms the robot descriptor cannot tell apart: how far one's ground truth serves the
 other (docs/RESULTS.md, "Robots the model never saw").
 
-A model reads the scene and the descriptor (reach, mount height, DoF, suction), so two
-arms with the same descriptor on the same configuration get the same map and the same
-picks. Given two datasets labelled on the same configurations by such arms (A and B):
+A model reads the scene and the descriptor (version 1: reach, mount height, DoF, suction),
+so two arms with the same descriptor on the same configuration get the same map and the
+same picks. Given two datasets labelled on the same configurations by such arms (A and B):
 
 1. the **joint ceiling** from the labelled grid: per configuration, the best a single pick
    can do for both, max over grid positions of (success_A + success_B) / 2; its mean
@@ -33,7 +33,7 @@ from momakitchen.errors import MomaError
 from momakitchen.eval.predictions import episode_key
 from momakitchen.fileio import atomic_path
 from momakitchen.frames import base_to_world_xy
-from momakitchen.robots.spec import get_robot_spec, robot_descriptor
+from momakitchen.robots.spec import descriptor_dim, get_robot_spec, robot_descriptor
 from momakitchen.sim.config import STAGE_NAMES
 
 
@@ -77,7 +77,10 @@ def _target_table(robot_a: str, robot_b: str, targets: dict[str, _Target]) -> st
 
 
 def _descriptor(labels) -> tuple[float, ...]:
-    return robot_descriptor(get_robot_spec(labels.robot), labels.mount_height)
+    # Version 1 (the bundled model's): version 2 adds the finger force, which is what
+    # tells the twins of results/anyarm/twins apart.
+    full = robot_descriptor(get_robot_spec(labels.robot), labels.mount_height)
+    return full[: descriptor_dim(1)]
 
 
 def main() -> None:

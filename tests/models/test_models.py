@@ -240,8 +240,10 @@ def test_with_a_floor_context_each_point_scores_as_in_the_context_alone(name, ti
         hit = (infer["floor_xyz"][i][:, None] == ctx[None]).all(-1)  # (Nf, Nc)
         assert (hit.sum(0) == 1).all()
         torch.testing.assert_close(full[i, hit.float().argmax(0)], alone[i, : len(ctx)])
-    # the other floor points are scored too, and not all alike
-    assert full[infer["floor_mask"]].std() > 1e-3
+    # the other floor points are scored too, and not all alike (relative to the head's
+    # small prior, which a random model's values sit near)
+    scores = full[infer["floor_mask"]]
+    assert scores.std() > 0.02 * scores.mean(), (scores.std(), scores.mean())
 
 
 @pytest.mark.parametrize("name", ["navaff", "navaff+target", "pointnet2"])
