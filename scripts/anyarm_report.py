@@ -36,6 +36,7 @@ MODELS = {
     "navaff:navaff-anyarm-scaled": "NavAff, any-arm + scaled links",
     "pointnet2:pointnet2-anyarm-scaled": "PointNet++, any-arm + scaled links",
     "navaff:navaff-anyarm-dense": "NavAff, several arms per reach",
+    "navaff:navaff-anyarm-grip": "NavAff, several arms per reach and grip force",
 }
 # (a, b): McNemar of a against b on every robot set and pooled over the held-out ones.
 PAIRS = [
@@ -51,6 +52,9 @@ PAIRS = [
     ("navaff:navaff-anyarm-dense", "navaff"),
     ("navaff:navaff-anyarm-dense", "navaff:navaff-anyarm-scaled"),
     ("navaff:navaff-anyarm-dense", "pointnet2"),
+    ("navaff:navaff-anyarm-grip", "navaff"),
+    ("navaff:navaff-anyarm-grip", "navaff:navaff-anyarm-dense"),
+    ("navaff:navaff-anyarm-grip", "pointnet2"),
 ]
 TRAINED = "trained"
 GAP_CLOSED, PCC_DROP = 0.90, 0.05  # the figures to reach on every held-out robot
