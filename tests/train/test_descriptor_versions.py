@@ -86,7 +86,9 @@ def test_init_from_a_version_1_run_trains_a_current_one(old_run, tiny_sets, make
     weight = result.model.state_dict()["backbone.robot_tokenizer.mlp.0.weight"]
     assert weight.shape[1] == DESCRIPTOR_DIM
     # A current run does not start a version-1 one.
-    with pytest.raises(MomaError, match="fine-tuning needs the same model and sizes"):
+    with pytest.raises(
+        MomaError, match="reads robot descriptor version 2, newer than this run's 1"
+    ):
         train(
             _version_1(make_config, epochs=1, init=str(tmp_path / "new")).replace_model(
                 robot_head=True

@@ -320,14 +320,15 @@ def _initial_run(config: TrainConfig) -> tuple[Path, int]:
     # A run of an older descriptor starts a newer one (its weights widened, load_weights).
     version = config.model_config.descriptor_version
     sizes = replace(other.model_config, descriptor_version=version)
-    if (
-        other.model != config.model
-        or sizes != config.model_config
-        or other.model_config.descriptor_version > version
-    ):
+    if other.model != config.model or sizes != config.model_config:
         raise MomaError(
             f"TrainConfig.init {config.init!r} holds a {other.model!r} model of other sizes "
             f"than this {config.model!r} run's; fine-tuning needs the same model and sizes"
+        )
+    if other.model_config.descriptor_version > version:
+        raise MomaError(
+            f"TrainConfig.init {config.init!r} reads robot descriptor version "
+            f"{other.model_config.descriptor_version}, newer than this run's {version}"
         )
     return src, other.model_config.descriptor_dim
 
