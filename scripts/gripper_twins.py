@@ -1,5 +1,6 @@
-"""The Realman scaled x0.70 with the Elephant's gripper (realman-x0.70-eg; 40 N per finger)
-or only its finger force (realman-x0.70-f40), registered in this process, then one of:
+"""The Realman scaled x0.70 with the Elephant's gripper (realman-x0.70-eg; 40 N per finger,
+registered in this process) or only its finger force (realman-x0.70-f40, a gripper variant
+the registry builds from its name, docs/ROBOTS.md "Grip force"), then one of:
 
     python3 scripts/gripper_twins.py generate OUT eg|f40  # label scenes 910000-910005
     python3 scripts/gripper_twins.py twins A B [--out F]  # scripts/descriptor_twins.py
@@ -20,19 +21,16 @@ from momakitchen.errors import MomaError
 from momakitchen.robots.spec import get_robot_spec, register_robot
 
 BASE = get_robot_spec("realman-x0.70")
-ELEPHANT_GRIPPER = get_robot_spec("elephant").model.end_effector
-VARIANTS = {
-    "eg": ELEPHANT_GRIPPER,
-    "f40": dataclasses.replace(BASE.model.end_effector, finger_force=ELEPHANT_GRIPPER.finger_force),
-}
-for _v, _ee in VARIANTS.items():
-    register_robot(
-        dataclasses.replace(
-            BASE,
-            name=f"realman-x0.70-{_v}",
-            model=dataclasses.replace(BASE.model, end_effector=_ee),
-        )
+VARIANTS = ("eg", "f40")
+register_robot(
+    dataclasses.replace(
+        BASE,
+        name="realman-x0.70-eg",
+        model=dataclasses.replace(
+            BASE.model, end_effector=get_robot_spec("elephant").model.end_effector
+        ),
     )
+)
 
 
 def main() -> None:
