@@ -193,3 +193,5 @@ def test_predict_names_the_bad_reach(tmp_path, capsys):
     argv += ["--extrinsics", str(tf), "--target-mask", str(mask), "--out", str(tmp_path / "o")]
     assert main([*argv, "--reach", "-1", "--mount-height", "1"]) == 2
     assert "robot reach must be in [0.2, 3] m, got -1.0" in _error(capsys)
+    assert main([*argv, "--reach", "0.8", "--mount-height", "1", "--finger-force", "500"]) == 2
+    assert "robot finger_force must be in [10, 200] N, got 500.0" in _error(capsys)

@@ -196,6 +196,9 @@ def test_predict_cli(episode, tiny_run, tmp_path, capsys):
     assert len(result["poses"]) == 5 and result["floor_points"]["rows"]
     assert (tmp_path / "out" / "prediction.png").stat().st_size > 10_000
     assert main([*args, "--reach", "0.8", "--mount-height", "0.5", "--top-k", "2"]) == 0
+    numbers = ["--reach", "0.8", "--mount-height", "0.5", "--finger-force", "120"]
+    assert main([*args, *numbers]) == 0
+    assert main([*args, "--robot", "panda", "--finger-force", "120"]) == 2
     assert main([*args, "--robot", "r2d2"]) == 2
     assert main([*args]) == 2  # no robot at all
     bad = tmp_path / "bad.npy"

@@ -61,6 +61,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--mount-height", type=float, default=None, help="arm mount height (m), if no --robot"
     )
+    p.add_argument(
+        "--finger-force",
+        type=float,
+        default=None,
+        help="the gripper's closing force per finger (N), with --reach (default 40)",
+    )
     p.add_argument("--checkpoint", default=None, help="run directory (default: bundled model)")
     p.add_argument("--top-k", type=positive_int, default=5, help="poses to return, best first (5)")
     p.add_argument(
@@ -99,11 +105,14 @@ def run(args: argparse.Namespace) -> int:
 
     if args.robot is None and (args.reach is None or args.mount_height is None):
         raise MomaError("give --robot NAME, or both --reach and --mount-height")
-    if args.robot is not None and (args.reach is not None or args.mount_height is not None):
-        raise MomaError("give either --robot or --reach/--mount-height, not both")
+    numbers = (args.reach, args.mount_height, args.finger_force)
+    if args.robot is not None and any(n is not None for n in numbers):
+        raise MomaError("give either --robot or --reach/--mount-height/--finger-force, not both")
     if args.checkpoint is not None:
         existing_dir(args.checkpoint, "checkpoint directory")
     robot = args.robot or {"reach": args.reach, "mount_height": args.mount_height}
+    if args.finger_force is not None:
+        robot = {**robot, "finger_force": args.finger_force}
     out = planned_output_dir(args.out)
     # The model's options, the same for a frame from files and for a bag's frames.
     options = dict(
