@@ -118,6 +118,7 @@ MODELS=("$BUNDLED" "$REPO/results/runs/pointnet2-12ep")
 NAMES=(navaff pointnet2)  # the maps files of anyarm_report.py
 MSR=msr.json
 BASELINES=(--method oracle --method random)
+LABELS=()  # msr's names of MODELS where not its own
 RUN=anyarm
 NAVAFF_OPTIONS=()
 if [[ -n $VARIANT ]]; then
@@ -158,6 +159,7 @@ if [[ ${ALONE:-0} == 1 ]]; then
   fi
   MODELS=("$NAVAFF_ANYARM")
   NAMES=("navaff-$RUN")
+  LABELS=("navaff:navaff-$RUN")  # msr's name of it beside the others (alone: "navaff")
   MSR=msr-$VARIANT.json
   BASELINES=()
 fi
@@ -174,7 +176,7 @@ score() {  # dataset, split, result name
   local dir=$OUT/$3 i ckpt=() newest=0
   mkdir -p "$dir"
   for i in "${!MODELS[@]}"; do
-    ckpt+=(--checkpoint "${MODELS[$i]}")
+    ckpt+=(--checkpoint "${LABELS[$i]:+${LABELS[$i]}=}${MODELS[$i]}")
     [[ "${MODELS[$i]}/model.safetensors" -nt "$dir/$MSR" ]] && newest=1
     [[ ${NAMES[$i]} == navaff* ]] || continue  # PointNet++ enters the closed loop only
     if [[ ! -f "$dir/${NAMES[$i]}-maps.json" || "${MODELS[$i]}/model.safetensors" -nt "$dir/${NAMES[$i]}-maps.json" ]]; then

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import time
+from pathlib import Path
 
 from momakitchen.cli.common import (
     add_robot_yaml,
@@ -19,12 +20,23 @@ from momakitchen.cli.common import (
     output_file,
     positive_int,
 )
+from momakitchen.errors import MomaError
 from momakitchen.fileio import atomic_write_text, dumps_strict
 
 # momakitchen.eval.msr's BASELINES and SPLITS, spelled out so that building the parser
 # (``momakitchen --help``) does not import numpy and h5py; tests/cli/test_main.py checks.
 BASELINES = ("random", "nearest", "oracle")
 SPLITS = ("test", "train", "all")
+
+
+def _named_checkpoint(text: str) -> str | tuple[str, str]:
+    """``RUN`` or ``NAME=RUN`` (a directory whose own name holds ``=`` stays a path)."""
+    name, sep, run = text.partition("=")
+    if not sep or Path(text).exists():
+        return text
+    if not name or not run:
+        raise MomaError(f"--checkpoint NAME=RUN needs both, got {text!r}")
+    return run, name
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -35,8 +47,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         action="append",
         default=[],
         metavar="RUN",
-        help="run directory of a trained model (repeatable; with no --checkpoint, "
-        "--predictions or --method: the bundled model)",
+        help="run directory of a trained model, or NAME=RUN to report it as NAME "
+        "(repeatable; with no --checkpoint, --predictions or --method: the bundled model)",
     )
     ms.add_argument(
         "--predictions",
@@ -104,7 +116,7 @@ def run(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     result = run_msr(
         args.data,
-        args.checkpoint,
+        [_named_checkpoint(c) for c in args.checkpoint],
         args.method,
         config,
         progress=not args.quiet,

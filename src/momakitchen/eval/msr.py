@@ -327,7 +327,7 @@ def rebuilt_configurations(
 
 def run_msr(
     data: str | Path,
-    checkpoints: Sequence[str | Path] = (),
+    checkpoints: Sequence[str | Path | tuple[str | Path, str]] = (),
     methods: Sequence[str] = (),
     config: MsrConfig | None = None,
     progress: bool = False,
@@ -335,6 +335,9 @@ def run_msr(
 ) -> dict[str, Any]:
     """MSR of trained runs, predictions files and baselines on the configurations of a
     dataset split (none given: the bundled model).
+
+    ``checkpoints``: run directories, reported by their model's name (``MODEL:DIR`` for a
+    second run of one model), or ``(run directory, name)`` pairs reported as ``name``.
 
     ``predictions``: ``(file, name)`` pairs (name None: the file's stem); each file must
     hold a valid map of every episode of the configurations run (checked before the first
@@ -370,10 +373,18 @@ def run_msr(
     preprocessing = Preprocessing(gen.cloud, gen.camera.max_depth)
 
     models: dict[str, _Checkpoint | _PredictionsMethod] = {}
-    for run_dir in checkpoints:
+    for entry in checkpoints:
+        run_dir, label = entry if isinstance(entry, tuple) else (entry, None)
         run = _Checkpoint(run_dir)
         check_preprocessing(run.run, preprocessing, f"dataset {str(root)!r}")
-        name = run.name if run.name not in models else f"{run.name}:{Path(run_dir).name}"
+        name = label or (
+            run.name if run.name not in models else f"{run.name}:{Path(run_dir).name}"
+        )
+        if name in models or name in (*BASELINES, *methods):
+            raise MomaError(
+                f"checkpoint {str(run_dir)!r} would be reported as {name!r}, a name already "
+                "taken by another method; give it another (--checkpoint NAME=RUN)"
+            )
         models[name] = run
 
     todo = judged_configurations(root, manifest, config.split, config.max_configs)
