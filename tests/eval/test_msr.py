@@ -185,6 +185,29 @@ def test_msr_cli(real_dataset, tmp_path, capsys):
     assert "unknown MSR method" in capsys.readouterr().err
 
 
+def test_a_checkpoint_can_be_reported_by_another_name(real_dataset, tiny_run, tmp_path):
+    from momakitchen.cli.main import main
+    from momakitchen.cli.msr import _named_checkpoint
+
+    cfg = MsrConfig(max_configs=1)
+    plain = run_msr(real_dataset, [tiny_run], config=cfg)
+    named = run_msr(real_dataset, [(tiny_run, "navaff:mine")], config=cfg)
+    assert list(named["methods"]) == ["navaff:mine"]
+    assert named["methods"]["navaff:mine"]["top1"] == plain["methods"]["navaff"]["top1"]
+    with pytest.raises(MomaError, match="would be reported as 'oracle'"):
+        run_msr(real_dataset, [(tiny_run, "oracle")], ["oracle"], config=cfg)
+    with pytest.raises(MomaError, match="would be reported as 'navaff'"):
+        run_msr(real_dataset, [tiny_run, (tiny_run, "navaff")], config=cfg)
+    assert _named_checkpoint("mine=runs/a") == ("runs/a", "mine")
+    assert _named_checkpoint(str(tiny_run)) == str(tiny_run)
+    odd = tmp_path / "a=b"
+    odd.mkdir()
+    assert _named_checkpoint(str(odd)) == str(odd)  # an existing path stays a path
+    out = tmp_path / "m.json"
+    argv = ["msr", "--data", str(real_dataset), "--json", str(out), "--max-configs", "1"]
+    assert main([*argv, "--checkpoint", "=nowhere", "--quiet"]) == 2
+
+
 def test_msr_checks_every_shard_before_the_first_configuration(
     real_dataset, tmp_path, monkeypatch, capsys
 ):
