@@ -206,6 +206,9 @@ def test_a_checkpoint_can_be_reported_by_another_name(real_dataset, tiny_run, tm
     out = tmp_path / "m.json"
     argv = ["msr", "--data", str(real_dataset), "--json", str(out), "--max-configs", "1"]
     assert main([*argv, "--checkpoint", "=nowhere", "--quiet"]) == 2
+    assert main([*argv, "--checkpoint", f"navaff:mine={tiny_run}", "--quiet"]) == 0
+    assert json.loads(out.read_text())["methods"] == named["methods"]
+    assert main([*argv, "--checkpoint", f"mine={tmp_path / 'none'}", "--quiet"]) == 2
 
 
 def test_msr_checks_every_shard_before_the_first_configuration(

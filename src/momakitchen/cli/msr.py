@@ -102,6 +102,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from momakitchen.eval.msr import MsrConfig, format_msr_table, run_msr
 
+    checkpoints = [_named_checkpoint(c) for c in args.checkpoint]
+    args.checkpoint = [c[0] if isinstance(c, tuple) else c for c in checkpoints]
     predictions = checked_methods(args)
     out = output_file(args.json)  # an unwritable --json fails now, not after the trials
     radius = {} if args.pick_radius is None else {"pick_radius": args.pick_radius}
@@ -116,7 +118,7 @@ def run(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     result = run_msr(
         args.data,
-        [_named_checkpoint(c) for c in args.checkpoint],
+        checkpoints,
         args.method,
         config,
         progress=not args.quiet,
