@@ -377,9 +377,7 @@ def run_msr(
         run_dir, label = entry if isinstance(entry, tuple) else (entry, None)
         run = _Checkpoint(run_dir)
         check_preprocessing(run.run, preprocessing, f"dataset {str(root)!r}")
-        name = label or (
-            run.name if run.name not in models else f"{run.name}:{Path(run_dir).name}"
-        )
+        name = label or (run.name if run.name not in models else f"{run.name}:{Path(run_dir).name}")
         if name in models or name in (*BASELINES, *methods):
             raise MomaError(
                 f"checkpoint {str(run_dir)!r} would be reported as {name!r}, a name already "
