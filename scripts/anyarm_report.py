@@ -57,6 +57,7 @@ PAIRS = [
     ("navaff:navaff-anyarm-grip", "pointnet2"),
 ]
 TRAINED = "trained"
+BASELINES = {"oracle", "random"}
 GAP_CLOSED, PCC_DROP = 0.90, 0.05  # the figures to reach on every held-out robot
 
 
@@ -220,6 +221,12 @@ def main() -> None:
     # The trained robots first, then the held-out sets in name order.
     folders.sort(key=lambda p: (p.name != TRAINED, p.name))
     sets = {p.name: robot_set(p) for p in folders}
+    # Only the models every set scored (a trained set shared by several held-out scene
+    # ranges can hold more).
+    common = set.intersection(*(set(s["models"]) for s in sets.values()))
+    for s in sets.values():
+        s["models"] = {k: v for k, v in s["models"].items() if k in common}
+        s["outcomes"] = {k: v for k, v in s["outcomes"].items() if k in common | BASELINES}
     report = {"sets": sets, "mcnemar": pair_tests(sets), "goals": goals(sets)}
     atomic_write_text(args.dir / "report.json", dumps_strict(report, indent=1) + "\n")
     text = markdown(report)
