@@ -57,7 +57,6 @@ PAIRS = [
     ("navaff:navaff-anyarm-grip", "pointnet2"),
 ]
 TRAINED = "trained"
-BASELINES = {"oracle", "random"}
 GAP_CLOSED, PCC_DROP = 0.90, 0.05  # the figures to reach on every held-out robot
 
 
@@ -121,8 +120,8 @@ def robot_set(folder: Path) -> dict[str, Any]:
 def pair_tests(sets: dict[str, dict[str, Any]]) -> dict[str, Any]:
     """McNemar of each pair per robot set and pooled over the held-out sets."""
     tests: dict[str, Any] = {}
-    first = next(iter(sets.values()))["models"]
-    for a, b in [(a, b) for a, b in PAIRS if a in first and b in first]:
+    every = [m for m in MODELS if all(m in s["models"] for s in sets.values())]
+    for a, b in [(a, b) for a, b in PAIRS if a in every and b in every]:
         row: dict[str, Any] = {}
         pooled_a: list[int] = []
         pooled_b: list[int] = []
@@ -141,15 +140,19 @@ def pair_tests(sets: dict[str, dict[str, Any]]) -> dict[str, Any]:
 def goals(sets: dict[str, dict[str, Any]]) -> dict[str, Any]:
     """Each model's figures against the goals on every held-out robot set."""
     trained = sets[TRAINED]["models"] if TRAINED in sets else None
+    held_out = [s for n, s in sets.items() if n != TRAINED]
     out: dict[str, Any] = {}
-    for name in next(iter(sets.values()))["models"]:
+    # The models every held-out set scored (the trained set may hold others, or lack one).
+    for name in [m for m in MODELS if all(m in s["models"] for s in held_out)]:
         rows = {}
         for set_name, s in sets.items():
             if set_name == TRAINED:
                 continue
             m = s["models"][name]
             # Without the trained robots' set the PCC goal cannot be judged: None.
-            pccs = None if trained is None else (trained[name]["pcc"], m["pcc"])
+            pccs = (
+                None if trained is None or name not in trained else (trained[name]["pcc"], m["pcc"])
+            )
             drop = None if pccs is None or None in pccs else pccs[0] - pccs[1]
             closed = m["gap_closed"]
             rows[set_name] = {
@@ -164,7 +167,7 @@ def goals(sets: dict[str, dict[str, Any]]) -> dict[str, Any]:
 
 def markdown(report: dict[str, Any]) -> str:
     sets = report["sets"]
-    models = [m for m in MODELS if m in next(iter(sets.values()))["models"]]
+    models = [m for m in MODELS if any(m in s["models"] for s in sets.values())]
     lines = [
         "| robots | configurations | oracle | random | "
         + " | ".join(f"{MODELS[m]} Top-1 (gap closed [95 % interval], PCC)" for m in models)
@@ -174,6 +177,9 @@ def markdown(report: dict[str, Any]) -> str:
     for name, s in sets.items():
         cells = []
         for model in models:
+            if model not in s["models"]:
+                cells.append("–")
+                continue
             m = s["models"][model]
             closed = "–"
             if m["gap_closed"] is not None:
@@ -221,12 +227,6 @@ def main() -> None:
     # The trained robots first, then the held-out sets in name order.
     folders.sort(key=lambda p: (p.name != TRAINED, p.name))
     sets = {p.name: robot_set(p) for p in folders}
-    # Only the models every set scored (a trained set shared by several held-out scene
-    # ranges can hold more).
-    common = set.intersection(*(set(s["models"]) for s in sets.values()))
-    for s in sets.values():
-        s["models"] = {k: v for k, v in s["models"].items() if k in common}
-        s["outcomes"] = {k: v for k, v in s["outcomes"].items() if k in common | BASELINES}
     report = {"sets": sets, "mcnemar": pair_tests(sets), "goals": goals(sets)}
     atomic_write_text(args.dir / "report.json", dumps_strict(report, indent=1) + "\n")
     text = markdown(report)
