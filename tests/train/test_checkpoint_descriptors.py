@@ -81,7 +81,9 @@ def test_widened_weights_predict_what_the_old_model_did(old_run, tiny_sets):
     batch = _batch(tiny_sets)
     assert torch.allclose(predict_batch(wide, batch), predict_batch(loaded.model, batch), atol=1e-6)
     without = build_model("navaff", wide_config)
-    with pytest.raises(MomaError, match=r"robot_tokenizer.mlp.0.weight' has shape \(.*, 4\)"):
+    # The first layer of each module that reads the descriptor has 4 input columns.
+    unwidened = r"(robot_tokenizer\.mlp|robot_mlp)\.0\.weight' has shape \(\d+, 4\)"
+    with pytest.raises(MomaError, match=unwidened):
         load_weights(old_run / WEIGHTS_FILE, without)
 
 
