@@ -23,9 +23,10 @@ def tiny_train_config(**changes) -> TrainConfig:
     return base.replace(**changes)
 
 
-@pytest.fixture
+@pytest.fixture(scope="session")
 def make_config():
-    """A factory of tiny training configs (keyword arguments change fields)."""
+    """A factory of tiny training configs (keyword arguments change fields); stateless, so
+    module-scoped fixtures can use it too."""
     return tiny_train_config
 
 

@@ -12,10 +12,9 @@ import torch
 from momakitchen.data.batch import collate_episodes
 from momakitchen.errors import MomaError
 from momakitchen.models import build_model
-from momakitchen.models.config import TINY_MODEL
 from momakitchen.models.inference import predict_batch
 from momakitchen.robots.spec import DESCRIPTOR_DIM, DESCRIPTOR_VERSION
-from momakitchen.train import TrainConfig, load_checkpoint, train
+from momakitchen.train import load_checkpoint, train
 from momakitchen.train.checkpoint import (
     WEIGHTS_FILE,
     default_checkpoint,
@@ -24,27 +23,12 @@ from momakitchen.train.checkpoint import (
 )
 
 
-def _version_1(make_config, **changes):
-    config = make_config(**changes)
-    return config.replace_model(descriptor_version=1)
-
-
 @pytest.fixture(scope="module")
-def old_run(tmp_path_factory, tiny_sets):
+def old_run(tmp_path_factory, tiny_sets, make_config):
     """A navaff run of descriptor version 1, its config.json as runs made before models
     recorded the version wrote it (the bundled one's)."""
     run = tmp_path_factory.mktemp("v1") / "run"
-    config = TrainConfig(
-        model="navaff",
-        preset="custom",
-        model_config=TINY_MODEL,
-        num_global=256,
-        num_floor=128,
-        epochs=1,
-        batch_size=4,
-        progress=False,
-        log_every=1,
-    ).replace_model(descriptor_version=1, robot_head=True)
+    config = make_config(epochs=1).replace_model(descriptor_version=1, robot_head=True)
     train(config, tiny_sets[0], None, run)
     info = json.loads((run / "config.json").read_text())
     assert info["descriptor_version"] == 1 and len(info["descriptor_names"]) == 4
@@ -101,8 +85,8 @@ def test_init_from_a_version_1_run_trains_a_current_one(old_run, tiny_sets, make
         MomaError, match="reads robot descriptor version 2, newer than this run's 1"
     ):
         train(
-            _version_1(make_config, epochs=1, init=str(tmp_path / "new")).replace_model(
-                robot_head=True
+            make_config(epochs=1, init=str(tmp_path / "new")).replace_model(
+                descriptor_version=1, robot_head=True
             ),
             tiny_sets[0],
             None,
