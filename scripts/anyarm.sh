@@ -11,6 +11,7 @@
 #   VARIANT=dense HELDOUT_FIRST=920000 bash scripts/anyarm.sh  # on other held-out scenes
 #   VARIANT=grip bash scripts/anyarm.sh    # and each gripper at 40 N too (descriptor v2)
 #   VARIANT=grip HELDOUT_FIRST=930000 ALONE=1 bash scripts/anyarm.sh  # add it to a scored set
+#   VARIANT=rehearse bash scripts/anyarm.sh  # grip's data beside the six's own (no forgetting?)
 #
 # 1. The any-arm data (scripts/recipes/anyarm_generate.yaml): the Panda, Flexiv, UR5e,
 #    Realman and UR10e, each configuration's mount drawn in 0.45-1.15 m; scenes from 30000.
@@ -38,7 +39,10 @@
 # split in DATA/anyarm-VARIANT; the trained robots' test set stays step 1's): arms with
 # scaled links, several arms of scaled links at every reach, or those and each gripper
 # among them at 40 N too (robot descriptor version 2, which carries the finger force: the
-# bundled model's weights are widened to it). Step 2 fine-tunes the bundled
+# bundled model's weights are widened to it); rehearse: grip's data and beside it the
+# train split of the bundled model's own recipe (the six at their mounts, the first
+# SCENES ids of its scenes from 20000; DATA/six-train), so that the fine-tune also sees
+# what the bundled model learned. Step 2 fine-tunes the bundled
 # NavAff on it (RUNS/navaff-anyarm-VARIANT), and for scaled the 12-epoch PointNet++ too
 # (RUNS/pointnet2-anyarm-scaled), or takes the committed results/runs/ ones with
 # RETRAIN=0. Steps 4-5 score those beside the two they started from (msr-VARIANT.json;
@@ -73,8 +77,8 @@ RETRAIN=${RETRAIN:-1}
 VARIANT=${VARIANT:-}
 [[ ${SCALED:-0} == 1 ]] && VARIANT=scaled
 case $VARIANT in
-  "" | scaled | dense | grip) ;;
-  *) echo "VARIANT must be scaled, dense, grip or empty, got '$VARIANT'" >&2; exit 2 ;;
+  "" | scaled | dense | grip | rehearse) ;;
+  *) echo "VARIANT must be scaled, dense, grip, rehearse or empty, got '$VARIANT'" >&2; exit 2 ;;
 esac
 mkdir -p "$RUNS" "$OUT"
 
@@ -94,13 +98,20 @@ split=()
 stamp "any-arm data: $SCENES scenes from 30000 in $ANYARM ${split[*]}"
 momakitchen generate --out "$ANYARM" --scenes "$SCENES" --first-scene-id 30000 \
   --config "$RECIPES/anyarm_generate.yaml" --workers "$WORKERS" "${split[@]}" --quiet
-TRAIN_DATA=$ANYARM
+TRAIN_DATA=(--data "$ANYARM")
 if [[ -n $VARIANT ]]; then
-  TRAIN_DATA=$DATA/anyarm-$VARIANT
+  recipe=${VARIANT/rehearse/grip}  # rehearse: grip's data, and the six's beside it
+  TRAIN_DATA=(--data "$DATA/anyarm-$recipe")
   if [[ $RETRAIN == 1 ]]; then
-    stamp "any-arm data, $VARIANT: $SCENES scenes from 30000 in $TRAIN_DATA (train split)"
-    momakitchen generate --out "$TRAIN_DATA" --scenes "$SCENES" --first-scene-id 30000 \
-      --config "$RECIPES/anyarm_${VARIANT}_generate.yaml" --workers "$WORKERS" --split train --quiet
+    stamp "any-arm data, $recipe: $SCENES scenes from 30000 in $DATA/anyarm-$recipe (train split)"
+    momakitchen generate --out "$DATA/anyarm-$recipe" --scenes "$SCENES" --first-scene-id 30000 \
+      --config "$RECIPES/anyarm_${recipe}_generate.yaml" --workers "$WORKERS" --split train --quiet
+  fi
+  if [[ $VARIANT == rehearse && $RETRAIN == 1 ]]; then
+    stamp "the six's own data: $SCENES scenes from 20000 in $DATA/six-train (train split)"
+    momakitchen generate --out "$DATA/six-train" --scenes "$SCENES" --first-scene-id 20000 \
+      --workers "$WORKERS" --split train --quiet
+    TRAIN_DATA+=(--data "$DATA/six-train")
   fi
 fi
 
@@ -109,7 +120,7 @@ train_one() {  # name, model, initial run, more train options
   [[ -f "$RUNS/$1/trainer_state.json" ]] && resume=(--resume)
   if [[ -f "$RUNS/$1/done" ]]; then return 0; fi
   stamp "train $1 (from $3)"
-  momakitchen train --data "$TRAIN_DATA" --out "$RUNS/$1" --model "$2" --init "$3" \
+  momakitchen train "${TRAIN_DATA[@]}" --out "$RUNS/$1" --model "$2" --init "$3" \
     --config "$RECIPES/anyarm_finetune.yaml" "${resume[@]}" "${@:4}" --quiet >"$RUNS/$1.log" 2>&1
   touch "$RUNS/$1/done"
 }

@@ -37,6 +37,7 @@ MODELS = {
     "pointnet2:pointnet2-anyarm-scaled": "PointNet++, any-arm + scaled links",
     "navaff:navaff-anyarm-dense": "NavAff, several arms per reach",
     "navaff:navaff-anyarm-grip": "NavAff, several arms per reach and grip force",
+    "navaff:navaff-anyarm-rehearse": "NavAff, grip-force data beside the six's own",
 }
 # (a, b): McNemar of a against b on every robot set and pooled over the held-out ones.
 PAIRS = [
@@ -55,6 +56,9 @@ PAIRS = [
     ("navaff:navaff-anyarm-grip", "navaff"),
     ("navaff:navaff-anyarm-grip", "navaff:navaff-anyarm-dense"),
     ("navaff:navaff-anyarm-grip", "pointnet2"),
+    ("navaff:navaff-anyarm-rehearse", "navaff"),
+    ("navaff:navaff-anyarm-rehearse", "navaff:navaff-anyarm-grip"),
+    ("navaff:navaff-anyarm-rehearse", "pointnet2"),
 ]
 TRAINED = "trained"
 GAP_CLOSED, PCC_DROP = 0.90, 0.05  # the figures to reach on every held-out robot

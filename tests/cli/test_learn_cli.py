@@ -242,3 +242,30 @@ def test_sigterm_to_the_process_group_checkpoints_and_exits_143(dataset, tmp_pat
     assert done.returncode == 0
     state = json.loads((out / "trainer_state.json").read_text())["progress"]
     assert state["global_step"] == stopped_at + 1
+
+
+def test_train_reads_several_datasets_as_one(dataset, tmp_path, capsys):
+    """--data twice: the run trains on both train splits (every episode of each counted),
+    records one checksum naming both, and refuses the same directory given twice."""
+    import hashlib
+
+    from momakitchen.data import EpisodeDataset
+    from momakitchen.data.manifest import load_manifest, split_checksum
+
+    other = tmp_path / "other"
+    argv = ["generate", "--out", str(other), "--scenes", "5", "--synthetic", "--quiet"]
+    assert main([*argv, "--first-scene-id", "500"]) == 0
+    out = tmp_path / "run"
+    base = ["train", "--model", "pointnet2", "--out", str(out), "--batch-size", "2"]
+    capsys.readouterr()
+    assert main([*base, "--data", str(dataset), "--data", str(other), "--max-steps", "1"]) == 0
+    episodes = len(EpisodeDataset(dataset)) + len(EpisodeDataset(other))
+    assert f"on {episodes} episodes" in capsys.readouterr().out
+    sums = " ".join(split_checksum(load_manifest(d), "train") for d in (dataset, other))
+    recorded = json.loads((out / "config.json").read_text())["train_data"]
+    both = hashlib.sha256(sums.encode()).hexdigest()
+    assert recorded == [{"from_step": 0, "shards_sha256": both}]
+    again = [*base, "--data", str(dataset), "--data", f"{dataset}/", "--out", str(tmp_path / "b")]
+    assert main(again) == 2
+    assert f"--data '{dataset}/' is given twice" in capsys.readouterr().err
+    assert not (tmp_path / "b").exists()

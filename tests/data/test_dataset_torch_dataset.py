@@ -98,3 +98,22 @@ def test_episodes_without_floor_points_are_skipped(tmp_path):
     assert len(ds) == 5 and ("scenes/scene_000000.h5", 0, 0, 1) not in {i[:4] for i in ds.index}
     assert len(EpisodeDataset(root, split="all", skip_empty=False)) == 6
     EpisodeCollator()([ds[i] for i in range(len(ds))])  # would raise on an empty cloud
+
+
+def test_several_datasets_read_as_one(small_dataset):
+    """EpisodeDatasets: the parts' episodes in order, and the epoch's draw passed on to
+    every part (each draws its sensor noise from it)."""
+    from momakitchen.data import EpisodeDatasets
+
+    train, test = EpisodeDataset(small_dataset, "train"), EpisodeDataset(small_dataset, "test")
+    both = EpisodeDatasets([train, test])
+    assert len(both) == len(train) + len(test)
+    first_test = both[len(train)]
+    assert (first_test["scene_id"], first_test["config_index"]) == (
+        test[0]["scene_id"],
+        test[0]["config_index"],
+    )
+    both.set_epoch(3, seed=5)
+    assert [(p.epoch, p.noise_seed) for p in (train, test)] == [(3, 5), (3, 5)]
+    with pytest.raises(MomaError, match="sensor noise needs the RGB-D frames"):
+        both.use_sensor_noise(None)  # a synthetic dataset has no frames

@@ -71,7 +71,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         epilog=TRAIN_CONFIG_HELP,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    tr.add_argument("--data", required=True, help="dataset directory (momakitchen generate)")
+    tr.add_argument(
+        "--data",
+        required=True,
+        action="append",
+        help="dataset directory (momakitchen generate); repeat to train on the train "
+        "splits of several as one (e.g. a new robot's data beside the data a run started "
+        "from, so that a fine-tune keeps what it knew)",
+    )
     tr.add_argument(
         "--model",
         default=None,
@@ -189,6 +196,21 @@ def _dataset(root: str, split: str):
     return data
 
 
+def _train_data(roots: list[str]):
+    """The train split of one dataset, or of several read as one (each checked as
+    :func:`_dataset` checks it); the same directory twice is an error."""
+    from momakitchen.data import EpisodeDatasets
+
+    seen: dict[Path, str] = {}
+    for root in roots:
+        key = Path(root).resolve()
+        if key in seen:
+            raise MomaError(f"--data {root!r} is given twice (as {seen[key]!r} before)")
+        seen[key] = root
+    parts = [_dataset(root, "train") for root in roots]
+    return parts[0] if len(parts) == 1 else EpisodeDatasets(parts)
+
+
 def _no_episodes(root: str, split: str, manifest: dict) -> str:
     """Why a dataset has no episodes of ``split``, and what to do about it."""
     from momakitchen.cli.wording import counted
@@ -264,7 +286,7 @@ def run_train(args: argparse.Namespace) -> int:
 
         require_checkpoint(args.out)
     config = train_config(args)
-    data = _dataset(args.data, "train")
+    data = _train_data(args.data)
     _probe_plugin(config, data)
     result = train(config, data, None, Path(args.out), resume=args.resume)
     if result.stopped_by:

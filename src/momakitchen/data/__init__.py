@@ -12,6 +12,7 @@ from typing import Any
 
 _LAZY = {
     "EpisodeDataset": "momakitchen.data.torch_dataset",
+    "EpisodeDatasets": "momakitchen.data.torch_dataset",
     "SceneShard": "momakitchen.data.shard",
     "write_shard": "momakitchen.data.shard",
     "SCHEMA_VERSION": "momakitchen.data.shard",

@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 import torch
-from torch.utils.data import Dataset
+from torch.utils.data import ConcatDataset, Dataset
 
 from momakitchen.data import manifest as mf
 from momakitchen.data.shard import SceneShard
@@ -264,3 +264,20 @@ class EpisodeDataset(Dataset):
             self.close()
         except Exception:  # interpreter shutdown
             pass
+
+
+class EpisodeDatasets(ConcatDataset):
+    """Several :class:`EpisodeDataset` read as one (``train --data A --data B``): their
+    episodes in order, with sensor noise and the epoch's draw passed to each part."""
+
+    def __init__(self, parts: Sequence[EpisodeDataset]) -> None:
+        super().__init__(parts)
+        self.parts = list(parts)
+
+    def use_sensor_noise(self, augmentation: Any) -> None:
+        for part in self.parts:
+            part.use_sensor_noise(augmentation)
+
+    def set_epoch(self, epoch: int, seed: int = 0) -> None:
+        for part in self.parts:
+            part.set_epoch(epoch, seed)
