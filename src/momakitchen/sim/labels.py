@@ -224,8 +224,8 @@ def label_configuration(
 
     The world is reset to ``cfg`` first (``World.load_configuration``), the robot of the
     configuration is loaded for the trials and removed afterwards. ``diagnose`` also
-    says which joints stop IK where it fails (``Labels.why``; one more IK solve there,
-    the same outcomes).
+    says which joints stop IK where it fails (``Labels.why``; one more IK solve there
+    after the last trial, the same outcomes).
     """
     t0 = time.perf_counter()
     world.load_configuration(cfg)
@@ -239,6 +239,11 @@ def label_configuration(
             results.append(runner.run(float(x), float(y)))
             if progress is not None:
                 progress(i + 1, len(grid))
+        if diagnose:  # after every trial, which its IK must not come between
+            results = [
+                runner.explain_ik(float(x), float(y), r)
+                for (x, y), r in zip(grid, results, strict=True)
+            ]
     finally:
         runner.close()
     ax, ay = cfg.target.anchor[:2]

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -59,6 +59,8 @@ class TrialResult:
     t_ik: float = 0.0
     t_physics: float = 0.0
     why: tuple[str, ...] = ()
+    # diagnosis: the pose IK failed at (explain_ik)
+    ik_pose: tuple[np.ndarray, np.ndarray] | None = field(default=None, compare=False, repr=False)
 
     @property
     def success(self) -> bool:
@@ -113,9 +115,8 @@ class TrialRunner:
     Loads the robot (parked outside the room), saves the world state, and restores it
     before every trial. The robot's arm stands at ``mount_height`` (metres), by default at
     the loaded configuration's (``Configuration.mount_height``: drawn for it, or the
-    robot's own). With ``diagnose``, a position where IK fails costs one more IK solve,
-    which says in ``TrialResult.why`` which arm joints stop at a limit (outcomes are the
-    same either way).
+    robot's own). With ``diagnose``, a position where IK fails keeps the pose it failed at
+    (``TrialResult.ik_pose``) for :meth:`explain_ik`.
     """
 
     def __init__(
@@ -148,7 +149,7 @@ class TrialRunner:
         self._contacts: set[str] = set()  # colliding pairs met while planning one trial
         self._why = ""  # why the last execution failed
         self._diagnose = diagnose
-        self._ik_why: tuple[str, ...] = ()  # what stopped IK at the last position
+        self._ik_pose: tuple[np.ndarray, np.ndarray] | None = None  # of the last IK failure
         self._allow: list[int | tuple[int, int]] = [self.target.body_id]
         if self.target.is_articulated:
             # The tool may touch the moving part and its handle, not the carcass.
@@ -244,7 +245,7 @@ class TrialRunner:
         robot, cfg = self.robot, self.config
         t_ik = 0.0
         self._contacts = set()
-        self._ik_why = ()
+        self._ik_pose = None
         first: tuple[np.ndarray, np.ndarray] | None = None  # the first pre-grasp tried
         reachable = False
         collided = False
@@ -285,24 +286,28 @@ class TrialRunner:
                     return Stage.SUCCESS, _Plan(g, pre.q, grasp.q, pos, approach, quat), t_ik
         if not reachable:
             return Stage.OUT_OF_REACH, None, t_ik
-        if not collided and self._diagnose and first is not None:
-            self._ik_why = self._ik_limits(*first)
+        if not collided and self._diagnose:
+            self._ik_pose = first
         return (Stage.ARM_COLLISION if collided else Stage.IK_FAILED), None, t_ik
 
-    def _ik_limits(self, position: np.ndarray, quat: np.ndarray) -> tuple[str, ...]:
-        """Diagnosis of an IK failure: the arm joints at a limit in the best (failed)
-        solution of the first pre-grasp pose, e.g. ``"joint_2 at its limit"``, or that
-        none is. A robot's own kinematics (a joint range too short for the pose) reads
-        apart from a poor start."""
+    def explain_ik(self, x: float, y: float, result: TrialResult) -> TrialResult:
+        """``result``, an IK failure of :meth:`run` at ``(x, y)`` (with ``diagnose``), with
+        ``why``: the arm joints at a limit in the best (failed) solution of its first
+        pre-grasp pose, e.g. ``"joint_2 at its limit"``, or that none is; a robot's own
+        kinematics (a joint range too short for the pose) reads apart from a poor start.
+        Call it after the last trial: its IK moves the arm, which would change later
+        trials' physics in the last digits, and diagnosis must not change an outcome."""
+        if result.ik_pose is None:
+            return result
         robot = self.robot
-        with robot.kinematic_scratch():
-            res = robot.solve_ik(position, quat)
+        self._place(x, y, None)
+        res = robot.solve_ik(*result.ik_pose, seed=robot.home)
         if res.success:  # found with more restarts than planning allows
-            return ("solved only with more IK restarts",)
+            return replace(result, why=("solved only with more IK restarts",))
         span = 1e-3 * np.maximum(robot.upper - robot.lower, 1.0)
         at = (res.q <= robot.lower + span) | (res.q >= robot.upper - span)
         names = [f"{robot.joint_names[j]} at its limit" for j in np.flatnonzero(at)]
-        return tuple(names) or ("no joint at a limit",)
+        return replace(result, why=tuple(names) or ("no joint at a limit",))
 
     def _approaches(
         self, normal: np.ndarray, closing: np.ndarray
@@ -575,9 +580,8 @@ class TrialRunner:
             why: tuple[str, ...] = ()
             if stage == Stage.ARM_COLLISION:
                 why = tuple(sorted(self._contacts))
-            elif stage == Stage.IK_FAILED:
-                why = self._ik_why
-            return TrialResult(stage, t_check=t1 - t0 - t_ik, t_ik=t_ik, why=why)
+            pose = self._ik_pose if stage == Stage.IK_FAILED else None
+            return TrialResult(stage, t_check=t1 - t0 - t_ik, t_ik=t_ik, why=why, ik_pose=pose)
         self._dirty = True
         self._why = ""
         ok, moved = self._execute(plan)
