@@ -149,7 +149,7 @@ class TrialRunner:
         self._contacts: set[str] = set()  # colliding pairs met while planning one trial
         self._why = ""  # why the last execution failed
         self._diagnose = diagnose
-        self._ik_pose: tuple[np.ndarray, np.ndarray] | None = None  # of the last IK failure
+        self._ik_pose: tuple[np.ndarray, np.ndarray] | None = None  # set by an IK failure
         self._allow: list[int | tuple[int, int]] = [self.target.body_id]
         if self.target.is_articulated:
             # The tool may touch the moving part and its handle, not the carcass.
@@ -580,8 +580,9 @@ class TrialRunner:
             why: tuple[str, ...] = ()
             if stage == Stage.ARM_COLLISION:
                 why = tuple(sorted(self._contacts))
-            pose = self._ik_pose if stage == Stage.IK_FAILED else None
-            return TrialResult(stage, t_check=t1 - t0 - t_ik, t_ik=t_ik, why=why, ik_pose=pose)
+            return TrialResult(
+                stage, t_check=t1 - t0 - t_ik, t_ik=t_ik, why=why, ik_pose=self._ik_pose
+            )
         self._dirty = True
         self._why = ""
         ok, moved = self._execute(plan)
