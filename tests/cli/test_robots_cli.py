@@ -65,7 +65,7 @@ def test_json_lists_manufacturer_reach(capsys):
         assert rows[name]["mount_height_m"] == MOUNT_HEIGHT[name]
         assert rows[name]["descriptor"]["reach_m"] == reach
     assert rows["panda"]["dof"] == 7 and rows["ur5e"]["end_effector"] == "suction"
-    assert rows["xarm6"]["descriptor_version"] == 2
+    assert rows["xarm6"]["descriptor_version"] == 3
     assert rows["xarm6"]["descriptor"]["finger_force_per_100n"] == 0.4
 
 

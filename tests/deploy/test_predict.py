@@ -151,14 +151,25 @@ def test_robot_input_takes_a_finger_force_and_version_1_vectors():
     _, default = robot_input({"reach": 0.8, "mount_height": 1.0})
     _, cup = robot_input({"reach": 0.8, "mount_height": 1.0, "suction": True})
     assert (strong[4], default[4], cup[4]) == (np.float32(1.2), np.float32(0.4), 0.0)
-    # A version-1 vector (reach, mount, dof / 7, suction) gets the default force.
-    old = robot_descriptor(get_robot_spec("ur5e"))[:4]
-    assert np.array_equal(
-        robot_input(list(old))[1], np.float32(robot_descriptor(get_robot_spec("ur5e")))
+    # Where the shoulder stands: 0.25 m above the mount unless given.
+    assert default[5:] == pytest.approx((1.25, 0.0))
+    _, tall = robot_input(
+        {"reach": 0.8, "mount_height": 1.0, "shoulder_rise": 0.4, "shoulder_offset": 0.06}
     )
+    assert tall[5:] == pytest.approx((1.4, 0.6))
+    # Older vectors (reach, mount, dof / 7, suction[, force / 100]) get the defaults.
+    ur5e = robot_descriptor(get_robot_spec("ur5e"))
+    for old in (ur5e[:4], ur5e[:5]):
+        got = robot_input(list(old))[1]
+        assert np.array_equal(got[:5], np.float32(ur5e[:5]))
+        assert got[5:] == pytest.approx((1.03 + 0.25, 0.0))
+    _, grip = robot_input([0.8, 1.0, 1.0, 0.0, 1.2])
+    assert grip[4] == np.float32(1.2)
     with pytest.raises(MomaError, match=r"robot finger_force must be in \[10, 200\] N, got 500"):
         robot_input({"reach": 0.8, "mount_height": 1.0, "finger_force": 500})
-    with pytest.raises(MomaError, match="must be 5 finite numbers"):
+    with pytest.raises(MomaError, match=r"robot shoulder_rise must be in \[0, 1\] m, got 2"):
+        robot_input({"reach": 0.8, "mount_height": 1.0, "shoulder_rise": 2})
+    with pytest.raises(MomaError, match="must be 7 finite numbers"):
         robot_input([0.8, 1.0, 1.0])
 
 

@@ -70,12 +70,21 @@ def test_a_spec_must_agree_with_its_model():
     assert "bad" not in ROBOTS
 
 
-def test_descriptor_is_reach_mount_height_dof_tool_grip():
-    assert DESCRIPTOR_VERSION == 2
+def test_descriptor_is_reach_mount_height_dof_tool_grip_shoulder():
+    assert DESCRIPTOR_VERSION == 3
     assert DESCRIPTOR_NAMES[:2] == ("reach_m", "mount_height_m")
-    assert robot_descriptor(get_robot_spec("ur5e")) == (0.85, 1.03, 6 / 7, 1.0, 0.0)
-    assert robot_descriptor(get_robot_spec("xarm6")) == (0.70, 0.33, 6 / 7, 0.0, 0.4)
+    ur5e = robot_descriptor(get_robot_spec("ur5e"))
+    assert ur5e[:5] == (0.85, 1.03, 6 / 7, 1.0, 0.0)
+    # UR's DH d1: the shoulder 0.1625 m above the mount, on joint 1's axis.
+    assert ur5e[5:] == pytest.approx((1.03 + 0.1625, 0.0), abs=1e-9)
+    assert robot_descriptor(get_robot_spec("xarm6"))[:5] == (0.70, 0.33, 6 / 7, 0.0, 0.4)
     assert robot_descriptor(get_robot_spec("panda"))[4] == 0.7
+    # The descriptor twins of version 2 (docs/ROBOTS.md): apart in version 3.
+    elephant = robot_descriptor(get_robot_spec("elephant"))
+    twin = robot_descriptor(get_robot_spec("realman-x0.70-f40"))
+    assert elephant[:5] == pytest.approx(twin[:5], abs=0.005)
+    assert elephant[5] - twin[5] == pytest.approx(0.229 - 0.7 * 0.172, abs=0.001)
+    assert (elephant[6], twin[6]) == pytest.approx((0.0, 0.7 * 0.86), abs=0.001)
 
 
 def test_each_descriptor_layout_extends_the_one_before():
@@ -83,8 +92,8 @@ def test_each_descriptor_layout_extends_the_one_before():
     assert versions == list(range(1, DESCRIPTOR_VERSION + 1))
     for old, new in itertools.pairwise(versions):
         assert DESCRIPTOR_LAYOUTS[new][: len(DESCRIPTOR_LAYOUTS[old])] == DESCRIPTOR_LAYOUTS[old]
-    assert [descriptor_dim(v) for v in versions] == [4, 5]
-    for bad in (0, 3, True, "1", None):
+    assert [descriptor_dim(v) for v in versions] == [4, 5, 7]
+    for bad in (0, 4, True, "1", None):
         with pytest.raises(MomaError, match=r"descriptor version .* is unknown"):
             descriptor_dim(bad)
 
@@ -94,6 +103,8 @@ def test_a_version_1_descriptor_gains_its_robots_finger_force():
     new = upgrade_descriptor(old, 1, "elephant")
     assert new.dtype == np.float32 and new.shape == (DESCRIPTOR_DIM,)
     assert np.array_equal(new[:4], old) and new[4] == np.float32(0.4)
+    # The shoulder stands above the stored (drawn) mount, not the robot's own.
+    assert new[5] == np.float32(0.9 + 0.22934) and new[6] == 0.0
     assert upgrade_descriptor(new, DESCRIPTOR_VERSION, "elephant") is new
     assert upgrade_descriptor(old, 1, "ur5e")[4] == 0.0  # suction
     with pytest.raises(MomaError, match="version-1 robot descriptor has 4 values"):
@@ -145,4 +156,6 @@ def test_mount_heights_are_checked_against_the_documented_range():
 def test_descriptor_takes_a_configurations_mount_height():
     ur5e = get_robot_spec("ur5e")
     assert robot_descriptor(ur5e, None) == robot_descriptor(ur5e)
-    assert robot_descriptor(ur5e, 0.62) == (0.85, 0.62, 6 / 7, 1.0, 0.0)
+    assert robot_descriptor(ur5e, 0.62) == pytest.approx(
+        (0.85, 0.62, 6 / 7, 1.0, 0.0, 0.62 + 0.1625, 0.0), abs=1e-12
+    )

@@ -82,7 +82,7 @@ def test_init_from_a_version_1_run_trains_a_current_one(old_run, tiny_sets, make
     assert weight.shape[1] == DESCRIPTOR_DIM
     # A current run does not start a version-1 one.
     with pytest.raises(
-        MomaError, match="reads robot descriptor version 2, newer than this run's 1"
+        MomaError, match=f"reads robot descriptor version {DESCRIPTOR_VERSION}, newer than this"
     ):
         train(
             make_config(epochs=1, init=str(tmp_path / "new")).replace_model(

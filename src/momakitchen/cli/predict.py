@@ -67,6 +67,18 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         default=None,
         help="the gripper's closing force per finger (N), with --reach (default 40)",
     )
+    p.add_argument(
+        "--shoulder-rise",
+        type=float,
+        default=None,
+        help="the shoulder's height above the mount (m), with --reach (default 0.25)",
+    )
+    p.add_argument(
+        "--shoulder-offset",
+        type=float,
+        default=None,
+        help="the shoulder's distance from the first joint's axis (m), with --reach (default 0)",
+    )
     p.add_argument("--checkpoint", default=None, help="run directory (default: bundled model)")
     p.add_argument("--top-k", type=positive_int, default=5, help="poses to return, best first (5)")
     p.add_argument(
@@ -105,14 +117,20 @@ def run(args: argparse.Namespace) -> int:
 
     if args.robot is None and (args.reach is None or args.mount_height is None):
         raise MomaError("give --robot NAME, or both --reach and --mount-height")
-    numbers = (args.reach, args.mount_height, args.finger_force)
+    shoulder = {"shoulder_rise": args.shoulder_rise, "shoulder_offset": args.shoulder_offset}
+    numbers = (args.reach, args.mount_height, args.finger_force, *shoulder.values())
     if args.robot is not None and any(n is not None for n in numbers):
-        raise MomaError("give either --robot or --reach/--mount-height/--finger-force, not both")
+        raise MomaError(
+            "give either --robot or --reach/--mount-height/--finger-force/--shoulder-*, not both"
+        )
     if args.checkpoint is not None:
         existing_dir(args.checkpoint, "checkpoint directory")
-    robot = args.robot or {"reach": args.reach, "mount_height": args.mount_height}
-    if args.finger_force is not None:
-        robot = {**robot, "finger_force": args.finger_force}
+    extra = {"finger_force": args.finger_force, **shoulder}
+    robot = args.robot or {
+        "reach": args.reach,
+        "mount_height": args.mount_height,
+        **{k: v for k, v in extra.items() if v is not None},
+    }
     out = planned_output_dir(args.out)
     # The model's options, the same for a frame from files and for a bag's frames.
     options = dict(

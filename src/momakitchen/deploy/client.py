@@ -74,7 +74,8 @@ def multipart(fields: list[tuple[str, str | bytes]]) -> tuple[bytes, str]:
 
 def _robot_fields(robot: Any) -> list[tuple[str, str | bytes]]:
     """A registered name as ``robot``; a descriptor (a drawn mount height) as the numbers
-    the API takes: reach, mount height, joints, suction and a gripper's finger force."""
+    the API takes: reach, mount height, joints, suction, a gripper's finger force and
+    where the shoulder stands."""
     if isinstance(robot, str):
         return [("robot", robot)]
     suction = bool(robot[3] >= 0.5)
@@ -86,6 +87,9 @@ def _robot_fields(robot: Any) -> list[tuple[str, str | bytes]]:
     ]
     if not suction and len(robot) > 4:
         fields.append(("finger_force", f"{robot[4] * 100:.6g}"))
+    if len(robot) > 6:  # version 3: the shoulder's height above the floor, offset per 10 cm
+        fields.append(("shoulder_rise", f"{robot[5] - robot[1]:.6g}"))
+        fields.append(("shoulder_offset", f"{robot[6] / 10:.6g}"))
     return fields
 
 

@@ -145,13 +145,16 @@ def load_extrinsics(tf: np.ndarray | str | os.PathLike) -> np.ndarray:
 
 def robot_input(robot: str | Sequence[float] | Mapping[str, float]) -> tuple[str, np.ndarray]:
     """A robot name from the registry, or a descriptor: ``{"reach", "mount_height"}`` (plus
-    optional ``"dof"`` (6), ``"suction"`` (False) and ``"finger_force"`` (N per finger,
-    40)) or the descriptor vector (of the current layout, or of version 1, whose gripper
-    then has the default force). Returns the name ("custom" for a descriptor) and the
-    descriptor, shape ``(DESCRIPTOR_DIM,)``."""
+    optional ``"dof"`` (6), ``"suction"`` (False), ``"finger_force"`` (N per finger, 40),
+    ``"shoulder_rise"`` (m above the mount, 0.25) and ``"shoulder_offset"`` (m off the first
+    joint's axis, 0)) or the descriptor vector (of the current layout, or of an older one,
+    whose missing columns then take those defaults). Returns the name ("custom" for a
+    descriptor) and the descriptor, shape ``(DESCRIPTOR_DIM,)``."""
     from momakitchen.robots.grip import FORCE_RANGE
     from momakitchen.robots.spec import (
         DEFAULT_FINGER_FORCE,
+        DEFAULT_SHOULDER_OFFSET,
+        DEFAULT_SHOULDER_RISE,
         DESCRIPTOR_DIM,
         descriptor_dim,
         descriptor_values,
@@ -171,6 +174,8 @@ def robot_input(robot: str | Sequence[float] | Mapping[str, float]) -> tuple[str
             ("mount_height", 0.0, 3.0, "m"),
             ("dof", 3, 10, "joints"),
             ("finger_force", lo_f, hi_f, "N"),
+            ("shoulder_rise", 0.0, 1.0, "m"),
+            ("shoulder_offset", 0.0, 0.5, "m"),
         ):
             if key not in robot:
                 continue
@@ -184,15 +189,18 @@ def robot_input(robot: str | Sequence[float] | Mapping[str, float]) -> tuple[str
                 float(robot.get("dof", 6)),
                 bool(robot.get("suction", False)),
                 float(robot.get("finger_force", DEFAULT_FINGER_FORCE)),
+                float(robot.get("shoulder_rise", DEFAULT_SHOULDER_RISE)),
+                float(robot.get("shoulder_offset", DEFAULT_SHOULDER_OFFSET)),
             )
         )
     else:
         vec = list(robot)
-        if len(vec) == descriptor_dim(1):  # a version-1 vector: reach, mount, dof/7, suction
+        if len(vec) in (descriptor_dim(1), descriptor_dim(2)):  # an older vector
             values = np.asarray(vec, np.float64)
             if np.isfinite(values).all():
-                reach, mount, dof_7, suction = values
-                vec = list(descriptor_values(reach, mount, dof_7 * 7.0, bool(suction >= 0.5)))
+                reach, mount, dof_7, suction = values[:4]
+                grip = values[4] * 100 if len(vec) > 4 else DEFAULT_FINGER_FORCE
+                vec = list(descriptor_values(reach, mount, dof_7 * 7.0, bool(suction >= 0.5), grip))
     d = np.asarray(vec, np.float32)
     if (
         d.shape != (DESCRIPTOR_DIM,)

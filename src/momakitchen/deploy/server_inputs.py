@@ -35,10 +35,12 @@ TEXT = (
     "dof",
     "suction",
     "finger_force",
+    "shoulder_rise",
+    "shoulder_offset",
     "floor_points",
 )
 # With reach and mount_height, optional: the rest of a robot given by its numbers.
-ROBOT_NUMBERS = ("dof", "finger_force")
+ROBOT_NUMBERS = ("dof", "finger_force", "shoulder_rise", "shoulder_offset")
 FIELDS = (*FILES, *NUMBERS, *TEXT)
 
 

@@ -381,12 +381,27 @@ DESCRIPTOR_LAYOUTS: dict[int, tuple[str, ...]] = {
     # The fingers' closing force decides which targets can be opened at all (a fridge
     # door's seal): robots alike in reach and mount differ in it (docs/ROBOTS.md).
     2: ("reach_m", "mount_height_m", "dof_over_7", "is_suction", "finger_force_per_100n"),
+    # Where the shoulder stands: arms alike in all of the above stand it up to 11 cm apart
+    # in height, or a few cm off the first joint's axis (robots/shoulder.py).
+    3: (
+        "reach_m",
+        "mount_height_m",
+        "dof_over_7",
+        "is_suction",
+        "finger_force_per_100n",
+        "shoulder_height_m",
+        "shoulder_offset_per_10cm",
+    ),
 }
 DESCRIPTOR_VERSION = max(DESCRIPTOR_LAYOUTS)
 DESCRIPTOR_NAMES = DESCRIPTOR_LAYOUTS[DESCRIPTOR_VERSION]
 DESCRIPTOR_DIM = len(DESCRIPTOR_NAMES)
 # The finger force of a gripper whose force nobody gave (the built grippers' default), N.
 DEFAULT_FINGER_FORCE = 40.0
+# The shoulder of an arm given by its numbers only, m above its mount and off joint 1's
+# axis: about the middle of the registry's arms (0.16-0.37 m, docs/ROBOTS.md).
+DEFAULT_SHOULDER_RISE = 0.25
+DEFAULT_SHOULDER_OFFSET = 0.0
 
 
 def descriptor_dim(version: object) -> int:
@@ -414,9 +429,12 @@ def robot_descriptor(spec: RobotSpec, mount_height: float | None = None) -> tupl
     height is ``mount_height`` where given (a configuration's sampled mount), else the
     robot's own.
     """
+    from momakitchen.robots.shoulder import shoulder_geometry  # it builds the URDF
+
     mount = spec.mount_height if mount_height is None else mount_height
     suction = spec.end_effector == "suction"
-    return descriptor_values(spec.reach, mount, spec.dof, suction, finger_force(spec))
+    rise, offset = shoulder_geometry(spec)
+    return descriptor_values(spec.reach, mount, spec.dof, suction, finger_force(spec), rise, offset)
 
 
 def descriptor_values(
@@ -425,18 +443,31 @@ def descriptor_values(
     dof: float,
     suction: bool,
     finger_force: float = DEFAULT_FINGER_FORCE,
+    shoulder_rise: float = DEFAULT_SHOULDER_RISE,
+    shoulder_offset: float = DEFAULT_SHOULDER_OFFSET,
 ) -> tuple[float, ...]:
     """The descriptor of a robot given by its numbers (one not in the registry);
-    ``finger_force`` in N per finger, ignored for suction."""
+    ``finger_force`` in N per finger, ignored for suction; ``shoulder_rise`` and
+    ``shoulder_offset`` in m, the shoulder's height above the mount and its distance from
+    the first joint's axis."""
     force = 0.0 if suction else float(finger_force) / 100.0
-    return (float(reach), float(mount_height), dof / 7.0, 1.0 if suction else 0.0, force)
+    return (
+        float(reach),
+        float(mount_height),
+        dof / 7.0,
+        1.0 if suction else 0.0,
+        force,
+        float(mount_height) + float(shoulder_rise),
+        float(shoulder_offset) * 10.0,
+    )
 
 
 def upgrade_descriptor(descriptor: np.ndarray, version: int, robot: str) -> np.ndarray:
     """A version-``version`` descriptor of robot ``robot`` (a NumPy array of shape
     ``(descriptor_dim(version),)``) as a current one (``(DESCRIPTOR_DIM,)``, same dtype):
     the columns added since are the robot's (its spec by name; a user robot must be
-    registered). Returned as given when already current."""
+    registered) at the mount height the descriptor holds. Returned as given when already
+    current."""
     d = np.asarray(descriptor)
     if version == DESCRIPTOR_VERSION:
         return d
@@ -445,5 +476,7 @@ def upgrade_descriptor(descriptor: np.ndarray, version: int, robot: str) -> np.n
             f"a version-{version} robot descriptor has {descriptor_dim(version)} values, "
             f"got shape {d.shape}"
         )
-    full = np.asarray(robot_descriptor(get_robot_spec(robot)), d.dtype)
+    # The stored mount (float32) as written: mounts are drawn to the millimetre.
+    mount = round(float(d[1]), 6)
+    full = np.asarray(robot_descriptor(get_robot_spec(robot), mount), d.dtype)
     return np.concatenate([d, full[d.shape[0] :]])
