@@ -12,6 +12,8 @@
 #   VARIANT=grip bash scripts/anyarm.sh    # and each gripper at 40 N too (descriptor v2)
 #   VARIANT=grip HELDOUT_FIRST=930000 ALONE=1 bash scripts/anyarm.sh  # add it to a scored set
 #   VARIANT=rehearse bash scripts/anyarm.sh  # grip's data beside the six's own (no forgetting?)
+#   VARIANT=shoulder HELDOUT_FIRST=950000 HELDOUT_SCENES=30 bash scripts/anyarm.sh
+#                                            # grip's data, descriptor v3 (where the shoulder is)
 #
 # 1. The any-arm data (scripts/recipes/anyarm_generate.yaml): the Panda, Flexiv, UR5e,
 #    Realman and UR10e, each configuration's mount drawn in 0.45-1.15 m; scenes from 30000.
@@ -42,7 +44,9 @@
 # bundled model's weights are widened to it); rehearse: grip's data and beside it the
 # train split of the bundled model's own recipe (the six at their mounts, the first
 # SCENES ids of its scenes from 20000; DATA/six-train), so that the fine-tune also sees
-# what the bundled model learned. Step 2 fine-tunes the bundled
+# what the bundled model learned; shoulder: grip's data read with robot descriptor version 3,
+# which adds where the shoulder stands (grip and rehearse read version 2, as when they were
+# first made: scripts/recipes/anyarm_finetune_v2.yaml). Step 2 fine-tunes the bundled
 # NavAff on it (RUNS/navaff-anyarm-VARIANT), and for scaled the 12-epoch PointNet++ too
 # (RUNS/pointnet2-anyarm-scaled), or takes the committed results/runs/ ones with
 # RETRAIN=0. Steps 4-5 score those beside the two they started from (msr-VARIANT.json;
@@ -54,6 +58,9 @@
 # scored together in msr.json; the six of step 5 stay in results/anyarm/six. ALONE=1 (with
 # a VARIANT, on held-out scenes already scored): only the VARIANT's model is scored, in
 # msr-VARIANT.json, which the report adds to msr.json (the same configurations).
+#
+# SIX=0 skips step 5 (the six at their own mounts: some 90 minutes on 2 cores with the
+# generation of their test split).
 #
 # Every step resumes: generation skips finished scenes, training goes on from its last
 # checkpoint, and results newer than their model are kept. Run it again after a stop.
@@ -77,9 +84,12 @@ RETRAIN=${RETRAIN:-1}
 VARIANT=${VARIANT:-}
 [[ ${SCALED:-0} == 1 ]] && VARIANT=scaled
 case $VARIANT in
-  "" | scaled | dense | grip | rehearse) ;;
-  *) echo "VARIANT must be scaled, dense, grip, rehearse or empty, got '$VARIANT'" >&2; exit 2 ;;
+  "" | scaled | dense | grip | rehearse | shoulder) ;;
+  *) echo "VARIANT must be scaled, dense, grip, rehearse, shoulder or empty, got '$VARIANT'" >&2
+     exit 2 ;;
 esac
+FINETUNE=$RECIPES/anyarm_finetune.yaml
+[[ $VARIANT == grip || $VARIANT == rehearse ]] && FINETUNE=$RECIPES/anyarm_finetune_v2.yaml
 mkdir -p "$RUNS" "$OUT"
 
 stamp() { echo "[$(date -u +%FT%TZ)] $*"; }
@@ -101,6 +111,7 @@ momakitchen generate --out "$ANYARM" --scenes "$SCENES" --first-scene-id 30000 \
 TRAIN_DATA=(--data "$ANYARM")
 if [[ -n $VARIANT ]]; then
   recipe=${VARIANT/rehearse/grip}  # rehearse: grip's data, and the six's beside it
+  recipe=${recipe/shoulder/grip}
   TRAIN_DATA=(--data "$DATA/anyarm-$recipe")
   if [[ $RETRAIN == 1 ]]; then
     stamp "any-arm data, $recipe: $SCENES scenes from 30000 in $DATA/anyarm-$recipe (train split)"
@@ -121,7 +132,7 @@ train_one() {  # name, model, initial run, more train options
   if [[ -f "$RUNS/$1/done" ]]; then return 0; fi
   stamp "train $1 (from $3)"
   momakitchen train "${TRAIN_DATA[@]}" --out "$RUNS/$1" --model "$2" --init "$3" \
-    --config "$RECIPES/anyarm_finetune.yaml" "${resume[@]}" "${@:4}" --quiet >"$RUNS/$1.log" 2>&1
+    --config "$FINETUNE" "${resume[@]}" "${@:4}" --quiet >"$RUNS/$1.log" 2>&1
   touch "$RUNS/$1/done"
 }
 BUNDLED=$(python3 -c "from momakitchen.train.checkpoint import default_checkpoint as d; print(d())")
@@ -208,6 +219,7 @@ for spec in "${HELDOUT[@]}"; do
   score "$DATA/heldout-$name$SUFFIX" all "$name"
 done
 python3 "$REPO/scripts/anyarm_report.py" "$OUT"
+[[ ${SIX:-1} == 0 ]] && exit 0
 
 stamp "the six at their own mounts: $SIX_DATA (test split)"
 momakitchen generate --out "$SIX_DATA" --scenes 300 --first-scene-id 20000 --split test \

@@ -38,6 +38,7 @@ MODELS = {
     "navaff:navaff-anyarm-dense": "NavAff, several arms per reach",
     "navaff:navaff-anyarm-grip": "NavAff, several arms per reach and grip force",
     "navaff:navaff-anyarm-rehearse": "NavAff, grip-force data beside the six's own",
+    "navaff:navaff-anyarm-shoulder": "NavAff, grip-force data, descriptor with the shoulder",
 }
 # (a, b): McNemar of a against b on every robot set and pooled over the held-out ones.
 PAIRS = [
@@ -58,6 +59,9 @@ PAIRS = [
     ("navaff:navaff-anyarm-grip", "pointnet2"),
     ("navaff:navaff-anyarm-rehearse", "navaff"),
     ("navaff:navaff-anyarm-rehearse", "navaff:navaff-anyarm-grip"),
+    ("navaff:navaff-anyarm-shoulder", "navaff"),
+    ("navaff:navaff-anyarm-shoulder", "navaff:navaff-anyarm-grip"),
+    ("navaff:navaff-anyarm-shoulder", "pointnet2"),
     ("navaff:navaff-anyarm-rehearse", "pointnet2"),
 ]
 TRAINED = "trained"
