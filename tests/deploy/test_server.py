@@ -273,6 +273,8 @@ def test_a_robot_given_by_its_numbers(server, episodes):
         "dof": "6",
         "suction": "0",
         "finger_force": "40",
+        "shoulder_rise": "0.22934",
+        "shoulder_offset": "0",
     }
     files, fields = _request(ep, floor_points="0")
     del fields["robot"]
@@ -283,7 +285,14 @@ def test_a_robot_given_by_its_numbers(server, episodes):
         ep.intrinsics,
         ep.camera_to_base,
         ep.semantic == TARGET,
-        {"reach": 0.63, "mount_height": 0.9, "dof": 6, "finger_force": 40},
+        {
+            "reach": 0.63,
+            "mount_height": 0.9,
+            "dof": 6,
+            "finger_force": 40,
+            "shoulder_rise": 0.22934,
+            "shoulder_offset": 0.0,
+        },
         rgb=ep.rgb,
         obstacle_masks=[ep.semantic == OBSTACLE],
         mc_samples=0,
