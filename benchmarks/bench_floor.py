@@ -27,7 +27,8 @@ from momakitchen.data import manifest as mf
 from momakitchen.data.shard import SceneShard
 from momakitchen.eval.robustness import episode_frame
 from momakitchen.models.inference import predict_map
-from momakitchen.robots.spec import get_robot_spec, robot_descriptor
+from momakitchen.robots.descriptor import robot_descriptor
+from momakitchen.robots.spec import get_robot_spec
 from momakitchen.train.checkpoint import default_checkpoint, load_checkpoint
 
 

@@ -33,7 +33,8 @@ from momakitchen.errors import MomaError
 from momakitchen.eval.predictions import episode_key
 from momakitchen.fileio import atomic_path
 from momakitchen.frames import base_to_world_xy
-from momakitchen.robots.spec import descriptor_dim, get_robot_spec, robot_descriptor
+from momakitchen.robots.descriptor import robot_descriptor
+from momakitchen.robots.spec import descriptor_dim, get_robot_spec
 from momakitchen.sim.config import STAGE_NAMES
 
 

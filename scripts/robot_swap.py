@@ -24,7 +24,8 @@ from momakitchen.data.batch import episode_maps
 from momakitchen.eval.evaluate import predicted_maps
 from momakitchen.metrics import episode_metrics
 from momakitchen.models.inference import predict_batch
-from momakitchen.robots.spec import DEFAULT_ROBOTS, ROBOTS, robot_descriptor
+from momakitchen.robots.descriptor import robot_descriptor
+from momakitchen.robots.spec import DEFAULT_ROBOTS, ROBOTS
 from momakitchen.train.checkpoint import load_checkpoint
 
 

@@ -71,7 +71,8 @@ def robot_records(scene_id: int, config: RobotRecordsConfig):
 
     import numpy as np
 
-    from momakitchen.robots.spec import get_robot_spec, robot_descriptor
+    from momakitchen.robots.descriptor import robot_descriptor
+    from momakitchen.robots.spec import get_robot_spec
 
     small = SyntheticSceneConfig(configs_per_scene=config.configs_per_scene, episodes_per_config=1)
     names = config.scene.robot_names

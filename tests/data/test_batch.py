@@ -14,7 +14,8 @@ from momakitchen.data.synthetic import (
     affordance_label,
 )
 from momakitchen.errors import MomaError
-from momakitchen.robots.spec import DESCRIPTOR_DIM, ROBOTS, robot_descriptor
+from momakitchen.robots.descriptor import robot_descriptor
+from momakitchen.robots.spec import DESCRIPTOR_DIM, ROBOTS
 
 
 @pytest.fixture(scope="module")

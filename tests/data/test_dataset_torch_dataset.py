@@ -17,7 +17,8 @@ from momakitchen.data.integrity import check_dataset, dataset_stats
 from momakitchen.data.shard import SceneShard, list_shards
 from momakitchen.data.synthetic_scene import synthetic_scene_records
 from momakitchen.errors import MomaError
-from momakitchen.robots.spec import DESCRIPTOR_DIM, ROBOTS, robot_descriptor
+from momakitchen.robots.descriptor import robot_descriptor
+from momakitchen.robots.spec import DESCRIPTOR_DIM, ROBOTS
 
 
 def test_samples_follow_the_contract(small_dataset):

@@ -143,7 +143,8 @@ def test_predict_bad_input(episode, tiny_run):
 
 def test_robot_input_takes_a_finger_force_and_version_1_vectors():
     from momakitchen.deploy.predict import robot_input
-    from momakitchen.robots.spec import DESCRIPTOR_DIM, get_robot_spec, robot_descriptor
+    from momakitchen.robots.descriptor import robot_descriptor
+    from momakitchen.robots.spec import DESCRIPTOR_DIM, get_robot_spec
 
     name, d = robot_input("elephant")
     assert name == "elephant" and d.shape == (DESCRIPTOR_DIM,) and d[4] == np.float32(0.4)
@@ -258,7 +259,8 @@ def test_a_target_beyond_the_training_views_gives_a_warning(episode, tiny_run):
     from momakitchen.models.inference import TRAINED_DISTANCE, predict_map
     from momakitchen.perception.floor import fit_floor
     from momakitchen.perception.live import FrameClouds
-    from momakitchen.robots.spec import get_robot_spec, robot_descriptor
+    from momakitchen.robots.descriptor import robot_descriptor
+    from momakitchen.robots.spec import get_robot_spec
     from momakitchen.train import load_checkpoint
 
     ep = episode

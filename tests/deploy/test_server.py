@@ -263,7 +263,8 @@ def test_bad_requests_get_a_4xx_and_one_line(server, episodes):
 
 def test_a_robot_given_by_its_numbers(server, episodes):
     from momakitchen.deploy.client import _robot_fields
-    from momakitchen.robots.spec import get_robot_spec, robot_descriptor
+    from momakitchen.robots.descriptor import robot_descriptor
+    from momakitchen.robots.spec import get_robot_spec
 
     ep = episodes[0]
     numbers = dict(_robot_fields(robot_descriptor(get_robot_spec("elephant"), 0.9)))

@@ -10,9 +10,10 @@ import pytest
 from momakitchen.bullet import p
 from momakitchen.errors import MomaError
 from momakitchen.robots import ROBOTS, get_robot_spec
+from momakitchen.robots.descriptor import robot_descriptor
 from momakitchen.robots.grip import grip_name, parse_grip_name
 from momakitchen.robots.robot import Robot
-from momakitchen.robots.spec import finger_force, robot_descriptor
+from momakitchen.robots.spec import finger_force
 
 
 def test_name_round_trip_and_non_names():

@@ -9,9 +9,9 @@ import pytest
 from momakitchen.bullet import p
 from momakitchen.errors import MomaError
 from momakitchen.robots import ROBOTS, get_robot_spec
+from momakitchen.robots.descriptor import robot_descriptor
 from momakitchen.robots.robot import Robot
 from momakitchen.robots.scaled import parse_scaled_name, scaled_name
-from momakitchen.robots.spec import robot_descriptor
 
 
 def test_name_round_trip_and_non_names():

@@ -4,8 +4,9 @@ import pybullet as p
 import pytest
 
 from momakitchen.robots.body import RobotBody
+from momakitchen.robots.descriptor import robot_descriptor
 from momakitchen.robots.shoulder import shoulder_geometry
-from momakitchen.robots.spec import DESCRIPTOR_NAMES, get_robot_spec, robot_descriptor
+from momakitchen.robots.spec import DESCRIPTOR_NAMES, get_robot_spec
 
 
 @pytest.fixture(scope="module")

@@ -19,15 +19,10 @@ from momakitchen.robots import (
     ROBOTS,
     get_robot_spec,
     register_robot,
-    robot_descriptor,
 )
 from momakitchen.robots.arms import BuiltArm, RobotModel, SuctionCup
-from momakitchen.robots.spec import (
-    DESCRIPTOR_DIM,
-    DESCRIPTOR_LAYOUTS,
-    descriptor_dim,
-    upgrade_descriptor,
-)
+from momakitchen.robots.descriptor import robot_descriptor, upgrade_descriptor
+from momakitchen.robots.spec import DESCRIPTOR_DIM, DESCRIPTOR_LAYOUTS, descriptor_dim
 
 NAMES = ["panda", "flexiv", "ur5e", "xarm6", "realman", "elephant"]
 

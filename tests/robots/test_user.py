@@ -8,7 +8,8 @@ import yaml
 
 from momakitchen.bullet import p
 from momakitchen.errors import MomaError
-from momakitchen.robots import ROBOTS, robot_descriptor
+from momakitchen.robots import ROBOTS
+from momakitchen.robots.descriptor import robot_descriptor
 from momakitchen.robots.robot import Robot
 from momakitchen.robots.user import (
     ENV_VAR,

@@ -66,13 +66,13 @@ def add_parser(subparsers) -> None:
 
 def robot_rows() -> list[dict]:
     """One JSON-ready dict per registered robot."""
+    from momakitchen.robots.descriptor import robot_descriptor
     from momakitchen.robots.spec import (
         DEFAULT_ROBOTS,
         DESCRIPTOR_NAMES,
         DESCRIPTOR_VERSION,
         ROBOTS,
         finger_force,
-        robot_descriptor,
     )
 
     rows = []

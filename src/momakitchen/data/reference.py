@@ -40,7 +40,8 @@ from momakitchen.data.shard import SCENES_DIR, SceneShard, list_shards, write_sh
 from momakitchen.errors import MomaError
 from momakitchen.fileio import dumps_strict, existing_dir, read_json_object
 from momakitchen.frames import float3
-from momakitchen.robots.spec import get_robot_spec, robot_descriptor
+from momakitchen.robots.descriptor import robot_descriptor
+from momakitchen.robots.spec import get_robot_spec
 
 CLOUD_DIR = "point_cloud_transformed"
 GLOBAL_PLY = "world_pcd_transformed.ply"

@@ -49,12 +49,8 @@ from momakitchen.data.episode import SEMANTIC_CLASSES, ConfigurationLabels, Epis
 from momakitchen.errors import MomaError
 from momakitchen.fileio import DISK_FULL, dumps_strict
 from momakitchen.frames import float3
-from momakitchen.robots.spec import (
-    DESCRIPTOR_LAYOUTS,
-    DESCRIPTOR_NAMES,
-    DESCRIPTOR_VERSION,
-    upgrade_descriptor,
-)
+from momakitchen.robots.descriptor import upgrade_descriptor
+from momakitchen.robots.spec import DESCRIPTOR_LAYOUTS, DESCRIPTOR_NAMES, DESCRIPTOR_VERSION
 from momakitchen.sim.config import STAGE_NAMES
 from momakitchen.version import __version__
 

@@ -21,7 +21,8 @@ import torch
 from torch.utils.data import Dataset
 
 from momakitchen.errors import MomaError
-from momakitchen.robots.spec import DEFAULT_ROBOTS, get_robot_spec, robot_descriptor
+from momakitchen.robots.descriptor import robot_descriptor
+from momakitchen.robots.spec import DEFAULT_ROBOTS, get_robot_spec
 
 EPISODES_PER_CONFIG = 10
 CONFIGS_PER_SCENE = 2

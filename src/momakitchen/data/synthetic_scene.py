@@ -20,7 +20,8 @@ import numpy as np
 
 from momakitchen.data.episode import ConfigurationLabels, Episode
 from momakitchen.errors import MomaError
-from momakitchen.robots.spec import get_robot_spec, robot_descriptor
+from momakitchen.robots.descriptor import robot_descriptor
+from momakitchen.robots.spec import get_robot_spec
 from momakitchen.scene.configuration import SceneConfig
 
 TARGETS = (

@@ -150,6 +150,7 @@ def robot_input(robot: str | Sequence[float] | Mapping[str, float]) -> tuple[str
     joint's axis, 0)) or the descriptor vector (of the current layout, or of an older one,
     whose missing columns then take those defaults). Returns the name ("custom" for a
     descriptor) and the descriptor, shape ``(DESCRIPTOR_DIM,)``."""
+    from momakitchen.robots.descriptor import robot_descriptor
     from momakitchen.robots.grip import FORCE_RANGE
     from momakitchen.robots.spec import (
         DEFAULT_FINGER_FORCE,
@@ -159,7 +160,6 @@ def robot_input(robot: str | Sequence[float] | Mapping[str, float]) -> tuple[str
         descriptor_dim,
         descriptor_values,
         get_robot_spec,
-        robot_descriptor,
     )
 
     if isinstance(robot, str):

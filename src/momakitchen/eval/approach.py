@@ -224,7 +224,7 @@ class Context:
         descriptor with that height."""
         if self.cfg.mount_height is None:
             return str(self.cfg.robot)
-        from momakitchen.robots.spec import robot_descriptor
+        from momakitchen.robots.descriptor import robot_descriptor
 
         return robot_descriptor(self.spec, self.cfg.mount_height)
 

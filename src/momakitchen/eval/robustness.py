@@ -131,7 +131,8 @@ def run_robustness(
     from momakitchen.eval.msr import dataset_generation, judged_configurations, view_record
     from momakitchen.frames import base_to_world_xy
     from momakitchen.metrics import episode_metrics
-    from momakitchen.robots.spec import get_robot_spec, robot_descriptor
+    from momakitchen.robots.descriptor import robot_descriptor
+    from momakitchen.robots.spec import get_robot_spec
     from momakitchen.sim.labels import floor_affordance
     from momakitchen.sim.trials import TrialRunner
     from momakitchen.sim.world import World

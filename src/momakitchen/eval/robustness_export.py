@@ -50,7 +50,8 @@ def export_robustness_inputs(
     from momakitchen.data.integrity import check_shard_files
     from momakitchen.eval.msr import dataset_generation, judged_configurations
     from momakitchen.eval.predictions import INPUT_FIELDS, file_kind, write_arrays
-    from momakitchen.robots.spec import DESCRIPTOR_NAMES, get_robot_spec, robot_descriptor
+    from momakitchen.robots.descriptor import robot_descriptor
+    from momakitchen.robots.spec import DESCRIPTOR_NAMES, get_robot_spec
 
     root, out = Path(data), Path(out)
     file_kind(out)

@@ -50,7 +50,8 @@ def run_demo(
     from momakitchen.generation.producer import sample_views
     from momakitchen.models.inference import predict_map
     from momakitchen.perception.live import frame_inputs
-    from momakitchen.robots import get_robot_spec, robot_descriptor
+    from momakitchen.robots import get_robot_spec
+    from momakitchen.robots.descriptor import robot_descriptor
     from momakitchen.scene.configuration import sample_scene, usable_robot, with_robot
     from momakitchen.sim.config import Stage
     from momakitchen.sim.labels import floor_affordance, label_configuration

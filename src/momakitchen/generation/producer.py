@@ -27,7 +27,8 @@ from momakitchen.frames import base_to_world, float3
 from momakitchen.generation.render import Render, render
 from momakitchen.perception.camera import look_toward
 from momakitchen.perception.clouds import frame_clouds
-from momakitchen.robots import get_robot_spec, robot_descriptor
+from momakitchen.robots import get_robot_spec
+from momakitchen.robots.descriptor import robot_descriptor
 from momakitchen.scene.configuration import Configuration, sample_scene
 from momakitchen.scene.geometry import box_corners, corners_of, overlap_matrix
 from momakitchen.scene.layout import Layout, scene_rng

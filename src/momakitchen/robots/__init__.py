@@ -10,6 +10,7 @@ gripper or suction cup in ``tools.py`` (``robot.tool``); ``user.py`` registers u
 from URDF + YAML.
 """
 
+from momakitchen.robots.descriptor import robot_descriptor
 from momakitchen.robots.spec import (
     DESCRIPTOR_DIM,
     DESCRIPTOR_NAMES,
@@ -18,7 +19,6 @@ from momakitchen.robots.spec import (
     RobotSpec,
     get_robot_spec,
     register_robot,
-    robot_descriptor,
 )
 
 __all__ = [

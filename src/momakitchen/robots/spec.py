@@ -15,8 +15,6 @@ import dataclasses
 import math
 from dataclasses import dataclass, field
 
-import numpy as np
-
 from momakitchen.errors import MomaError
 from momakitchen.registry import Registry
 from momakitchen.robots.arms import (
@@ -375,7 +373,7 @@ DEFAULT_ROBOTS = ("panda", "flexiv", "ur5e", "xarm6", "realman", "elephant")
 # not silently receive another. Each layout extends the one before, so a model of an
 # older version reads the first columns of a newer descriptor, and data stored with an
 # older one gain the new columns from the robot's spec when they are read
-# (:func:`upgrade_descriptor`).
+# (``momakitchen.robots.descriptor``).
 DESCRIPTOR_LAYOUTS: dict[int, tuple[str, ...]] = {
     1: ("reach_m", "mount_height_m", "dof_over_7", "is_suction"),
     # The fingers' closing force decides which targets can be opened at all (a fridge
@@ -421,22 +419,6 @@ def finger_force(spec: RobotSpec) -> float:
     return float(getattr(spec.model.end_effector, "finger_force", DEFAULT_FINGER_FORCE))
 
 
-def robot_descriptor(spec: RobotSpec, mount_height: float | None = None) -> tuple[float, ...]:
-    """The robot as numbers for the model, in the order of ``DESCRIPTOR_NAMES`` (length
-    ``DESCRIPTOR_DIM``).
-
-    The first two entries are the paper's descriptor ``[reach, mount height]``; the mount
-    height is ``mount_height`` where given (a configuration's sampled mount), else the
-    robot's own.
-    """
-    from momakitchen.robots.shoulder import shoulder_geometry  # it builds the URDF
-
-    mount = spec.mount_height if mount_height is None else mount_height
-    suction = spec.end_effector == "suction"
-    rise, offset = shoulder_geometry(spec)
-    return descriptor_values(spec.reach, mount, spec.dof, suction, finger_force(spec), rise, offset)
-
-
 def descriptor_values(
     reach: float,
     mount_height: float,
@@ -460,23 +442,3 @@ def descriptor_values(
         float(mount_height) + float(shoulder_rise),
         float(shoulder_offset) * 10.0,
     )
-
-
-def upgrade_descriptor(descriptor: np.ndarray, version: int, robot: str) -> np.ndarray:
-    """A version-``version`` descriptor of robot ``robot`` (a NumPy array of shape
-    ``(descriptor_dim(version),)``) as a current one (``(DESCRIPTOR_DIM,)``, same dtype):
-    the columns added since are the robot's (its spec by name; a user robot must be
-    registered) at the mount height the descriptor holds. Returned as given when already
-    current."""
-    d = np.asarray(descriptor)
-    if version == DESCRIPTOR_VERSION:
-        return d
-    if d.shape != (descriptor_dim(version),):
-        raise MomaError(
-            f"a version-{version} robot descriptor has {descriptor_dim(version)} values, "
-            f"got shape {d.shape}"
-        )
-    # The stored mount (float32) as written: mounts are drawn to the millimetre.
-    mount = round(float(d[1]), 6)
-    full = np.asarray(robot_descriptor(get_robot_spec(robot), mount), d.dtype)
-    return np.concatenate([d, full[d.shape[0] :]])
