@@ -3,7 +3,7 @@
 Two arms of one reach and mount height can still stand their shoulders 11 cm apart in
 height (the Elephant's at 0.23 m above its mount, a Realman scaled to the Elephant's reach
 at 0.12 m), and that decides how far from a low door or a counter the base must stop
-(docs/ROBOTS.md "The robot descriptor"). The robot descriptor (version 3) carries it.
+(docs/ROBOTS.md "Where the shoulder stands"). The robot descriptor (version 3) carries it.
 
 The figures are those of :class:`~momakitchen.robots.body.ReachGeometry` (measured there in
 PyBullet from link frames): the shoulder is the origin of the second movable joint of the
@@ -46,10 +46,9 @@ def _origin(joint: ET.Element) -> np.ndarray:
     return t
 
 
-@functools.lru_cache(maxsize=512)
-def _shoulder_from_urdf(urdf: str) -> tuple[float, float, float]:
-    """``(centre z, forward x of the centre, offset)`` of the shoulder at the arm's zero
-    configuration, in the base frame, metres."""
+def _shoulder_from_urdf(urdf: str) -> tuple[float, float]:
+    """``(height, offset)`` of the shoulder at the arm's zero configuration, metres: its
+    projection on the first joint's axis above the floor, and its distance from that axis."""
     root = ET.fromstring(urdf)
     by_child = {link_of(j, "child"): j for j in root.findall("joint")}
     chain, link = [], TCP_LINK
@@ -72,12 +71,12 @@ def _shoulder_from_urdf(urdf: str) -> tuple[float, float, float]:
     axis /= np.linalg.norm(axis)
     shoulder = second[:3, 3]
     centre = first[:3, 3] + float((shoulder - first[:3, 3]) @ axis) * axis
-    return float(centre[2]), float(centre[0]), float(np.linalg.norm(shoulder - centre))
+    return float(centre[2]), float(np.linalg.norm(shoulder - centre))
 
 
 @functools.lru_cache(maxsize=512)
 def shoulder_geometry(spec: RobotSpec) -> tuple[float, float]:
     """``(rise, offset)`` of the robot's shoulder, metres: its height above the arm's mount
     (the same at every mount height) and its distance from the first joint's axis."""
-    z, _, offset = _shoulder_from_urdf(build_urdf(spec))
+    z, offset = _shoulder_from_urdf(build_urdf(spec))
     return z - spec.mount_height, offset
