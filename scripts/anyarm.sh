@@ -45,8 +45,8 @@
 # train split of the bundled model's own recipe (the six at their mounts, the first
 # SCENES ids of its scenes from 20000; DATA/six-train), so that the fine-tune also sees
 # what the bundled model learned; shoulder: grip's data read with robot descriptor version 3,
-# which adds where the shoulder stands (grip and rehearse read version 2, as when they were
-# first made: scripts/recipes/anyarm_finetune_v2.yaml). Step 2 fine-tunes the bundled
+# which adds where the shoulder stands (the others read the version they were first made
+# with: scripts/recipes/anyarm_finetune_v1.yaml, _v2.yaml). Step 2 fine-tunes the bundled
 # NavAff on it (RUNS/navaff-anyarm-VARIANT), and for scaled the 12-epoch PointNet++ too
 # (RUNS/pointnet2-anyarm-scaled), or takes the committed results/runs/ ones with
 # RETRAIN=0. Steps 4-5 score those beside the two they started from (msr-VARIANT.json;
@@ -88,8 +88,11 @@ case $VARIANT in
   *) echo "VARIANT must be scaled, dense, grip, rehearse, shoulder or empty, got '$VARIANT'" >&2
      exit 2 ;;
 esac
-FINETUNE=$RECIPES/anyarm_finetune.yaml
-[[ $VARIANT == grip || $VARIANT == rehearse ]] && FINETUNE=$RECIPES/anyarm_finetune_v2.yaml
+case $VARIANT in  # the descriptor version each variant's model reads
+  "" | scaled | dense) FINETUNE=$RECIPES/anyarm_finetune_v1.yaml ;;
+  grip | rehearse) FINETUNE=$RECIPES/anyarm_finetune_v2.yaml ;;
+  *) FINETUNE=$RECIPES/anyarm_finetune.yaml ;;
+esac
 mkdir -p "$RUNS" "$OUT"
 
 stamp() { echo "[$(date -u +%FT%TZ)] $*"; }
