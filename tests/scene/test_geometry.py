@@ -1,8 +1,8 @@
 import numpy as np
 import pytest
 
+from momakitchen.assets.urdf_frames import link_rest_poses, rpy_matrix
 from momakitchen.scene.geometry import Footprint, overlaps, semicircle_grid
-from momakitchen.scene.urdf_frames import link_rest_poses, rpy_matrix
 
 
 def test_overlap_axis_aligned_and_rotated():

@@ -117,15 +117,18 @@ def run(args: argparse.Namespace) -> int:
 
     if args.robot is None and (args.reach is None or args.mount_height is None):
         raise MomaError("give --robot NAME, or both --reach and --mount-height")
-    shoulder = {"shoulder_rise": args.shoulder_rise, "shoulder_offset": args.shoulder_offset}
-    numbers = (args.reach, args.mount_height, args.finger_force, *shoulder.values())
+    extra = {
+        "finger_force": args.finger_force,
+        "shoulder_rise": args.shoulder_rise,
+        "shoulder_offset": args.shoulder_offset,
+    }
+    numbers = (args.reach, args.mount_height, *extra.values())
     if args.robot is not None and any(n is not None for n in numbers):
         raise MomaError(
             "give either --robot or --reach/--mount-height/--finger-force/--shoulder-*, not both"
         )
     if args.checkpoint is not None:
         existing_dir(args.checkpoint, "checkpoint directory")
-    extra = {"finger_force": args.finger_force, **shoulder}
     robot = args.robot or {
         "reach": args.reach,
         "mount_height": args.mount_height,

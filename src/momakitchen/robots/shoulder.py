@@ -13,63 +13,37 @@ chain from the base to the TCP, projected on the first joint's axis.
 from __future__ import annotations
 
 import functools
-import math
 import xml.etree.ElementTree as ET
 
 import numpy as np
 
+from momakitchen.assets.urdf_frames import joint_axes, link_rest_poses
 from momakitchen.errors import MomaError
 from momakitchen.robots.spec import RobotSpec
 from momakitchen.robots.urdf import BASE_LINK, TCP_LINK, build_urdf, link_of
 
 
-def _floats(text: str | None, default: tuple[float, float, float]) -> np.ndarray:
-    return np.array(default if text is None else [float(v) for v in text.split()], float)
-
-
-def _origin(joint: ET.Element) -> np.ndarray:
-    """The joint's ``<origin>`` as a 4x4 transform (parent link -> joint frame)."""
-    node = joint.find("origin")
-    xyz = _floats(None if node is None else node.get("xyz"), (0.0, 0.0, 0.0))
-    r, p, y = _floats(None if node is None else node.get("rpy"), (0.0, 0.0, 0.0))
-    # URDF's rpy: fixed axes x, then y, then z (R = Rz(y) Ry(p) Rx(r)).
-    cr, sr = math.cos(r), math.sin(r)
-    cp, sp = math.cos(p), math.sin(p)
-    cy, sy = math.cos(y), math.sin(y)
-    t = np.eye(4)
-    t[:3, :3] = [
-        [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-        [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-        [-sp, cp * sr, cp * cr],
-    ]
-    t[:3, 3] = xyz
-    return t
-
-
 def _shoulder_from_urdf(urdf: str) -> tuple[float, float]:
     """``(height, offset)`` of the shoulder at the arm's zero configuration, metres: its
     projection on the first joint's axis above the floor, and its distance from that axis."""
-    root = ET.fromstring(urdf)
-    by_child = {link_of(j, "child"): j for j in root.findall("joint")}
-    chain, link = [], TCP_LINK
+    by_child = {link_of(j, "child"): j for j in ET.fromstring(urdf).findall("joint")}
+    movable, link = [], TCP_LINK  # (joint, child link) of the movable joints, TCP first
     while link != BASE_LINK:
         joint = by_child.get(link)
         if joint is None:
             raise MomaError(f"robot URDF: no joint chain from {TCP_LINK!r} to {BASE_LINK!r}")
-        chain.append(joint)
-        link = link_of(joint, "parent")
-    frames, t = [], np.eye(4)
-    for joint in reversed(chain):
-        t = t @ _origin(joint)
         if joint.get("type") != "fixed":
-            node = joint.find("axis")  # URDF's default axis is x
-            frames.append((t.copy(), _floats(None if node is None else node.get("xyz"), (1, 0, 0))))
-    if len(frames) < 2:
+            movable.append((joint.get("name", ""), link))
+        link = link_of(joint, "parent")
+    if len(movable) < 2:
         raise MomaError("robot URDF: the arm needs at least two movable joints")
-    (first, axis_local), (second, _) = frames[0], frames[1]
-    axis = first[:3, :3] @ axis_local
+    (name, first_link), (_, second_link) = movable[-1], movable[-2]
+    # A joint's frame is its child link's frame; the base link is the URDF's root.
+    poses = link_rest_poses(urdf)
+    first = poses[first_link]
+    axis = first[:3, :3] @ joint_axes(urdf)[name][1]
     axis /= np.linalg.norm(axis)
-    shoulder = second[:3, 3]
+    shoulder = poses[second_link][:3, 3]
     centre = first[:3, 3] + float((shoulder - first[:3, 3]) @ axis) * axis
     return float(centre[2]), float(np.linalg.norm(shoulder - centre))
 

@@ -5,9 +5,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from momakitchen.assets.urdf_frames import joint_axes, link_extent_points, link_rest_poses
 from momakitchen.frames import float3
 from momakitchen.scene.layout import Layout, Placed, _r
-from momakitchen.scene.urdf_frames import joint_axes, link_extent_points, link_rest_poses
 
 
 def handle_anchor(unit: Placed, articulation: int) -> tuple[float, float, float]:
