@@ -1,4 +1,5 @@
-"""Frame transforms: robot base frames on the floor, rigid transforms of points.
+"""Frame transforms: robot base frames on the floor, rigid transforms of points, URDF
+roll-pitch-yaw rotations.
 
 A robot base frame is ``(x, y, yaw)`` on the floor: x forward, y left, z up, z = 0 on the
 floor. Camera frames use OpenCV axes (x right, y down, z forward).
@@ -6,6 +7,7 @@ floor. Camera frames use OpenCV axes (x right, y down, z forward).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Sequence
 
 import numpy as np
@@ -15,6 +17,28 @@ def float3(values: Iterable[float]) -> tuple[float, float, float]:
     """Three numbers as a tuple of Python floats (a base pose ``x, y, yaw`` or a point)."""
     x, y, z = (float(v) for v in values)
     return (x, y, z)
+
+
+def rpy_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
+    """URDF fixed-axis roll-pitch-yaw to a rotation matrix: Rz(yaw) Ry(pitch) Rx(roll).
+
+    Shapes: three scalars -> (3, 3).
+    """
+    cr, sr, cp, sp, cy, sy = (
+        math.cos(roll),
+        math.sin(roll),
+        math.cos(pitch),
+        math.sin(pitch),
+        math.cos(yaw),
+        math.sin(yaw),
+    )
+    return np.array(
+        [
+            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+            [-sp, cp * sr, cp * cr],
+        ]
+    )
 
 
 def transform(tf: np.ndarray, points: np.ndarray) -> np.ndarray:

@@ -23,8 +23,10 @@ from momakitchen.assets.urdf import (
     fmt,
     mass_properties,
     robot_urdf,
+    rot,
 )
 from momakitchen.errors import MomaError
+from momakitchen.frames import rpy_matrix
 
 
 def test_fmt_is_fixed_precision_without_negative_zero():
@@ -33,6 +35,16 @@ def test_fmt_is_fixed_precision_without_negative_zero():
     assert fmt(-1e-9) == "0"
     assert fmt(2.0) == "2"
     assert fmt(-0.1234567) == "-0.123457"
+
+
+def test_rot_is_the_urdf_rpy_matrix():
+    assert rot((0.0, 0.0, 0.0)) is rot((0, 0, 0))  # the shared identity
+    np.testing.assert_array_equal(rot((0.0, 0.0, 0.0)), np.eye(3))
+    for rpy in ((0.3, -1.2, 2.5), (math.pi / 2, 0.0, 0.0), (0.0, 0.0, -math.pi)):
+        np.testing.assert_array_equal(rot(rpy), rpy_matrix(*rpy))
+    # Rz(pi/2) Ry(0) Rx(pi/2): x -> y, y -> z, z -> x
+    r = rpy_matrix(math.pi / 2, 0.0, math.pi / 2)
+    np.testing.assert_allclose(r, [[0, 0, 1], [1, 0, 0], [0, 1, 0]], atol=1e-12)
 
 
 def test_box_and_cylinder_inertia_formulas():

@@ -59,6 +59,23 @@ def test_registry_has_all_models_and_rejects_unknown_names(tiny_config):
         build_model("pointnet3", tiny_config)
 
 
+def test_parameter_names_of_the_set_abstraction_stacks_stay(tiny_config):
+    """Saved runs (the bundled checkpoint, results/) name the encoders' layers so."""
+    where = {
+        "navaff": "backbone.global_encoder",
+        "pointnet2": "backbone.encoder",
+        "votenet": "backbone.seeds.encoder",
+        "h3dnet": "backbone.seeds.encoder",
+    }
+    for name, prefix in where.items():
+        keys = build_model(name, tiny_config).state_dict()
+        for level in ("sa1", "sa2", "sa3"):
+            assert f"{prefix}.{level}.mlps.0.first.weight" in keys
+            assert f"{prefix}.{level}.norms.1.bias" in keys
+    keys = build_model("navaff", tiny_config).state_dict()
+    assert "backbone.global_encoder.tokenizer.feat.0.weight" in keys
+
+
 def test_model_config_validation_names_the_bad_value():
     with pytest.raises(MomaError, match=r"num_heads.*3"):
         ModelConfig(embed_dim=32, num_heads=3)

@@ -171,3 +171,22 @@ def test_set_abstraction_pools_like_a_masked_max_over_each_ball():
         ref.append(norm(torch.where(keep.any(-1, keepdim=True), pooled, torch.zeros_like(pooled))))
     assert torch.allclose(out, torch.cat(ref, -1), atol=1e-6)
     assert torch.equal(new_xyz, centers)
+
+
+def test_pointnet2_encoder_levels_follow_the_plan():
+    from momakitchen.models.pointnet2 import PointNet2Encoder
+
+    torch.manual_seed(0)
+    enc = PointNet2Encoder(4, (32, 16, 8), lambda c: max(4, c // 16), lambda n: max(2, n // 8))
+    xyz, feats = torch.rand(2, 60, 3), torch.randn(2, 60, 4)
+    mask = torch.ones(2, 60, dtype=torch.bool)
+    mask[1, 40:] = False
+    plan = enc.plan(xyz, mask)
+    assert sorted(plan) == ["sa1", "sa2", "sa3"]
+    levels = enc(xyz, feats, mask, plan)
+    for (x, f, m), n, sa in zip(levels, (32, 16, 8), (enc.sa1, enc.sa2, enc.sa3), strict=True):
+        assert x.shape == (2, n, 3) and f.shape == (2, n, sa.out_channels) and m.shape == (2, n)
+    # The plan is what the layers would find themselves.
+    x1, f1, m1 = enc.sa1(xyz, feats, mask)
+    assert torch.equal(levels[0][1], f1)
+    assert torch.equal(enc.sa2(x1, f1, m1)[1], levels[1][1])

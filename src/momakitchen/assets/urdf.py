@@ -19,6 +19,7 @@ from xml.sax.saxutils import quoteattr
 import numpy as np
 
 from momakitchen.errors import MomaError
+from momakitchen.frames import rpy_matrix
 
 Vec3 = tuple[float, float, float]
 RGBA = tuple[float, float, float, float]
@@ -123,22 +124,7 @@ def rot(rpy: Vec3) -> np.ndarray:
     """URDF rotation matrix of fixed-axis roll, pitch, yaw: R = Rz(y) Ry(p) Rx(r)."""
     if not any(rpy):
         return _IDENTITY  # most shapes are axis-aligned
-    r, p, y = rpy
-    cr, sr, cp, sp, cy, sy = (
-        math.cos(r),
-        math.sin(r),
-        math.cos(p),
-        math.sin(p),
-        math.cos(y),
-        math.sin(y),
-    )
-    return np.array(
-        [
-            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-            [-sp, cp * sr, cp * cr],
-        ]
-    )
+    return rpy_matrix(*rpy)
 
 
 def volume(g: Geometry) -> float:

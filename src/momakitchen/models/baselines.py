@@ -29,6 +29,7 @@ from momakitchen.models.pointnet2 import (
     FeaturePropagation,
     Plan,
     PointMLP,
+    PointNet2Encoder,
     SetAbstractionMSG,
     ball_query,
     fourier_channels,
@@ -36,7 +37,6 @@ from momakitchen.models.pointnet2 import (
     gather_points,
     interpolation_geometry,
     masked_max,
-    plan_levels,
 )
 
 
@@ -79,44 +79,12 @@ def union_xyz(batch: dict[str, Any]) -> tuple[torch.Tensor, torch.Tensor]:
     return xyz, torch.cat([batch["global_mask"], cmask], 1)
 
 
-class _Encoder(nn.Module):
-    """Three multi-scale set abstractions (shared by the baselines)."""
-
-    def __init__(self, cfg: ModelConfig) -> None:
-        super().__init__()
-        ch, ns = cfg.ch, cfg.ns
-        g1, g2 = cfg.global_npoints
-        self.sa1 = SetAbstractionMSG(
-            g1,
-            (0.1, 0.2, 0.4),
-            (ns(16), ns(32), ns(64)),
-            union_channels(cfg.pos_freqs),
-            [[ch(32), ch(32), ch(64)], [ch(64), ch(64), ch(128)], [ch(64), ch(96), ch(128)]],
-        )
-        self.sa2 = SetAbstractionMSG(
-            g2,
-            (0.2, 0.4, 0.8),
-            (ns(16), ns(32), ns(64)),
-            self.sa1.out_channels,
-            [[ch(128), ch(128), ch(256)], [ch(128), ch(196), ch(256)], [ch(128), ch(196), ch(256)]],
-        )
-        self.sa3 = SetAbstractionMSG(
-            cfg.num_tokens,
-            (0.4, 0.8),
-            (ns(16), ns(32)),
-            self.sa2.out_channels,
-            [[ch(256), ch(256), ch(512)], [ch(256), ch(256), ch(512)]],
-        )
-
-    def plan(self, batch: dict[str, Any]) -> Plan:
-        """The union cloud's set abstractions (keys ``sa1``..``sa3``)."""
-        return plan_levels((self.sa1, self.sa2, self.sa3), *union_xyz(batch))
-
-    def forward(self, xyz, feats, mask, plan: Plan):
-        l1 = self.sa1(xyz, feats, mask, plan["sa1"])
-        l2 = self.sa2(*l1, plan["sa2"])
-        l3 = self.sa3(*l2, plan["sa3"])
-        return l1, l2, l3
+def union_encoder(cfg: ModelConfig) -> PointNet2Encoder:
+    """The baselines' PointNet++ encoder over :func:`union_cloud` (its plan: that of
+    :func:`union_xyz`)."""
+    return PointNet2Encoder(
+        union_channels(cfg.pos_freqs), (*cfg.global_npoints, cfg.num_tokens), cfg.ch, cfg.ns
+    )
 
 
 class PointNet2Backbone(Backbone):
@@ -129,7 +97,7 @@ class PointNet2Backbone(Backbone):
     def __init__(self, cfg: ModelConfig) -> None:
         super().__init__()
         ch = cfg.ch
-        self.encoder = _Encoder(cfg)
+        self.encoder = union_encoder(cfg)
         e = self.encoder
         self.fp3 = FeaturePropagation(e.sa2.out_channels + e.sa3.out_channels, [ch(256), ch(256)])
         self.fp2 = FeaturePropagation(e.sa1.out_channels + ch(256), [ch(256), ch(128)])
@@ -139,7 +107,7 @@ class PointNet2Backbone(Backbone):
 
     def plan(self, batch: dict[str, Any]) -> Plan:
         """The encoder's set abstractions and the three propagations (``fp3``..``fp1``)."""
-        plan = self.encoder.plan(batch)
+        plan = self.encoder.plan(*union_xyz(batch))
         (p1, p2, p3), fxyz = (plan[k] for k in ("sa1", "sa2", "sa3")), batch["floor_xyz"]
         plan["fp3"] = interpolation_geometry(p2["xyz"], p3["xyz"], p3["mask"])
         plan["fp2"] = interpolation_geometry(p1["xyz"], p2["xyz"], p2["mask"])
@@ -184,7 +152,7 @@ class _SeedNet(nn.Module):
     def __init__(self, cfg: ModelConfig) -> None:
         super().__init__()
         ch = cfg.ch
-        self.encoder = _Encoder(cfg)
+        self.encoder = union_encoder(cfg)
         e = self.encoder
         self.fp = FeaturePropagation(e.sa2.out_channels + e.sa3.out_channels, [ch(256), ch(256)])
         self.out_channels = ch(256)
@@ -193,7 +161,7 @@ class _SeedNet(nn.Module):
     def plan(self, batch: dict[str, Any]) -> Plan:
         """The encoder's set abstractions, the propagation to the seeds (``fp``) and the
         seeds' propagation to the floor points (``floor``)."""
-        plan = self.encoder.plan(batch)
+        plan = self.encoder.plan(*union_xyz(batch))
         p2, p3 = plan["sa2"], plan["sa3"]
         plan["fp"] = interpolation_geometry(p2["xyz"], p3["xyz"], p3["mask"])
         plan["floor"] = interpolation_geometry(batch["floor_xyz"], p2["xyz"], p2["mask"])

@@ -35,6 +35,7 @@ from momakitchen.models.pointnet2 import (
     FeaturePropagation,
     Plan,
     PointMLP,
+    PointNet2Encoder,
     SetAbstractionMSG,
     farthest_point_sample,
     fourier_channels,
@@ -42,7 +43,6 @@ from momakitchen.models.pointnet2 import (
     gather_points,
     interpolation_geometry,
     masked_max,
-    plan_levels,
 )
 from momakitchen.robots.spec import DESCRIPTOR_DIM
 
@@ -171,51 +171,25 @@ class CrossAttentionBlock(nn.Module):
         return query + self.drop(self.ff(self.norm_ff(query)))
 
 
-class GlobalEncoder(nn.Module):
-    """PointNet++ (3 multi-scale set abstractions) over the global cloud to tokens.
+class GlobalEncoder(PointNet2Encoder):
+    """PointNet++ (3 multi-scale set abstractions) over the global cloud, and its last
+    level's centroids to tokens (:meth:`tokens`).
 
     Shapes:
         - input: ``xyz`` (B, Ng, 3), ``feats`` (B, Ng, C), ``mask`` (B, Ng)
-        - output: tokens (B, T, E), token xyz (B, T, 3), token mask (B, T) bool
+        - output: as :class:`PointNet2Encoder` (calling it); of :meth:`tokens`: tokens
+          (B, T, E), token xyz (B, T, 3), token mask (B, T) bool
     """
 
     def __init__(self, cfg: ModelConfig, in_channels: int) -> None:
-        super().__init__()
-        ch, ns = cfg.ch, cfg.ns
-        g1, g2 = cfg.global_npoints
-        self.sa1 = SetAbstractionMSG(
-            g1,
-            (0.1, 0.2, 0.4),
-            (ns(16), ns(32), ns(64)),
-            in_channels,
-            [[ch(32), ch(32), ch(64)], [ch(64), ch(64), ch(128)], [ch(64), ch(96), ch(128)]],
-        )
-        self.sa2 = SetAbstractionMSG(
-            g2,
-            (0.2, 0.4, 0.8),
-            (ns(16), ns(32), ns(64)),
-            self.sa1.out_channels,
-            [[ch(128), ch(128), ch(256)], [ch(128), ch(196), ch(256)], [ch(128), ch(196), ch(256)]],
-        )
-        self.sa3 = SetAbstractionMSG(
-            cfg.num_tokens,
-            (0.4, 0.8),
-            (ns(16), ns(32)),
-            self.sa2.out_channels,
-            [[ch(256), ch(256), ch(512)], [ch(256), ch(256), ch(512)]],
-        )
+        super().__init__(in_channels, (*cfg.global_npoints, cfg.num_tokens), cfg.ch, cfg.ns)
         self.tokenizer = Tokenizer(self.sa3.out_channels, cfg.embed_dim, cfg.pos_freqs)
 
-    def plan(self, xyz: torch.Tensor, mask: torch.Tensor) -> Plan:
-        """The three set abstractions' geometry (keys ``sa1``..``sa3``)."""
-        return plan_levels((self.sa1, self.sa2, self.sa3), xyz, mask)
-
-    def forward(
+    def tokens(
         self, xyz: torch.Tensor, feats: torch.Tensor, mask: torch.Tensor, plan: Plan
     ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
-        x1, f1, m1 = self.sa1(xyz, feats, mask, plan["sa1"])
-        x2, f2, m2 = self.sa2(x1, f1, m1, plan["sa2"])
-        x3, f3, m3 = self.sa3(x2, f2, m2, plan["sa3"])
+        """The last level as tokens, with its centroids and mask."""
+        _, _, (x3, f3, m3) = self(xyz, feats, mask, plan)
         return self.tokenizer(f3, x3), x3, m3
 
 
@@ -333,7 +307,7 @@ class NavAffBackbone(Backbone):
             if self.use_alignment:
                 parts.append(batch["global_align"].unsqueeze(-1))
             gplan = {k: plan[f"global.{k}"] for k in ("sa1", "sa2", "sa3")}
-            gtok, _, gm = self.global_encoder(
+            gtok, _, gm = self.global_encoder.tokens(
                 batch["global_xyz"], torch.cat(parts, -1), batch["global_mask"], gplan
             )
             keys.append(gtok)

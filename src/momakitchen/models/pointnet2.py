@@ -15,7 +15,7 @@ padded entry cannot change the statistics seen by a real one.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 import torch
@@ -28,6 +28,8 @@ _BIG = 1e10
 Geometry = dict[str, torch.Tensor]
 # The geometry of a batch, by layer (see Backbone.plan).
 Plan = dict[str, Geometry]
+# One level of a set-abstraction stack: centroid xyz, their features and mask.
+Level = tuple[torch.Tensor, torch.Tensor, torch.Tensor]
 
 
 def fourier_features(xyz: torch.Tensor, num_freqs: int) -> torch.Tensor:
@@ -405,6 +407,68 @@ def plan_levels(layers: Sequence[SetAbstractionMSG], xyz: torch.Tensor, mask: to
         plan[f"sa{i}"] = layer.sample_and_group(xyz, mask)
         xyz, mask = plan[f"sa{i}"]["xyz"], plan[f"sa{i}"]["mask"]
     return plan
+
+
+class PointNet2Encoder(nn.Module):
+    """PointNet++ encoder: three multi-scale set abstractions (``sa1``, ``sa2``, ``sa3``),
+    each on the previous one's centroids, with 3, 3 and 2 scales of radius 0.1-0.4 m,
+    0.2-0.8 m and 0.4-0.8 m.
+
+    Args:
+        in_channels: per-point feature channels of the input cloud.
+        npoints: centroids of the three levels.
+        ch, ns: the width and neighbour-count scaling of the model (``ModelConfig.ch``,
+            ``ModelConfig.ns``).
+
+    Shapes:
+        - input: ``xyz`` (B, N, 3), ``feats`` (B, N, in_channels), ``mask`` (B, N) bool,
+          ``plan``: :meth:`plan` of (xyz, mask)
+        - output: one level per set abstraction i: ``xyz`` (B, npoints[i], 3), ``feats``
+          (B, npoints[i], ``sa<i>.out_channels``), ``mask`` (B, npoints[i]) bool
+    """
+
+    def __init__(
+        self,
+        in_channels: int,
+        npoints: tuple[int, int, int],
+        ch: Callable[[int], int],
+        ns: Callable[[int], int],
+    ) -> None:
+        super().__init__()
+        n1, n2, n3 = npoints
+        self.sa1 = SetAbstractionMSG(
+            n1,
+            (0.1, 0.2, 0.4),
+            (ns(16), ns(32), ns(64)),
+            in_channels,
+            [[ch(32), ch(32), ch(64)], [ch(64), ch(64), ch(128)], [ch(64), ch(96), ch(128)]],
+        )
+        self.sa2 = SetAbstractionMSG(
+            n2,
+            (0.2, 0.4, 0.8),
+            (ns(16), ns(32), ns(64)),
+            self.sa1.out_channels,
+            [[ch(128), ch(128), ch(256)], [ch(128), ch(196), ch(256)], [ch(128), ch(196), ch(256)]],
+        )
+        self.sa3 = SetAbstractionMSG(
+            n3,
+            (0.4, 0.8),
+            (ns(16), ns(32)),
+            self.sa2.out_channels,
+            [[ch(256), ch(256), ch(512)], [ch(256), ch(256), ch(512)]],
+        )
+
+    def plan(self, xyz: torch.Tensor, mask: torch.Tensor) -> Plan:
+        """The three set abstractions' geometry (keys ``sa1``..``sa3``)."""
+        return plan_levels((self.sa1, self.sa2, self.sa3), xyz, mask)
+
+    def forward(
+        self, xyz: torch.Tensor, feats: torch.Tensor, mask: torch.Tensor, plan: Plan
+    ) -> tuple[Level, Level, Level]:
+        l1 = self.sa1(xyz, feats, mask, plan["sa1"])
+        l2 = self.sa2(*l1, plan["sa2"])
+        l3 = self.sa3(*l2, plan["sa3"])
+        return l1, l2, l3
 
 
 class SetAbstractionAll(nn.Module):
