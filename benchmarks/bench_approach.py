@@ -19,8 +19,8 @@ import os
 import statistics
 import time
 
-from momakitchen.eval.approach import ApproachConfig
-from momakitchen.eval.approach_track import run_approach
+from momakitchen.eval.approach.config import ApproachConfig
+from momakitchen.eval.approach.track import run_approach
 
 
 def main() -> None:

@@ -22,7 +22,7 @@ from momakitchen.fileio import (
 
 
 def main() -> None:
-    from momakitchen.eval.approach_report import format_table, merge_results, report_markdown
+    from momakitchen.eval.approach.report import format_table, merge_results, report_markdown
 
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("runs", nargs="+", type=Path, help="`momakitchen approach --json` files")
@@ -53,9 +53,9 @@ def main() -> None:
         atomic_write_text(args.markdown, report_markdown(merged))
     if args.figure:
         from momakitchen.data.config import Preprocessing
-        from momakitchen.eval.approach_figure import episode_figure, figure_picks, replay
-        from momakitchen.eval.approach_track import load_methods
-        from momakitchen.eval.msr import dataset_generation
+        from momakitchen.eval.approach.figure import episode_figure, figure_picks, replay
+        from momakitchen.eval.approach.track import load_methods
+        from momakitchen.data.reader import dataset_generation
 
         _, gen = dataset_generation(Path(merged["dataset"]))
         methods = load_methods(

@@ -27,7 +27,7 @@ from tqdm.auto import tqdm
 from momakitchen.data.config import GenerationConfig
 from momakitchen.data.manifest import load_manifest
 from momakitchen.errors import MomaError
-from momakitchen.eval.msr import rebuilt_configurations, split_configurations
+from momakitchen.data.reader import rebuilt_configurations, split_configurations
 from momakitchen.frames import base_to_world_xy
 from momakitchen.robots.spec import get_robot_spec
 from momakitchen.scene.configuration import base_fits

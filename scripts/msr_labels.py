@@ -30,7 +30,7 @@ from momakitchen.data.config import GenerationConfig
 from momakitchen.data.manifest import load_manifest
 from momakitchen.data.shard import SceneShard
 from momakitchen.errors import MomaError
-from momakitchen.eval.report import top1_outcomes
+from momakitchen.eval.report.tables import top1_outcomes
 from momakitchen.frames import base_to_world_xy
 from momakitchen.sim.labels import dense_map
 

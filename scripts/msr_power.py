@@ -22,7 +22,7 @@ from script_cli import run_main
 
 from momakitchen.errors import MomaError
 from momakitchen.eval.msr import merge_msr
-from momakitchen.eval.report import top1_outcomes
+from momakitchen.eval.report.tables import top1_outcomes
 from momakitchen.eval.stats import (
     configurations_needed,
     detectable_lead,

@@ -35,7 +35,7 @@ from script_cli import run_main
 
 from momakitchen.errors import MomaError
 from momakitchen.eval.msr import merge_msr
-from momakitchen.eval.report import pooled_paired_table, top1_outcomes
+from momakitchen.eval.report.tables import pooled_paired_table, top1_outcomes
 from momakitchen.eval.stats import mcnemar
 from momakitchen.fileio import read_json_object
 

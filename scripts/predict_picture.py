@@ -17,7 +17,7 @@ import momakitchen
 from momakitchen import MomaError
 from momakitchen.data.shard import SceneShard, list_shards
 from momakitchen.deploy.predict import write_outputs
-from momakitchen.eval.robustness import corruption_rng, episode_frame
+from momakitchen.eval.robustness.views import corruption_rng, episode_frame
 from momakitchen.perception.sensors import CalibrationError, Corruption, corrupt_frame
 
 

@@ -19,7 +19,9 @@ from script_cli import run_main
 
 import momakitchen.perception.live as live
 from momakitchen.errors import MomaError
-from momakitchen.eval.robustness import RobustnessConfig, format_robustness_table, run_robustness
+from momakitchen.eval.robustness.views import RobustnessConfig
+from momakitchen.eval.robustness.tables import format_robustness_table
+from momakitchen.eval.robustness.track import run_robustness
 from momakitchen.fileio import atomic_write_text
 from momakitchen.perception.camera import CameraConfig
 from momakitchen.perception.clouds import CloudConfig, frame_clouds

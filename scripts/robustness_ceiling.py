@@ -28,13 +28,8 @@ import numpy as np
 
 def main(argv: list[str] | None = None) -> int:
     from momakitchen.data.config import Preprocessing
-    from momakitchen.eval.msr import (
-        dataset_generation,
-        judged_configurations,
-        msr_view,
-        rebuilt_configurations,
-    )
-    from momakitchen.eval.robustness import episode_frame, view_inputs
+    from momakitchen.data.reader import dataset_generation, judged_configurations, judged_view, rebuilt_configurations
+    from momakitchen.eval.robustness.views import episode_frame, view_inputs
     from momakitchen.metrics import episode_metrics
     from momakitchen.sim.labels import floor_affordance
 
@@ -54,7 +49,7 @@ def main(argv: list[str] | None = None) -> int:
     rows: dict[str, list[dict]] = {n: [] for n in names}
     for scene, shard, ci in rebuilt_configurations(root, todo, gen.scene):
         sid = scene.layout.scene_id
-        ep = msr_view(shard, scene, ci, args.seed)
+        ep = judged_view(shard, scene, ci, args.seed)
         if ep is None:
             continue
         labels = shard.configuration(ci)

@@ -20,7 +20,8 @@ from pathlib import Path
 from script_cli import run_main
 
 from momakitchen.errors import MomaError
-from momakitchen.eval.robustness import summarize, top1_by_view
+from momakitchen.eval.robustness.tables import summarize
+from momakitchen.eval.robustness.tables import top1_by_view
 from momakitchen.eval.stats import mcnemar
 
 

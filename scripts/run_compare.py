@@ -18,7 +18,7 @@ from script_cli import run_main
 
 from momakitchen.errors import MomaError
 from momakitchen.eval.msr import merge_msr
-from momakitchen.eval.report import paired_map_table, paired_table
+from momakitchen.eval.report.tables import paired_map_table, paired_table
 from momakitchen.fileio import read_json_object
 
 

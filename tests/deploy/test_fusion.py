@@ -59,16 +59,16 @@ def test_look_again_by_policy():
     fusion = MapFusion()
     fusion.add(_look([[1.0, 0.0]], [0.5], target=(5.0, 0.0, 0.8), std=[0.2]), (0.0, 0.0, 0.0))
     goal = FusedGoal((1.0, 0.0, 0.0), 0.5, 0.2)
-    assert not fusion.look_again(LookPolicy("single"), (0.0, 0.0), goal)
-    assert not fusion.look_again(LookPolicy("relook", relook_distance=0.5), (0.0, 0.0), goal)
-    assert fusion.look_again(LookPolicy("relook", relook_distance=1.5), (0.0, 0.0), goal)
-    assert fusion.look_again(LookPolicy("uncertain"), (0.0, 0.0), goal)  # std 0.2, 5 m
+    assert not LookPolicy("single").look_again(fusion, (0.0, 0.0), goal)
+    assert not LookPolicy("relook", relook_distance=0.5).look_again(fusion, (0.0, 0.0), goal)
+    assert LookPolicy("relook", relook_distance=1.5).look_again(fusion, (0.0, 0.0), goal)
+    assert LookPolicy("uncertain").look_again(fusion, (0.0, 0.0), goal)  # std 0.2, 5 m
     sure = FusedGoal((1.0, 0.0, 0.0), 0.5, 0.01)
-    assert fusion.look_again(LookPolicy("uncertain"), (0.0, 0.0), sure)  # still 5 m away
+    assert LookPolicy("uncertain").look_again(fusion, (0.0, 0.0), sure)  # still 5 m away
     near = MapFusion()
     near.add(_look([[1.0, 0.0]], [0.5], target=(2.0, 0.0, 0.8)), (0.0, 0.0, 0.0))
-    assert not near.look_again(LookPolicy("uncertain"), (0.0, 0.0), sure)
-    assert not fusion.look_again(LookPolicy("uncertain", max_looks=1), (0.0, 0.0), goal)
+    assert not LookPolicy("uncertain").look_again(near, (0.0, 0.0), sure)
+    assert not LookPolicy("uncertain", max_looks=1).look_again(fusion, (0.0, 0.0), goal)
 
 
 def test_bad_input_is_named():

@@ -12,10 +12,10 @@ import pytest
 from cli_process import serve_process
 from momakitchen.cli.main import main
 from momakitchen.errors import MomaError
-from momakitchen.eval import approach_track
-from momakitchen.eval.approach import ApproachConfig
-from momakitchen.eval.approach_report import pairwise, summarize
-from momakitchen.eval.approach_track import run_approach
+from momakitchen.eval.approach import track as approach_track
+from momakitchen.eval.approach.config import ApproachConfig
+from momakitchen.eval.approach.report import pairwise, summarize
+from momakitchen.eval.approach.track import run_approach
 
 # What a run measures on the clock differs between runs; everything else may not.
 CLOCKS = ("cpu_seconds", "seconds", "looks")
@@ -239,29 +239,19 @@ def test_a_look_sees_the_configuration_as_labelled_after_a_trial(real_dataset):
     not see that."""
     import numpy as np
 
-    from momakitchen.eval.approach_track import configuration_context
-    from momakitchen.eval.msr import dataset_generation, rebuilt_configurations
-    from momakitchen.sim.trials import TrialRunner
-    from momakitchen.sim.world import World
+    from momakitchen.data.reader import dataset_generation, rebuilt_configurations
+    from momakitchen.eval.approach.track import opened_configuration
 
     manifest, gen = dataset_generation(real_dataset)
     (sid,) = [int(k) for k in manifest["shards"]]
     todo = [(sid, 0, manifest["shards"][str(sid)]["file"])]
     for scene, shard, ci in rebuilt_configurations(real_dataset, todo, gen.scene):
-        labels = shard.configuration(ci)
-        ok = labels.trial_positions[labels.trial_stages == 0]
-        assert len(ok), "the fixture's configuration 0 has a successful trial"
-        cfg = scene.configurations[ci]
-        episode = shard.episode(ci, shard.episode_indices(ci)[0])
-        with World(scene.layout) as world:
-            world.load_configuration(cfg)
-            runner = TrialRunner(world, cfg.robot, gen.trial)
-            try:
-                ctx = configuration_context(scene, ci, labels, gen, world, runner, ApproachConfig())
-                before = ctx.render(episode.base_pose, episode.camera_to_base)
-                assert runner.run(*ok[0]).success  # the target really moved
-                after = ctx.render(episode.base_pose, episode.camera_to_base)
-            finally:
-                runner.close()
+        with opened_configuration(scene, shard, ci, gen, ApproachConfig()) as ctx:
+            ok = ctx.successes
+            assert len(ok), "the fixture's configuration 0 has a successful trial"
+            episode = shard.episode(ci, shard.episode_indices(ci)[0])
+            before = ctx.render(episode.base_pose, episode.camera_to_base)
+            assert ctx.runner.run(*ok[0]).success  # the target really moved
+            after = ctx.render(episode.base_pose, episode.camera_to_base)
         np.testing.assert_array_equal(after.depth, before.depth)
         np.testing.assert_array_equal(after.target_mask, before.target_mask)

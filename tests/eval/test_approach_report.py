@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from momakitchen.errors import MomaError
-from momakitchen.eval.approach_report import (
+from momakitchen.eval.approach.report import (
     halving_error,
     markdown_table,
     merge_results,

@@ -221,7 +221,7 @@ def test_export_inputs_is_readable_without_momakitchen(real_dataset, tmp_path, s
 
 
 def test_benchmark_gives_each_predictions_file_a_row(real_dataset, tmp_path):
-    from momakitchen.eval.report import BenchmarkRequest, run_benchmark
+    from momakitchen.eval.report.benchmark import BenchmarkRequest, run_benchmark
 
     labels = _labels(real_dataset)
     write_predictions(tmp_path / "labels.npz", labels)

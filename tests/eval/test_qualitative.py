@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from momakitchen.eval.report import qualitative_grid
+from momakitchen.eval.report.figures import qualitative_grid
 
 
 def test_every_map_shares_one_scale_and_a_colour_bar():

@@ -12,12 +12,11 @@ import pytest
 
 from momakitchen.cli.main import main
 from momakitchen.errors import MomaError
-from momakitchen.eval.report import (
-    BenchmarkRequest,
+from momakitchen.eval.report.benchmark import BenchmarkRequest, run_benchmark
+from momakitchen.eval.report.tables import (
     paired_map_table,
     paired_table,
     pooled_paired_table,
-    run_benchmark,
     seed_table,
 )
 from momakitchen.eval.stats import (
@@ -165,7 +164,7 @@ def test_metrics_made_on_other_test_shards_are_recomputed(report, monkeypatch, t
     that of the dataset's test shards (the same scenes generated on another CPU differ)."""
     import momakitchen.eval.evaluate as evaluate_module
     from momakitchen.data.manifest import load_manifest, split_checksum
-    from momakitchen.eval.report import run_metrics
+    from momakitchen.eval.report.benchmark import run_metrics
 
     req, _ = report
     run = tmp_path / "navaff"
@@ -368,7 +367,8 @@ def test_paired_map_table_counts_scenes_where_the_first_run_is_better():
 def test_report_robustness_table(report, tmp_path):
     """`benchmark --robustness FILE`: the track's table, and McNemar's test of the models
     under each combination (two models here: the run judged twice under other names)."""
-    from momakitchen.eval.robustness import RobustnessConfig, run_robustness
+    from momakitchen.eval.robustness.track import run_robustness
+    from momakitchen.eval.robustness.views import RobustnessConfig
 
     req, _ = report
     config = RobustnessConfig(corruptions=("clean", "combined"), max_configs=1)
@@ -400,7 +400,7 @@ def test_report_robustness_table(report, tmp_path):
 def test_confidence_table_of_a_flat_map_shows_no_empty_bins():
     """A flat map ties every Top-1 affordance: its terciles hold no configuration, and
     the table says so instead of printing empty bins."""
-    from momakitchen.eval.report import confidence_table
+    from momakitchen.eval.report.tables import confidence_table
 
     def msr(affordance, uncertainty):
         records = [

@@ -9,13 +9,9 @@ import numpy as np
 import pytest
 
 from momakitchen.errors import MomaError
-from momakitchen.eval.robustness import (
-    RobustnessConfig,
-    error_cause,
-    format_robustness_table,
-    run_robustness,
-    summarize,
-)
+from momakitchen.eval.robustness.tables import format_robustness_table, summarize
+from momakitchen.eval.robustness.track import run_robustness
+from momakitchen.eval.robustness.views import RobustnessConfig
 
 
 def test_robustness_runs_msr_views_through_the_robot_path(real_dataset, tiny_run):
@@ -102,15 +98,40 @@ def test_summary_counts_range_apart_and_errors_as_failures():
     assert s["top1"] == 0.5 and s["topk"] == 0.25 and s["pcc"] == 0.5
 
 
-def test_error_causes_name_the_real_cause():
-    assert error_cause("the target mask is empty (0 pixels)") == "empty_mask"
-    assert error_cause("the target mask has 12 pixels but none with a valid depth") == (
-        "no_target_depth"
-    )
-    assert error_cause("no floor plane found: 3 points") == "no_floor"
-    assert error_cause("the target is 7.10 m away, beyond the 6 m the model uses") == (
-        "target_range"
-    )
+def test_error_causes_are_set_where_raised_not_read_from_messages(real_dataset, monkeypatch):
+    """Every message reworded: the causes a track counts stay the same."""
+    from momakitchen.data.shard import SceneShard
+    from momakitchen.perception.camera import Intrinsics
+    from momakitchen.perception.live import frame_inputs
+
+    init = MomaError.__init__
+
+    def reworded(self, message="", **kw):
+        init(self, "reworded", **kw)
+
+    monkeypatch.setattr(MomaError, "__init__", reworded)
+    (path,) = sorted((real_dataset / "scenes").glob("*.h5"))
+    with SceneShard(path) as shard:
+        ep = shard.episode(0, shard.episode_indices(0)[0])
+    intr = Intrinsics(*(float(v) for v in ep.intrinsics), *ep.depth.shape[::-1])
+    mask = ep.semantic == 1  # the target's class
+    assert mask.any()
+    depth = ep.depth.copy()
+    no_depth = depth.copy()
+    no_depth[mask] = 0.0
+    raised = np.array(ep.camera_to_base, np.float64)
+    raised[2, 3] += 1.0  # the floor where no calibration puts it
+    cases = {
+        "empty_mask": (depth, np.zeros_like(mask), ep.camera_to_base, None),
+        "no_target_depth": (no_depth, mask, ep.camera_to_base, None),
+        "target_range": (depth, mask, ep.camera_to_base, 0.2),
+        "no_floor": (depth, mask, raised, None),
+    }
+    for cause, (d, m, tf, max_depth) in cases.items():
+        with pytest.raises(MomaError, match=r"^reworded$") as info:
+            frame_inputs(d, d > 0, ep.rgb, m, [], intr, tf, max_depth=max_depth)
+        assert info.value.cause == cause
+    assert MomaError("anything").cause == "other" and not MomaError("x").fatal
 
 
 def test_bad_config():
@@ -202,7 +223,7 @@ def test_noisy_training_samples_keep_their_labels_where_the_robot_would_stand(re
 
 
 def test_a_target_beyond_the_sensors_range_is_counted_apart():
-    from momakitchen.eval.robustness import run_view, target_range
+    from momakitchen.eval.robustness.views import run_view, target_range
     from momakitchen.perception.camera import Intrinsics
     from momakitchen.perception.sensors import Frame
 
@@ -275,7 +296,7 @@ def test_a_method_that_runs_elsewhere_gets_the_same_views_and_figures(
 ):
     """The exported corrupted inputs are exactly what a model is given: the model's own
     maps of them, as a predictions file, score the same trials and metrics as the model."""
-    from momakitchen.eval.robustness import export_robustness_inputs
+    from momakitchen.eval.robustness.export import export_robustness_inputs
 
     config = RobustnessConfig(corruptions=("clean", "kinect", "pitch+2"), top_k=2)
     inputs = tmp_path / "inputs.npz"

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import pytest
 
-from momakitchen.eval.robustness import RobustnessConfig, run_robustness
+from momakitchen.eval.robustness.track import run_robustness
+from momakitchen.eval.robustness.views import RobustnessConfig
 from momakitchen.models import inference
 from momakitchen.models.inference import NonFiniteOutput
 

@@ -155,9 +155,9 @@ def _record_ids(values: list[str]) -> list[tuple[int, int]]:
 
 def run(args: argparse.Namespace) -> int:
     from momakitchen.deploy.fusion import LookPolicy
-    from momakitchen.eval.approach import STOP_SWEEP, ApproachConfig
-    from momakitchen.eval.approach_report import format_table, pairwise, report_markdown, summarize
-    from momakitchen.eval.approach_track import load_methods, run_approach
+    from momakitchen.eval.approach.config import STOP_SWEEP, ApproachConfig
+    from momakitchen.eval.approach.report import format_table, pairwise, report_markdown, summarize
+    from momakitchen.eval.approach.track import load_methods, run_approach
     from momakitchen.sim.motion import MotionConfig
 
     out = output_file(args.json)
@@ -204,7 +204,7 @@ def run(args: argparse.Namespace) -> int:
 
         checkpoints = [str(default_checkpoint())]
     from momakitchen.data.config import Preprocessing
-    from momakitchen.eval.msr import dataset_generation
+    from momakitchen.data.reader import dataset_generation
 
     _, gen = dataset_generation(Path(args.data))
     # Servers are asked for /health here: an unreachable one fails before any work.
@@ -231,7 +231,7 @@ def run(args: argparse.Namespace) -> int:
     if args.markdown:
         atomic_write_text(Path(args.markdown), report_markdown(result))
     if args.figure or records:
-        from momakitchen.eval.approach_figure import (
+        from momakitchen.eval.approach.figure import (
             episode_figure,
             figure_picks,
             replay,

@@ -91,7 +91,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from momakitchen.cli.common import output_dir
-    from momakitchen.eval.report import BenchmarkRequest, run_benchmark
+    from momakitchen.eval.report.benchmark import BenchmarkRequest, run_benchmark
 
     req = BenchmarkRequest(
         data=Path(args.data),

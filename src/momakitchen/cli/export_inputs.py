@@ -80,7 +80,8 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _robustness(args: argparse.Namespace, root: Path, out: Path, t0: float) -> int:
-    from momakitchen.eval.robustness import RobustnessConfig, export_robustness_inputs
+    from momakitchen.eval.robustness.export import export_robustness_inputs
+    from momakitchen.eval.robustness.views import RobustnessConfig
     from momakitchen.perception.sensors import CORRUPTIONS
 
     names = list(args.corruption) or list(CORRUPTIONS)

@@ -131,12 +131,9 @@ def corruption_list() -> str:
 
 def run(args: argparse.Namespace) -> int:
     from momakitchen.cli.common import output_dir, planned_output_dir
-    from momakitchen.eval.robustness import (
-        RobustnessConfig,
-        format_robustness_table,
-        robustness_figure,
-        run_robustness,
-    )
+    from momakitchen.eval.robustness.tables import format_robustness_table, robustness_figure
+    from momakitchen.eval.robustness.track import run_robustness
+    from momakitchen.eval.robustness.views import RobustnessConfig
     from momakitchen.perception.sensors import CORRUPTIONS
 
     existing_dir(args.data, "dataset directory")

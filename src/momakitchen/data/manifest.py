@@ -25,6 +25,8 @@ MANIFEST_NAME = "manifest.json"
 MANIFEST_FORMAT = "momakitchen-dataset"
 KITCHEN = "kitchen"  # the simulator-backed producer's name
 SPLITS = ("train", "test")
+# What a command reads of a dataset: one split, or both ("all").
+SPLIT_CHOICES = (*SPLITS, "all")
 # Keys of a shard entry (the writer's summary plus its split).
 SHARD_KEYS = (
     "scene_id",

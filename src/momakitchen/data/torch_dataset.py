@@ -17,7 +17,6 @@ from momakitchen.data.shard import SceneShard
 from momakitchen.errors import MomaError
 from momakitchen.robots.spec import DESCRIPTOR_DIM, DESCRIPTOR_LAYOUTS
 
-SPLIT_CHOICES = ("train", "test", "all")
 # The stored arrays a model sample is made of.
 CLOUD_FIELDS = (
     "descriptor",
@@ -148,8 +147,8 @@ class EpisodeDataset(Dataset):
         max_open_files: int = 8,
         skip_empty: bool = True,
     ) -> None:
-        if split not in SPLIT_CHOICES:
-            raise MomaError(f"split must be one of {SPLIT_CHOICES}, got {split!r}")
+        if split not in mf.SPLIT_CHOICES:
+            raise MomaError(f"split must be one of {mf.SPLIT_CHOICES}, got {split!r}")
         if max_open_files < 1:
             raise MomaError(f"max_open_files must be >= 1, got {max_open_files}")
         self.root = Path(root)

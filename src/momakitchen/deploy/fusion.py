@@ -14,7 +14,9 @@ floor, and cells only the far look saw keep its values.
 The goal is the best fused cell, ranked as ``predict`` ranks poses (the map averaged
 over ``pick_radius``, :func:`momakitchen.models.inference.select_points`), among those
 the caller says the base can reach; the base faces the target from it. Whether to look
-again is a :class:`LookPolicy`'s question (:meth:`MapFusion.look_again`).
+again is a :class:`LookPolicy`'s question, the same for the robot and the simulated
+approach: :meth:`LookPolicy.look_again` at a look, :meth:`LookPolicy.next_look` when a
+path to the goal is planned.
 """
 
 from __future__ import annotations
@@ -67,6 +69,52 @@ class LookPolicy:
             )
         if not 1 <= self.max_looks <= 10:
             raise MomaError(f"LookPolicy.max_looks must be in [1, 10], got {self.max_looks!r}")
+
+    def can_look(self, looks: int) -> bool:
+        """Whether another look is allowed after ``looks`` (failed ones included)."""
+        return self.kind != "single" and looks < self.max_looks
+
+    def look_again(
+        self, fusion: MapFusion, base_xy: Sequence[float], goal: FusedGoal | None
+    ) -> bool:
+        """Whether to take another look with the base at ``base_xy`` (odometry frame)
+        heading for ``goal`` (None: no goal yet, so look again if allowed), given the
+        looks ``fusion`` holds."""
+        if fusion.looks >= self.max_looks or self.kind == "single":
+            return False
+        if goal is None:
+            return True
+        dist = float(np.hypot(goal.pose[0] - base_xy[0], goal.pose[1] - base_xy[1]))
+        if self.kind == "relook":
+            # One more look once close, unless the last look was already taken that close.
+            return fusion.looks < 2 and dist <= self.relook_distance
+        return (
+            goal.uncertainty > self.max_uncertainty
+            or fusion.last_target_distance > self.trusted_distance
+        )
+
+    def next_look(
+        self,
+        looks: int,
+        fusion: MapFusion,
+        base_xy: Sequence[float],
+        goal: FusedGoal,
+        remaining: float,
+    ) -> float:
+        """Metres to drive along a planned path of ``remaining`` m to ``goal`` before the
+        next look (inf: drive to the goal), after ``looks`` looks.
+
+        ``relook`` stops once, ``relook_distance`` before the goal; ``uncertain`` stops
+        halfway (at least 0.5 m on) while :meth:`look_again` holds and over a metre is
+        left, so that the next look is closer to where the goal is."""
+        if not self.can_look(looks):
+            return math.inf
+        if self.kind == "relook":
+            if looks < 2 and remaining > self.relook_distance:
+                return remaining - self.relook_distance
+        elif self.look_again(fusion, base_xy, goal) and remaining > 1.0:
+            return max(0.5, 0.5 * remaining)
+        return math.inf
 
 
 @dataclass(frozen=True)
@@ -163,21 +211,3 @@ class MapFusion:
         d = self.target_xy - xy[i]
         yaw = math.atan2(d[1], d[0])
         return FusedGoal((float(xy[i, 0]), float(xy[i, 1]), yaw), float(value[i]), float(std[i]))
-
-    def look_again(
-        self, policy: LookPolicy, base_xy: Sequence[float], goal: FusedGoal | None
-    ) -> bool:
-        """Whether ``policy`` takes another look with the base at ``base_xy`` (odometry
-        frame) heading for ``goal`` (None: no goal yet, so look again if allowed)."""
-        if self.looks >= policy.max_looks or policy.kind == "single":
-            return False
-        if goal is None:
-            return True
-        dist = float(np.hypot(goal.pose[0] - base_xy[0], goal.pose[1] - base_xy[1]))
-        if policy.kind == "relook":
-            # One more look once close, unless the last look was already taken that close.
-            return self.looks < 2 and dist <= policy.relook_distance
-        return (
-            goal.uncertainty > policy.max_uncertainty
-            or self.last_target_distance > policy.trusted_distance
-        )

@@ -154,7 +154,7 @@ class NonFiniteOutput(MomaError):
     whatever the input. Every prediction passes :func:`run_model`, so no map, pose or
     JSON document ever holds NaN."""
 
-    fatal = True  # not one bad frame: a loop over frames stops (eval.approach's convention)
+    fatal = True  # not one bad frame: a loop over frames stops
 
     def __init__(self, checkpoint: Any) -> None:
         self.checkpoint = checkpoint

@@ -194,7 +194,8 @@ def fit_floor(
     if len(idx) < cfg.min_inliers:
         raise MomaError(
             f"no floor plane found: {len(idx)} points lie within {band * 100:.0f} cm of the "
-            "calibrated floor height (need a view of the floor; check the extrinsics)"
+            "calibrated floor height (need a view of the floor; check the extrinsics)",
+            cause="no_floor",
         )
     rng = np.random.default_rng(0)
     # A fixed-size sample of the candidates is plenty for three parameters, and fast.
@@ -216,7 +217,8 @@ def fit_floor(
         raise MomaError(
             "no floor plane found: no plane through the points near the calibrated floor is "
             f"within {cfg.max_tilt:g} deg and {cfg.max_height * 100:g} cm of it; check the "
-            "extrinsics"
+            "extrinsics",
+            cause="no_floor",
         )
     dist = np.abs(sub @ normals[ok].T + offsets[ok])  # (S, K)
     score = (dist <= tol_sub[:, None]).sum(0)
@@ -243,7 +245,8 @@ def fit_floor(
         raise MomaError(
             f"no floor plane found: the best plane near the calibrated floor has "
             f"{int(inl.sum())} supporting points of {len(cand)} (need {need}); check the "
-            "extrinsics"
+            "extrinsics",
+            cause="no_floor",
         )
     tilt = math.degrees(math.acos(min(1.0, float(n[2]))))
     cam_height = float(n @ cam + d)
@@ -252,7 +255,8 @@ def fit_floor(
             f"no floor plane found within {cfg.max_tilt:g} deg and {cfg.max_height * 100:g} cm "
             f"of the calibrated floor (best: tilted {tilt:.1f} deg, camera "
             f"{cam_height:.3f} m above it against {height:.3f} m calibrated); check the "
-            "extrinsics"
+            "extrinsics",
+            cause="no_floor",
         )
     scale = 1.0 if metric else height / cam_height
     new_height = cam_height if metric else height

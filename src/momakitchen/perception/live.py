@@ -149,7 +149,9 @@ def frame_inputs(
     f_pts[:, 2] = 0.0
     pts[flat, 2] = 0.0
     if len(f_pts) == 0:
-        raise MomaError("no floor is visible (no point on the fitted floor plane)")
+        raise MomaError(
+            "no floor is visible (no point on the fitted floor plane)", cause="no_floor"
+        )
 
     align = np.zeros(len(pts), np.int8)
     for m in obstacle_masks:
@@ -175,17 +177,19 @@ def _no_target(depth: np.ndarray, mask: np.ndarray, max_depth: float) -> None:
     """Raise the MomaError that says why the target has no point in the clouds."""
     n = int(mask.sum())
     if n == 0:
-        raise MomaError("the target mask is empty (0 pixels)")
+        raise MomaError("the target mask is empty (0 pixels)", cause="empty_mask")
     dm = depth[mask]
     good = dm[dm > 0]
     if len(good) == 0:
         raise MomaError(
             f"the target mask has {n} pixels but none with a valid depth (the target may "
-            "be beyond the depth sensor's range: move closer)"
+            "be beyond the depth sensor's range: move closer)",
+            cause="no_target_depth",
         )
     raise MomaError(
         f"the target is {float(np.median(good)):.2f} m away, beyond the "
-        f"{_length(max_depth)} the model uses: move closer"
+        f"{_length(max_depth)} the model uses: move closer",
+        cause="target_range",
     )
 
 

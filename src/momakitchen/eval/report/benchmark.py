@@ -31,8 +31,8 @@ from typing import Any
 
 from momakitchen.errors import MomaError
 from momakitchen.eval.msr import RATE_KEYS
-from momakitchen.eval.report_figures import qualitative_figure, qualitative_grid, sweep_figure
-from momakitchen.eval.report_tables import (
+from momakitchen.eval.report.figures import qualitative_figure, qualitative_grid, sweep_figure
+from momakitchen.eval.report.tables import (
     MAP_COLUMNS,
     PAIRED_MAP_METRICS,
     PLANNING_POWER,
@@ -201,9 +201,10 @@ def run_benchmark(req: BenchmarkRequest, log: Callable[[str], None] = print) -> 
     from momakitchen.data import EpisodeDataset
     from momakitchen.data.manifest import load_manifest, split_checksum
     from momakitchen.eval.evaluate import evaluate_predictions
-    from momakitchen.eval.msr import BASELINES, MsrConfig, check_same_views, merge_msr, run_msr
+    from momakitchen.eval.methods import BASELINES
+    from momakitchen.eval.msr import MsrConfig, check_same_views, merge_msr, run_msr
     from momakitchen.eval.predictions import dataset_episodes, load_predictions, method_name
-    from momakitchen.eval.robustness import robustness_markdown
+    from momakitchen.eval.robustness.tables import robustness_markdown
     from momakitchen.train.checkpoint import load_checkpoint
 
     data, out = req.data, req.out

@@ -1,26 +1,4 @@
-"""The robustness track: a model on the frames a real robot would give it.
-
-For each configuration of a split, the view that ``msr`` picks for the same seed is judged
-under each named corruption (:data:`momakitchen.perception.sensors.CORRUPTIONS`: sensor
-noise, segmenter masks, calibration errors, monocular depth). ``clean`` is that view
-exactly as ``msr`` scores it (the episode's stored clouds, the same settings), so the clean
-row is ``msr``'s figure on the same views; under every other corruption the stored render
-is corrupted and goes through the real-robot path
-(:func:`momakitchen.perception.live.frame_inputs`, floor-plane correction included). The
-model's Top-k base positions, in the frame the robot believes, are driven to and tried
-with the labelling's own trial in PyBullet. Map metrics compare the predicted map with
-the ground truth at the same floor points (the stored labels for ``clean``; elsewhere the
-labels' interpolation at the points, :func:`momakitchen.sim.labels.floor_affordance`).
-
-Views whose target lies beyond the sensor's working range are counted apart (a robot
-there should move closer, not trust a model); every other failure to predict is an error
-counted by its cause.
-
-The parts: :mod:`~momakitchen.eval.robustness_views` (which view, what a model is given
-of it, a prediction), :mod:`~momakitchen.eval.robustness_tables` (summaries, tables,
-figure) and :mod:`~momakitchen.eval.robustness_export` (the inputs for a method that runs
-elsewhere); their public names are importable from here too.
-"""
+"""A robustness run over a dataset split (the track: :mod:`momakitchen.eval.robustness`)."""
 
 from __future__ import annotations
 
@@ -33,74 +11,18 @@ from typing import Any
 import numpy as np
 
 from momakitchen.errors import MomaError
-from momakitchen.eval.robustness_export import (
-    ROBUSTNESS_INPUTS_FORMAT,
-    export_robustness_inputs,
-)
-from momakitchen.eval.robustness_tables import (
-    MARKDOWN_LEGEND,
-    ROBUSTNESS_LEGEND,
-    format_robustness_table,
-    robustness_figure,
-    robustness_markdown,
-    summarize,
-    top1_by_view,
-)
-from momakitchen.eval.robustness_views import (
-    ERROR_CAUSES,
-    NO_TARGET,
-    REFERENCE,
-    SPLITS,
-    PredictionsMethod,
+from momakitchen.eval.robustness.tables import summarize
+from momakitchen.eval.robustness.views import (
     RobustnessConfig,
     StoredView,
-    corrupted_view,
-    corruption_rng,
     episode_frame,
-    error_cause,
     judged_views,
     load_robustness_predictions,
     predict_view,
-    run_view,
-    stored_view,
     target_range,
     track_view,
-    view_inputs,
     view_key,
 )
-
-__all__ = [
-    "ERROR_CAUSES",
-    "MARKDOWN_LEGEND",
-    "NO_TARGET",
-    "REFERENCE",
-    "ROBUSTNESS_INPUTS_FORMAT",
-    "ROBUSTNESS_LEGEND",
-    "SPLITS",
-    "PredictionsMethod",
-    "RobustnessConfig",
-    "StoredView",
-    "corrupted_view",
-    "corruption_rng",
-    "episode_frame",
-    "error_cause",
-    "export_robustness_inputs",
-    "format_robustness_table",
-    "judged_views",
-    "load_robustness_predictions",
-    "predict_view",
-    "robustness_figure",
-    "robustness_markdown",
-    "run_robustness",
-    "run_view",
-    "stored_view",
-    "summarize",
-    "target_range",
-    "top1_by_view",
-    "track_view",
-    "view_inputs",
-    "view_key",
-]
 
 
 def run_robustness(
@@ -128,7 +50,7 @@ def run_robustness(
 
     from momakitchen.data.config import Preprocessing
     from momakitchen.data.integrity import check_shard_files
-    from momakitchen.eval.msr import dataset_generation, judged_configurations, view_record
+    from momakitchen.data.reader import dataset_generation, judged_configurations, view_record
     from momakitchen.frames import base_to_world_xy
     from momakitchen.metrics import episode_metrics
     from momakitchen.robots.descriptor import robot_descriptor

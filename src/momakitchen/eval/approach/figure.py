@@ -26,16 +26,11 @@ def replay(
 ) -> list[tuple[dict[str, Any], Any]]:
     """Each picked record run again with capture: ``(record, context)`` pairs (the
     context's free space and target draw the figure)."""
-    from momakitchen.eval.approach import STARTS, ApproachConfig, run_episode
-    from momakitchen.eval.approach_track import (
-        baseline_goal,
-        configuration_context,
-        far_start,
-        near_start,
-    )
-    from momakitchen.eval.msr import dataset_generation, rebuilt_configurations
-    from momakitchen.sim.trials import TrialRunner
-    from momakitchen.sim.world import World
+    from momakitchen.data.reader import dataset_generation, rebuilt_configurations
+    from momakitchen.eval.approach.baselines import baseline_goal
+    from momakitchen.eval.approach.config import STARTS
+    from momakitchen.eval.approach.episode import Episode
+    from momakitchen.eval.approach.track import opened_configuration, placed_start
 
     root = Path(data)
     manifest, gen = dataset_generation(root)
@@ -46,43 +41,33 @@ def replay(
         sid, ci = int(pick["scene_id"]), int(pick["config_index"])
         todo = [(sid, ci, entries[str(sid)]["file"])]
         for scene, shard, _ in rebuilt_configurations(root, todo, gen.scene):
-            cfg = scene.configurations[ci]
-            with World(scene.layout) as world:
-                world.load_configuration(cfg)
-                runner = TrialRunner(world, cfg.robot, gen.trial)
-                try:
-                    ctx = configuration_context(
-                        scene, ci, shard.configuration(ci), gen, world, runner, config
-                    )
-                    kind = pick["start"]
-                    placed = near_start(ctx, shard, scene) if kind == "near" else far_start(ctx)
-                    if placed is None:
-                        continue
-                    start, head = placed
-                    name = pick["method"]
-                    rec, _ = run_episode(
-                        ctx,
-                        start,
-                        head,
-                        STARTS.index(kind),
-                        name,
-                        pick["policy"],
-                        goal_of=None if name in methods else baseline_goal(ctx, name),
-                        perceiver=methods.get(name),
-                        capture=True,
-                    )
-                    rec.update({k: pick[k] for k in ("scene_id", "config_index", "robot", "start")})
-                    out.append((rec, ctx))
-                finally:
-                    runner.close()
-    assert isinstance(config, ApproachConfig)
+            with opened_configuration(scene, shard, ci, gen, config) as ctx:
+                kind, name = pick["start"], pick["method"]
+                placed = placed_start(ctx, kind, shard)
+                if placed is None:
+                    continue
+                start, head = placed
+                episode = Episode(
+                    ctx,
+                    start,
+                    head,
+                    STARTS.index(kind),
+                    name,
+                    pick["policy"],
+                    goal_of=None if name in methods else baseline_goal(ctx, name),
+                    perceiver=methods.get(name),
+                    capture=True,
+                )
+                rec = episode.run().to_dict()
+                rec.update({k: pick[k] for k in ("scene_id", "config_index", "robot", "start")})
+                out.append((rec, ctx))
     return out
 
 
 def _config(result: dict[str, Any]) -> Any:
     """The ApproachConfig a result was run with."""
     from momakitchen.deploy.fusion import LookPolicy
-    from momakitchen.eval.approach import ApproachConfig
+    from momakitchen.eval.approach.config import ApproachConfig
     from momakitchen.sim.motion import MotionConfig
 
     c = dict(result["config"])
@@ -98,7 +83,7 @@ def _config(result: dict[str, Any]) -> Any:
 def figure_picks(result: dict[str, Any]) -> list[dict[str, Any]]:
     """One episode per robot: the first configuration of each robot, far start if run,
     by the first model method with its most successful policy (else the first row)."""
-    from momakitchen.eval.approach_report import summarize
+    from momakitchen.eval.approach.report import summarize
 
     rows = summarize(result)
     models = [r for r in rows if r["policy"] != "-"] or rows

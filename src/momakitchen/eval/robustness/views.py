@@ -22,32 +22,14 @@ from typing import Any
 
 import numpy as np
 
+from momakitchen.data.manifest import SPLIT_CHOICES
 from momakitchen.errors import MomaError
 from momakitchen.models.inference import PICK_RADIUS
 
-SPLITS = ("test", "train", "all")
 # The row every other is compared with: msr's view of the configuration, as stored.
 REFERENCE = "clean"
-# Error causes, from the messages of frame_inputs / fit_floor (one word each for tables).
-ERROR_CAUSES = {
-    "the target mask is empty": "empty_mask",
-    "but none with a valid depth": "no_target_depth",
-    "beyond the": "target_range",
-    "no floor plane found": "no_floor",
-    "no floor is visible": "no_floor",
-}
-
-
 # Causes that leave no target to act on: the corrupted mask has no pixel of valid depth.
 NO_TARGET = ("empty_mask", "no_target_depth")
-
-
-def error_cause(message: str) -> str:
-    """The cause of a prediction error, from its message (``other`` if unknown)."""
-    for needle, cause in ERROR_CAUSES.items():
-        if needle in message:
-            return cause
-    return "other"
 
 
 @dataclass(frozen=True)
@@ -86,8 +68,8 @@ class RobustnessConfig:
             raise MomaError("min_spread must be in [0, 2] m and pick_radius in [0, 1] m")
         if self.seed < 0 or self.max_configs < 0:
             raise MomaError("seed and max_configs must be >= 0")
-        if self.split not in SPLITS:
-            raise MomaError(f"split must be one of {SPLITS}, got {self.split!r}")
+        if self.split not in SPLIT_CHOICES:
+            raise MomaError(f"split must be one of {SPLIT_CHOICES}, got {self.split!r}")
 
 
 def episode_frame(episode: Any) -> Any:
@@ -195,7 +177,7 @@ def corrupted_view(
             metric_depth=corruption.preset.depth.metric,
         )
     except MomaError as exc:
-        if getattr(exc, "fatal", False):  # a broken model, not a bad view: stop the run
+        if exc.fatal:  # a broken model, not a bad view: stop the run
             raise
         return bad, _error(exc)
 
@@ -217,7 +199,7 @@ def track_view(
 
 
 def _error(exc: MomaError) -> dict[str, Any]:
-    return {"status": "error", "cause": error_cause(str(exc)), "message": str(exc)}
+    return {"status": "error", "cause": exc.cause, "message": str(exc)}
 
 
 def view_key(corruption: str, scene_id: int, config_index: int, episode_index: int) -> str:
@@ -333,7 +315,7 @@ def predict_view(
             threads=None if stored else 1,
         )
     except MomaError as exc:
-        if getattr(exc, "fatal", False):  # a broken model, not a bad view: stop the run
+        if exc.fatal:  # a broken model, not a bad view: stop the run
             raise
         return _error(exc)
     return {"status": "ok", "prediction": pred}
@@ -361,9 +343,9 @@ def judged_views(
 ) -> Iterator[tuple[Any, Any, int, int]]:
     """(scene, shard, config_index, episode_index) of the view ``msr`` judges for ``seed``
     in each configuration of ``todo`` that has one."""
-    from momakitchen.eval.msr import msr_view, rebuilt_configurations
+    from momakitchen.data.reader import judged_view, rebuilt_configurations
 
     for scene, shard, ci in rebuilt_configurations(root, todo, gen.scene):
-        ep = msr_view(shard, scene, ci, seed)
+        ep = judged_view(shard, scene, ci, seed)
         if ep is not None:
             yield scene, shard, ci, ep

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from momakitchen.eval.robustness_views import (
+from momakitchen.eval.robustness.views import (
     RobustnessConfig,
     StoredView,
     episode_frame,
@@ -48,7 +48,7 @@ def export_robustness_inputs(
 
     from momakitchen.data.config import Preprocessing
     from momakitchen.data.integrity import check_shard_files
-    from momakitchen.eval.msr import dataset_generation, judged_configurations
+    from momakitchen.data.reader import dataset_generation, judged_configurations
     from momakitchen.eval.predictions import INPUT_FIELDS, file_kind, write_arrays
     from momakitchen.robots.descriptor import robot_descriptor
     from momakitchen.robots.spec import DESCRIPTOR_NAMES, get_robot_spec

@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 
 from momakitchen.errors import MomaError
-from momakitchen.eval.robustness_views import NO_TARGET, REFERENCE
+from momakitchen.eval.robustness.views import NO_TARGET, REFERENCE
 
 # What the printed table's less obvious columns count (printed under it; docs/METHODS.md).
 ROBUSTNESS_LEGEND = (
