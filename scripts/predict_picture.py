@@ -17,8 +17,13 @@ import momakitchen
 from momakitchen import MomaError
 from momakitchen.data.shard import SceneShard, list_shards
 from momakitchen.deploy.predict import write_outputs
-from momakitchen.eval.robustness.views import corruption_rng, episode_frame
-from momakitchen.perception.sensors import CalibrationError, Corruption, corrupt_frame
+from momakitchen.eval.robustness.views import episode_frame
+from momakitchen.perception.sensors import (
+    CalibrationError,
+    Corruption,
+    corrupt_frame,
+    corruption_rng,
+)
 
 
 def main() -> None:

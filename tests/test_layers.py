@@ -82,6 +82,36 @@ def test_imports_follow_the_layers():
     assert not against, against
 
 
+# Evaluation by track: a track's package imports no other track (what they share lives in
+# eval's shared modules, data/ or perception/); the report assembles them all.
+TRACKS = ("approach", "robustness")
+SHARED_EVAL = ("methods", "msr", "predictions", "stats", "evaluate")
+
+
+def test_eval_tracks_import_no_other_track():
+    against = []
+    for module, targets in GRAPH.items():
+        parts = module.split(".")
+        if parts[1:2] != ["eval"] or len(parts) < 3 or parts[2] not in TRACKS:
+            continue
+        for target in targets:
+            t = target.split(".")
+            if t[1:2] == ["eval"] and len(t) > 2 and t[2] not in (parts[2], *SHARED_EVAL):
+                against.append(f"{module} -> {target}")
+    assert not against, against
+
+
+def test_eval_is_by_track():
+    tracks = {p.name for p in (SRC / "eval").iterdir() if (p / "__init__.py").exists()}
+    assert tracks == {*TRACKS, "report"}
+    # No module left of the flat prefix families, and no package re-exports its parts.
+    flat = {p.stem for p in (SRC / "eval").glob("*.py")}
+    assert not {m for m in flat if m.startswith(("approach_", "robustness_", "report_"))}
+    for track in tracks:
+        init = ast.parse((SRC / "eval" / track / "__init__.py").read_text())
+        assert not [n for n in init.body if isinstance(n, (ast.Import, ast.ImportFrom))], track
+
+
 def test_no_import_cycle():
     # Depth-first search for a back edge in the module graph.
     state: dict[str, int] = {}

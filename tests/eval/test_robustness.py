@@ -223,9 +223,9 @@ def test_noisy_training_samples_keep_their_labels_where_the_robot_would_stand(re
 
 
 def test_a_target_beyond_the_sensors_range_is_counted_apart():
-    from momakitchen.eval.robustness.views import run_view, target_range
+    from momakitchen.eval.robustness.views import run_view
     from momakitchen.perception.camera import Intrinsics
-    from momakitchen.perception.sensors import Frame
+    from momakitchen.perception.sensors import Frame, target_range
 
     depth = np.full((48, 64), 4.5, np.float32)  # beyond the Kinect's 4 m, within D435's
     mask = np.zeros((48, 64), bool)

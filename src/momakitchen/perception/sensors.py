@@ -14,6 +14,8 @@ Conventions: depth in metres along the optical axis, 0 = no return; camera axes 
 from __future__ import annotations
 
 import math
+import zlib
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -626,3 +628,16 @@ class SensorAugmentation:
         if rng.random() < self.p_colour:
             colour = ColourError(gain=float(rng.uniform(0.5, 1.5)), noise=float(rng.uniform(0, 15)))
         return Corruption(sensor=sensor, mask=mask, calibration=cal, colour=colour)
+
+
+def corruption_rng(seed: int, ids: Sequence[int], name: str) -> np.random.Generator:
+    """The generator of one corruption of one episode: the same every run."""
+    return np.random.default_rng([seed, *(int(i) for i in ids), zlib.crc32(name.encode())])
+
+
+def target_range(frame: Any) -> float:
+    """The target's distance from the camera along the optical axis (m): the median
+    depth of its pixels in the clean render (inf without any)."""
+    d = frame.depth[frame.target_mask]
+    d = d[np.isfinite(d) & (d > 0)]
+    return float(np.median(d)) if len(d) else float("inf")

@@ -162,8 +162,12 @@ class Context:
 def take_look(ctx: Context, perceiver: Any, frame: Any, ids: tuple[int, ...]) -> LookResult:
     """Corrupt a perfect frame by the perception preset and predict on it; a frame the
     method cannot use is a failed look with the error's ``cause``, a fatal error stops."""
-    from momakitchen.eval.robustness.views import corruption_rng, target_range
-    from momakitchen.perception.sensors import corrupt_frame, get_corruption
+    from momakitchen.perception.sensors import (
+        corrupt_frame,
+        corruption_rng,
+        get_corruption,
+        target_range,
+    )
 
     name = perception_corruption(ctx.config.perception)
     corruption = get_corruption(name)

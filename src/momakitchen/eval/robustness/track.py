@@ -19,10 +19,10 @@ from momakitchen.eval.robustness.views import (
     judged_views,
     load_robustness_predictions,
     predict_view,
-    target_range,
     track_view,
     view_key,
 )
+from momakitchen.perception.sensors import target_range
 
 
 def run_robustness(

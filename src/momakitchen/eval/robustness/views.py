@@ -14,7 +14,6 @@ Two kinds of input (:func:`momakitchen.eval.robustness.run_robustness` uses both
 
 from __future__ import annotations
 
-import zlib
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -81,19 +80,6 @@ def episode_frame(episode: Any) -> Any:
     return stored_frame({n: getattr(episode, n) for n in names})
 
 
-def corruption_rng(seed: int, ids: Sequence[int], name: str) -> np.random.Generator:
-    """The generator of one corruption of one episode: the same every run."""
-    return np.random.default_rng([seed, *(int(i) for i in ids), zlib.crc32(name.encode())])
-
-
-def target_range(frame: Any) -> float:
-    """The target's distance from the camera along the optical axis (m): the median
-    depth of its pixels in the clean render (inf without any)."""
-    d = frame.depth[frame.target_mask]
-    d = d[np.isfinite(d) & (d > 0)]
-    return float(np.median(d)) if len(d) else float("inf")
-
-
 @dataclass(frozen=True)
 class StoredView:
     """A view as ``msr`` and ``evaluate`` give it to a model: the episode's stored clouds
@@ -156,7 +142,12 @@ def corrupted_view(
     """The corrupted frame (None for a target beyond the sensor's range, which is not
     corrupted) and :func:`view_inputs`' result."""
     from momakitchen.perception.live import frame_inputs
-    from momakitchen.perception.sensors import corrupt_frame, get_corruption
+    from momakitchen.perception.sensors import (
+        corrupt_frame,
+        corruption_rng,
+        get_corruption,
+        target_range,
+    )
 
     corruption = get_corruption(corruption_name)
     distance = target_range(frame)
