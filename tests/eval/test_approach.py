@@ -14,6 +14,7 @@ from momakitchen.cli.main import main
 from momakitchen.errors import MomaError
 from momakitchen.eval.approach import track as approach_track
 from momakitchen.eval.approach.config import ApproachConfig
+from momakitchen.eval.approach.records import json_schema
 from momakitchen.eval.approach.report import pairwise, summarize
 from momakitchen.eval.approach.track import run_approach
 
@@ -62,6 +63,12 @@ def test_episodes_are_deterministic_and_end_in_a_real_trial(real_dataset, tiny_r
         ("random", "-", "near"),
     }
     assert len(pairwise(a)) == 3
+    jsonschema = pytest.importorskip("jsonschema")
+    schema = json_schema()
+    for r in a["records"]:
+        jsonschema.validate(r, schema)  # the rows are the typed records' JSON
+    with pytest.raises(jsonschema.ValidationError):
+        jsonschema.validate({**a["records"][0], "looks": [{"ok": "yes"}]}, schema)
 
 
 @pytest.mark.slow
