@@ -63,6 +63,14 @@ def test_episodes_are_deterministic_and_end_in_a_real_trial(real_dataset, tiny_r
         ("random", "-", "near"),
     }
     assert len(pairwise(a)) == 3
+    from momakitchen.eval.approach.records import strata
+
+    for r, row in [(r, row) for r in a["records"] for row in rows if row["method"] == r["method"]]:
+        axes = strata(r)
+        assert set(axes) == {"target", "clutter", "height", "reach", "mount"}
+        assert r["obstacles_near"] >= 0 and r["reach"] > 0.3 and 0 < r["target_height"] < 2.5
+        for axis, value in axes.items():  # every episode counted in its stratum
+            assert row["per_stratum"][axis][value]["episodes"] >= 1
     jsonschema = pytest.importorskip("jsonschema")
     schema = json_schema()
     for r in a["records"]:

@@ -104,6 +104,36 @@ class StartRecord:
     start_pose: list[float]
     start_distance: float
     shortest: float | None  # L*, m; None for an infeasible configuration
+    # What makes the stance hard (strata of every table, :func:`strata`):
+    articulated: bool  # a door or drawer, whose swing the base must leave free
+    obstacles_near: int  # generated obstacles whose centre lies within 1 m of the target
+    target_height: float  # m above the floor
+    reach: float  # the robot's published reach, m
+    mount: float  # its arm's mount height, m
+
+
+# Stratum bounds: target height (m) low / counter / high; robot reach (m) and mount (m).
+HEIGHT_BANDS = ((0.5, "low <0.5 m"), (1.2, "counter 0.5-1.2 m"), (math.inf, "high >1.2 m"))
+REACH_BANDS = ((0.7, "reach <0.7 m"), (0.9, "reach 0.7-0.9 m"), (math.inf, "reach >0.9 m"))
+MOUNT_BANDS = ((0.6, "mount <0.6 m"), (1.0, "mount 0.6-1.0 m"), (math.inf, "mount >1.0 m"))
+
+
+def _band(value: float, bands: tuple[tuple[float, str], ...]) -> str:
+    return next(name for bound, name in bands if value < bound)
+
+
+def strata(row: dict[str, Any]) -> dict[str, str]:
+    """A JSON row's stratum on each axis of what makes a stance hard (older rows without
+    the fields: none)."""
+    if "articulated" not in row:
+        return {}
+    return {
+        "target": "articulated" if row["articulated"] else "rigid",
+        "clutter": "obstacles within 1 m" if row["obstacles_near"] else "no obstacle within 1 m",
+        "height": _band(row["target_height"], HEIGHT_BANDS),
+        "reach": _band(row["reach"], REACH_BANDS),
+        "mount": _band(row["mount"], MOUNT_BANDS),
+    }
 
 
 @dataclass(frozen=True)

@@ -11,6 +11,8 @@ from typing import Any
 
 import numpy as np
 
+from momakitchen.eval.approach.records import strata
+
 ROW_KEYS = ("method", "policy", "start")
 
 
@@ -43,8 +45,9 @@ def summarize(result: dict[str, Any]) -> list[dict[str, Any]]:
     ``spl``, ``looks`` (mean per episode), ``seconds`` (mean robot time: driving, turning,
     looks, inference), ``cpu_seconds`` (mean per episode of this process), ``failures``
     (stage counts), ``start_distance`` (mean, min, max), ``per_robot`` and
-    ``per_category`` success, and ``stop_sweep`` (success per stop error and the error
-    that halves it) when the run swept it."""
+    ``per_category`` success, ``per_stratum`` (success by what makes a stance hard:
+    :func:`~momakitchen.eval.approach.records.strata`), and ``stop_sweep`` (success per
+    stop error and the error that halves it) when the run swept it."""
     sweep = result["config"].get("stop_sweep") or []
     rows = []
     for (method, policy, start), recs in _group(result["records"]).items():
@@ -74,6 +77,15 @@ def summarize(result: dict[str, Any]) -> list[dict[str, Any]]:
                 groups[r[field]].append(r["success"])
             row[key] = {
                 k: {"success": _mean(v), "episodes": len(v)} for k, v in sorted(groups.items())
+            }
+        by_stratum: dict[str, dict[str, list[int]]] = defaultdict(lambda: defaultdict(list))
+        for r in recs:
+            for axis, value in strata(r).items():
+                by_stratum[axis][value].append(r["success"])
+        if by_stratum:
+            row["per_stratum"] = {
+                axis: {k: {"success": _mean(v), "episodes": len(v)} for k, v in sorted(g.items())}
+                for axis, g in by_stratum.items()
             }
         # An episode that ended before its trial fails at every stop error.
         swept = [r.get("stop_sweep", [0] * len(sweep)) for r in recs]
@@ -184,6 +196,27 @@ def pairs_table(pairs: Sequence[dict[str, Any]]) -> str:
     return "\n".join(lines)
 
 
+def strata_table(rows: Sequence[dict[str, Any]]) -> str:
+    """Success per stratum (columns: each axis's values) and row, as Markdown; "" when
+    the rows have no strata."""
+    axes: dict[str, set[str]] = defaultdict(set)
+    for r in rows:
+        for axis, groups in r.get("per_stratum", {}).items():
+            axes[axis] |= set(groups)
+    if not axes:
+        return ""
+    columns = [(axis, value) for axis in axes for value in sorted(axes[axis])]
+    out = ["| start | method (policy) | " + " | ".join(v for _, v in columns) + " |"]
+    out.append("| --- | --- |" + " ---: |" * len(columns))
+    for r in sorted(rows, key=lambda r: (r["start"] != "far", _label(r))):
+        cells = []
+        for axis, value in columns:
+            g = r.get("per_stratum", {}).get(axis, {}).get(value)
+            cells.append(f"{100 * g['success']:.0f} % ({g['episodes']})" if g else "-")
+        out.append(f"| {r['start']} | {_label(r)} | " + " | ".join(cells) + " |")
+    return "\n".join(out)
+
+
 def report_markdown(result: dict[str, Any]) -> str:
     """The whole Markdown report: main table, per-robot success, stop errors, McNemar."""
     rows = result.get("results") or summarize(result)
@@ -210,6 +243,9 @@ def report_markdown(result: dict[str, Any]) -> str:
             for k in robots
         ]
         parts.append(f"| {r['start']} | {_label(r)} | " + " | ".join(cells) + " |")
+    table = strata_table(rows)
+    if table:
+        parts += ["", "By what makes the stance hard (success, episodes):", "", table]
     sweep = sweep_table(rows)
     if sweep:
         parts += ["", "Success against the final-stop error (standard deviations):", "", sweep]

@@ -103,6 +103,11 @@ def run_configuration(
                 start_pose=[round(v, 4) for v in start],
                 start_distance=round(float(np.hypot(*(np.asarray(start[:2]) - ctx.anchor[:2]))), 3),
                 shortest=shortest_or_none(shortest),
+                articulated=cfg.target.is_articulated,
+                obstacles_near=_obstacles_near(cfg),
+                target_height=round(float(ctx.anchor[2]), 3),
+                reach=float(ctx.spec.reach),
+                mount=round(float(cfg.mount), 3),
             )
             for name, perceiver in methods.items():
                 first = None
@@ -125,6 +130,14 @@ def run_configuration(
                 rec = Episode(ctx, start, head, start_index, name, "-", goal_of=goal_of).run()
                 records.append(ApproachRecord.of(start_record, rec, shortest))
     return [r.to_dict() for r in records], skipped
+
+
+def _obstacles_near(cfg: Any, radius: float = 1.0) -> int:
+    """The generated obstacles whose footprint's centre lies within ``radius`` m of the
+    target's floor projection."""
+    anchor = np.asarray(cfg.target.anchor[:2], float)
+    centres = [(f.x, f.y) for f in (o.footprint() for o in cfg.obstacles)]
+    return int(sum(np.hypot(*(np.asarray(c) - anchor)) <= radius for c in centres))
 
 
 def _shortest(ctx: Context, start: Pose) -> float:
