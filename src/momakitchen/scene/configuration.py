@@ -346,18 +346,26 @@ def _facing_bases(
 
 
 def base_fits(
-    layout: Layout, cfg: Configuration, points: np.ndarray, footprint: tuple[float, float]
+    layout: Layout,
+    cfg: Configuration,
+    points: np.ndarray,
+    footprint: tuple[float, float],
+    *,
+    include_obstacles: bool = True,
 ) -> np.ndarray:
     """Where a base of ``footprint`` fits, facing the target, by the floor plan alone.
 
     The base's box, centred on each point and turned to face the target as in the trials,
     must lie inside the room and clear of the floor-standing furniture's and the
     obstacles' footprints (bounding boxes: conservative, no physics query).
+    ``include_obstacles=False``: the room and its furniture only, as a prior map knows
+    them (the configuration's obstacles left out).
 
     Shapes: ``points`` (M, 2) world xy; returns (M,) bool.
     """
     pts = np.asarray(points, np.float64).reshape(-1, 2)
-    blocked = corners_of(layout.footprints() + [o.footprint() for o in cfg.obstacles])
+    obstacles = [o.footprint() for o in cfg.obstacles] if include_obstacles else []
+    blocked = corners_of(layout.footprints() + obstacles)
     return _facing_bases(pts, cfg.target.anchor, footprint, blocked, layout.room)[1]
 
 

@@ -94,13 +94,25 @@ class MotionConfig:
 class FreeSpace:
     """The floor's free cells for one configuration's base, and shortest paths on them.
 
+    Two layers, as in a navigation costmap (ROS 2 Nav2's static and obstacle layers). The
+    static layer is the prior map: the room's walls and floor-standing furniture. The
+    configuration's obstacles are in it too by default (``obstacles=True``: the floor
+    plan); with ``obstacles=False`` they are not, and enter only through :meth:`observe`,
+    as the robot's looks see them.
+
     Shapes: ``cells`` (N, 2) world xy of every grid cell in the room; ``free`` (N,) bool;
     ``cost`` (N,) per-length cost of the free cells (1, or ``clearance_cost`` near
-    obstacles).
+    obstacles); ``observed`` (N,) bool, the cells :meth:`observe` blocked (or found
+    blocked already).
     """
 
     def __init__(
-        self, layout: object, cfg: object, footprint: Sequence[float], motion: MotionConfig
+        self,
+        layout: object,
+        cfg: object,
+        footprint: Sequence[float],
+        motion: MotionConfig,
+        obstacles: bool = True,
     ):
         from momakitchen.scene.configuration import base_fits
 
@@ -111,10 +123,21 @@ class FreeSpace:
         gx, gy = np.meshgrid(np.arange(self.nx), np.arange(self.ny), indexing="ij")
         self.cells = np.round(np.stack([gx.ravel(), gy.ravel()], 1) * self.step, 6)
         length, width = (float(v) for v in footprint)
-        self.free = base_fits(layout, cfg, self.cells, (length, width))  # type: ignore[arg-type]
         grow = 2 * motion.clearance
-        roomy = base_fits(layout, cfg, self.cells, (length + grow, width + grow))  # type: ignore[arg-type]
+        self.free, roomy = (
+            base_fits(layout, cfg, self.cells, size, include_obstacles=obstacles)  # type: ignore[arg-type]
+            for size in ((length, width), (length + grow, width + grow))
+        )
         self.cost = np.where(roomy, 1.0, motion.clearance_cost)
+        self.observed = np.zeros(len(self.cells), dtype=bool)
+        # Each cell's base box as base_fits turns it (facing the target): its axes and
+        # half extents (observe grows them by the clearance).
+        anchor = cfg.target.anchor  # type: ignore[attr-defined]
+        yaws = np.arctan2(anchor[1] - self.cells[:, 1], anchor[0] - self.cells[:, 0])
+        self._axes = np.stack([np.cos(yaws), np.sin(yaws)], 1)
+        self._half = (length / 2, width / 2)
+        self._clearance = motion.clearance
+        self._clearance_cost = motion.clearance_cost
         self._graphs = {
             "plan": self._graph(self.cost),
             "length": self._graph(np.ones(len(self.cost))),
@@ -144,6 +167,68 @@ class FreeSpace:
         return coo_matrix(
             (np.concatenate(weights), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n)
         ).tocsr()
+
+    def observe(self, points_xy: np.ndarray) -> bool:
+        """Add obstacle points to the obstacle layer: every cell whose base box (centred
+        on the cell, facing the target, as :func:`~momakitchen.scene.configuration.base_fits`
+        turns it) contains a point becomes blocked, and every cell whose box grown by the
+        clearance on each side contains one costs ``clearance_cost``. Points on a box's
+        edge count as outside, as touching boxes count as apart in ``base_fits``. The
+        graphs are rebuilt, and planned trees dropped, only when a free cell is blocked or
+        costs more.
+
+        Returns whether a free cell became blocked (a planned path may cross it: plan
+        again). Shapes: ``points_xy`` (M, 2) xy in the cells' frame (the world, or the
+        odometry frame the robot plans in) of points above the floor; non-finite rows are
+        skipped.
+        """
+        pts = np.asarray(points_xy, np.float64).reshape(-1, 2)
+        hit, near = self._boxes_containing(pts[np.isfinite(pts).all(1)])
+        self.observed |= hit
+        blocked = hit & self.free
+        free = self.free & ~hit
+        costlier = near & (self.cost != self._clearance_cost)
+        if not (blocked.any() or (costlier & free).any()):
+            return False
+        self.free = free
+        self.cost = np.where(near, self._clearance_cost, self.cost)
+        self._graphs["plan"] = self._graph(self.cost)
+        if blocked.any():
+            self._graphs["length"] = self._graph(np.ones(len(self.cost)))
+        self._trees.clear()
+        self.__dict__.pop("components", None)  # the cached property, made again on use
+        return bool(blocked.any())
+
+    def _boxes_containing(self, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(N,) bool twice: the cells whose base box contains one of ``pts`` (K, 2), and
+        those whose box grown by the clearance does. Each point is tested against the
+        cells within the grown box's half-diagonal of it (a disc of grid offsets around
+        its nearest cell), in the cell's own box frame."""
+        hit = np.zeros(len(self.cells), dtype=bool)
+        near = np.zeros(len(self.cells), dtype=bool)
+        hl, hw = self._half
+        g = self._clearance
+        reach = math.hypot(hl + g, hw + g) / self.step + 1.0  # a point is < 1 cell off its cell
+        k = math.ceil(reach)
+        di, dj = np.meshgrid(np.arange(-k, k + 1), np.arange(-k, k + 1), indexing="ij")
+        disc = np.hypot(di, dj) <= reach
+        di, dj = di[disc], dj[disc]
+        chunk = max(1, 400_000 // len(di))
+        for lo in range(0, len(pts), chunk):
+            p = pts[lo : lo + chunk]
+            i = np.rint(p[:, 0] / self.step).astype(np.int64)[:, None] + di
+            j = np.rint(p[:, 1] / self.step).astype(np.int64)[:, None] + dj
+            inside = (i >= 0) & (i < self.nx) & (j >= 0) & (j < self.ny)
+            cell = (i * self.ny + j)[inside]
+            dx = np.broadcast_to(p[:, :1], i.shape)[inside] - self.cells[cell, 0]
+            dy = np.broadcast_to(p[:, 1:], i.shape)[inside] - self.cells[cell, 1]
+            c, s = self._axes[cell, 0], self._axes[cell, 1]
+            u = np.abs(c * dx + s * dy)  # along the base's facing direction
+            v = np.abs(c * dy - s * dx)  # across it
+            grown = (u < hl + g) & (v < hw + g)
+            near[cell[grown]] = True
+            hit[cell[grown & (u < hl) & (v < hw)]] = True
+        return hit, near
 
     def index(self, x: float, y: float) -> int:
         """The cell nearest to (x, y), clamped to the room."""
