@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import json
+import signal
+from contextlib import contextmanager
 from pathlib import Path
 
 import pybullet_data
@@ -206,3 +208,83 @@ def test_export_at_another_mount_height(tmp_path, capsys):
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "mount_height must be in [0.3, 1.3] m, got 1.6" in err
     assert not bad.exists()
+
+
+@contextmanager
+def _within(seconds: int):
+    """Fails the test (rather than hanging it) if the block runs longer than ``seconds``."""
+
+    def expire(*_):
+        raise TimeoutError(f"still running after {seconds} s")
+
+    old = signal.signal(signal.SIGALRM, expire)
+    signal.alarm(seconds)
+    try:
+        yield
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, old)
+
+
+def _looped_kuka(tmp_path: Path) -> Path:
+    """The KUKA of :func:`kuka_yaml` with an inner loop: link 3 also a child of link 5."""
+    urdf = tmp_path / "loop.urdf"
+    loop = (
+        '<joint name="back" type="fixed"><parent link="lbr_iiwa_link_5"/>'
+        '<child link="lbr_iiwa_link_3"/></joint>\n</robot>'
+    )
+    urdf.write_text(KUKA.read_text().replace("</robot>", loop))
+    path = kuka_yaml(tmp_path, "loopy", reach=0.8)
+    path.write_text(path.read_text().replace(str(KUKA), str(urdf)))
+    return path
+
+
+@pytest.mark.parametrize("command", [["robots"], ["robot-check", "loopy", "--out", "OUT"]])
+def test_a_urdf_with_a_loop_is_one_line_exit_2(tmp_path, capsys, command):
+    path = _looped_kuka(tmp_path)
+    argv = [str(tmp_path / "out") if a == "OUT" else a for a in command]
+    with _within(20):
+        assert main([*argv, "--robot-yaml", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "loop.urdf" in err
+    assert "link 'lbr_iiwa_link_3' has two parents" in err
+    assert "loopy" not in ROBOTS and not (tmp_path / "out").exists()
+
+
+def test_a_huge_robot_yaml_is_one_line_exit_2(tmp_path, capsys):
+    path = kuka_yaml(tmp_path, "huge")
+    path.write_text(path.read_text() + "home: [" + "0, " * 400_000 + "0]\n")
+    assert main(["robots", "--robot-yaml", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "over the limit of 1048576 bytes (1 MB)" in err
+
+
+@pytest.mark.parametrize(
+    ("ids", "message"),
+    [
+        (
+            ["--first-scene-id", "950002", "--scenes", "2"],
+            "the fine-tuning scenes 950000-950003 (--finetune-first-scene-id 950000, "
+            "--finetune-scenes 4) overlap the check's scenes 950002-950003 "
+            "(--first-scene-id 950002, --scenes 2)",
+        ),
+        (
+            ["--first-scene-id", "949999", "--scenes", "1", "--finetune-first-scene-id", "949997"],
+            "the fine-tuning scenes 949997-950000 (--finetune-first-scene-id 949997, "
+            "--finetune-scenes 4) overlap the check's scenes 949999-949999",
+        ),
+    ],
+)
+def test_robot_check_refuses_overlapping_scene_ranges(tmp_path, capsys, monkeypatch, ids, message):
+    from momakitchen.cli import robot_check
+
+    def generate(*_):  # a check let through would label scenes for minutes: fail at once
+        raise AssertionError("the overlapping ranges were not refused")
+
+    monkeypatch.setattr(robot_check, "_generate", generate)
+    out = tmp_path / "check"
+    argv = ["robot-check", "panda", "--out", str(out), "--finetune-scenes", "4", *ids]
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert message in err and "\n" not in err, err
+    assert not out.exists()

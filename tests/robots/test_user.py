@@ -2,6 +2,11 @@
 
 from __future__ import annotations
 
+import re
+import signal
+import time
+from contextlib import contextmanager
+
 import numpy as np
 import pytest
 import yaml
@@ -168,3 +173,62 @@ def test_finger_joints_with_suction_are_an_error(tiny_robot_files):
     with pytest.raises(MomaError, match=r"finger_joints .* but end_effector is 'suction'"):
         register_user_robot(yaml_path)
     assert "tiny_user" not in ROBOTS
+
+
+@contextmanager
+def _within(seconds: int):
+    """Fails the test (rather than hanging it) if the block runs longer than ``seconds``."""
+
+    def expire(*_):
+        raise TimeoutError(f"still running after {seconds} s")
+
+    old = signal.signal(signal.SIGALRM, expire)
+    signal.alarm(seconds)
+    try:
+        yield
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, old)
+
+
+@pytest.mark.parametrize(
+    ("joint", "message"),
+    [
+        # l2 gets a second parent: l4 -> l2 closes an inner loop l2 -> l3 -> l4 -> l2
+        (
+            '<joint name="back" type="fixed"><parent link="l4"/><child link="l2"/></joint>',
+            "link 'l2' has two parents (joints 'j2' and 'back'): a URDF must be a tree",
+        ),
+        # a loop of its own, beside the tree: every link has one parent, none the root
+        (
+            '<link name="a"/><link name="b"/>'
+            '<joint name="ab" type="fixed"><parent link="a"/><child link="b"/></joint>'
+            '<joint name="ba" type="fixed"><parent link="b"/><child link="a"/></joint>',
+            "link 'b' is its own ancestor (the joints form a loop)",
+        ),
+    ],
+)
+def test_a_urdf_with_a_loop_is_refused_not_walked_forever(tiny_robot_files, joint, message):
+    urdf, yaml_path = tiny_robot_files
+    urdf.write_text(urdf.read_text().replace("</robot>", joint + "\n</robot>"))
+    with _within(10), pytest.raises(MomaError, match=re.escape(message)) as info:
+        register_user_robot(yaml_path)
+    assert str(urdf) in str(info.value) and "\n" not in str(info.value)
+    assert "tiny_user" not in ROBOTS
+
+
+def test_a_huge_yaml_is_refused_before_it_is_parsed(tiny_robot_files):
+    _, yaml_path = tiny_robot_files
+    # valid fields, then 2 MB of a list: refused by its size alone, in no time
+    yaml_path.write_text(yaml_path.read_text() + "home: [" + "0, " * 700_000 + "0]\n")
+    t0 = time.monotonic()
+    with pytest.raises(MomaError) as info:
+        load_config(yaml_path)
+    assert time.monotonic() - t0 < 1
+    assert f"robot YAML file {str(yaml_path)!r} is {yaml_path.stat().st_size} bytes" in str(
+        info.value
+    )
+    assert "over the limit of 1048576 bytes (1 MB)" in str(info.value)
+    # a file just under the limit is read as ever
+    yaml_path.write_text(yaml_path.read_text()[:1000].split("home")[0] + "#" * 1_040_000 + "\n")
+    assert load_config(yaml_path).name == "tiny_user"

@@ -217,10 +217,16 @@ def run(args: argparse.Namespace) -> int:
     get_robot_spec(args.robot)  # an unknown robot fails here, before anything is written
     if args.checkpoint != "bundled" and not (Path(args.checkpoint) / "config.json").is_file():
         raise MomaError(f"--checkpoint {args.checkpoint!r} is not a run directory")
-    if args.finetune_scenes and args.finetune_first_scene_id in range(
-        args.first_scene_id, args.first_scene_id + args.scenes
-    ):
-        raise MomaError("--finetune-first-scene-id must not be one of the check's scenes")
+    first, last = args.first_scene_id, args.first_scene_id + args.scenes - 1
+    tune_first = args.finetune_first_scene_id
+    tune_last = tune_first + args.finetune_scenes - 1
+    if args.finetune_scenes and tune_first <= last and first <= tune_last:  # ranges overlap
+        raise MomaError(
+            f"the fine-tuning scenes {tune_first}-{tune_last} (--finetune-first-scene-id "
+            f"{tune_first}, --finetune-scenes {args.finetune_scenes}) overlap the check's "
+            f"scenes {first}-{last} (--first-scene-id {first}, --scenes {args.scenes}): a "
+            "scene fine-tuned on must not be one of the check's scenes"
+        )
     root = Path(args.out)
     root.mkdir(parents=True, exist_ok=True)
     data = root / "data"

@@ -16,6 +16,10 @@ Example ``myarm.yaml`` (paths relative to the YAML file)::
     mount_offset_x: 0.0            # arm mount position along the base's x axis
     finger_force: 40.0             # closing force per finger, N (grippers; default 40)
 
+The YAML file may be at most :data:`MAX_YAML_BYTES` (1 MB): its fields are a few lines,
+and a larger file is refused before it is parsed. The URDF must be a tree: one root
+link, every other link the child of exactly one joint, no loops.
+
 The robot is mounted on the same mobile base as the built-in ones, at any height of
 :data:`~momakitchen.robots.spec.MOUNT_RANGE`. On the command line, ``--robot-yaml FILE``
 (repeatable) or the environment variable ``MOMAKITCHEN_ROBOT_YAML`` (paths separated by
@@ -51,6 +55,9 @@ from momakitchen.robots.spec import (
 from momakitchen.robots.urdf import BASE_LINK, TCP_LINK, link_of, parse_urdf
 
 ENV_VAR = "MOMAKITCHEN_ROBOT_YAML"
+# A robot's YAML is a few hundred bytes; parsing a huge one (a list of millions of items)
+# would take minutes, so a larger file is refused unparsed.
+MAX_YAML_BYTES = 1024 * 1024
 
 _REQUIRED: dict[str, type] = {
     "name": str,
@@ -188,7 +195,15 @@ def load_config(path: str | os.PathLike) -> UserRobotConfig:
     path = existing_file(path, "robot YAML file")
     where = str(path)
     try:
-        data = yaml.safe_load(path.read_text(encoding="utf-8"))
+        with path.open("rb") as f:
+            raw = f.read(MAX_YAML_BYTES + 1)  # never more, whatever the file claims
+        if len(raw) > MAX_YAML_BYTES:
+            size = path.stat().st_size
+            raise MomaError(
+                f"robot YAML file {where!r} is {size} bytes, over the limit of "
+                f"{MAX_YAML_BYTES} bytes (1 MB): a robot's YAML is a few lines"
+            )
+        data = yaml.safe_load(raw.decode("utf-8"))
     except (OSError, UnicodeDecodeError) as exc:
         raise MomaError(f"robot YAML file {where!r} cannot be read: {exc}") from None
     except yaml.YAMLError as exc:
@@ -253,6 +268,35 @@ def robot_files_digest(yaml_path: str | os.PathLike, urdf_path: str | os.PathLik
     return digest.hexdigest()
 
 
+def _parent_joints(joints: list[Any], where: str) -> dict[str, Any]:
+    """Each child link's joint to its parent, checked to make a tree; MomaError naming a
+    link with two parents or one in a loop (the walk to the root would go round forever)."""
+    parents: dict[str, Any] = {}
+    for joint in joints:
+        child = link_of(joint, "child")
+        if child in parents:
+            raise MomaError(
+                f"URDF file {where!r}: link {child!r} has two parents (joints "
+                f"{parents[child].get('name')!r} and {joint.get('name')!r}): a URDF must "
+                "be a tree, without loops"
+            )
+        parents[child] = joint
+    rooted: set[str] = set()  # links whose walk up ends at a link without a parent
+    for start in parents:
+        walk: dict[str, None] = {}  # in order, with a fast membership test
+        link = start
+        while link in parents and link not in rooted:
+            if link in walk:
+                raise MomaError(
+                    f"URDF file {where!r}: link {link!r} is its own ancestor (the joints "
+                    "form a loop): a URDF must be a tree"
+                )
+            walk[link] = None
+            link = link_of(parents[link], "parent")
+        rooted.update(walk)
+    return parents
+
+
 def _model(cfg: UserRobotConfig) -> tuple[RobotModel, int]:
     """Robot model of a user config and its arm DoF; checks the URDF's structure."""
     root = parse_urdf(cfg.urdf)
@@ -267,12 +311,12 @@ def _model(cfg: UserRobotConfig) -> tuple[RobotModel, int]:
             f"(end_effector_link in {cfg.source})"
         )
     joints = root.findall("joint")
-    children = {link_of(j, "child"): j for j in joints}
+    children = _parent_joints(joints, where)
     roots = [name for name in links if name not in children]
     if len(roots) != 1:
         raise MomaError(f"URDF file {where!r}: expected one root link, found {roots}")
     path, link = [], cfg.end_effector_link
-    while link in children:
+    while link in children:  # ends: the joints form a tree (_parent_joints)
         path.append(children[link])
         link = link_of(children[link], "parent")
     movable = ("revolute", "continuous", "prismatic")
