@@ -1,5 +1,5 @@
 """Paired timing of ``momakitchen.predict`` with floor-plane inference against the path
-before it (extrinsics trusted: ``scripts/robustness_before.py``), on the same stored
+before it (extrinsics trusted: ``analyses/robustness_before.py``), on the same stored
 frames, alternating, in one process (so a busy machine slows both alike).
 
 Usage::
@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "analyses"))
 
 import momakitchen
 from momakitchen.data import manifest as mf

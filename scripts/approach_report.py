@@ -53,9 +53,9 @@ def main() -> None:
         atomic_write_text(args.markdown, report_markdown(merged))
     if args.figure:
         from momakitchen.data.config import Preprocessing
+        from momakitchen.data.reader import dataset_generation
         from momakitchen.eval.approach.figure import episode_figure, figure_picks, replay
         from momakitchen.eval.approach.track import load_methods
-        from momakitchen.data.reader import dataset_generation
 
         _, gen = dataset_generation(Path(merged["dataset"]))
         methods = load_methods(

@@ -292,7 +292,7 @@ fi
 archive_results "$RUNS" "$ARCHIVE" msr-baselines.json
 
 # The 12-epoch pair and the oracle judged on four more views per configuration (MSR seeds
-# 1-4, Top-1 only): scripts/msr_views.py pools them with seed 0's (docs/RESULTS.md).
+# 1-4, Top-1 only): analyses/msr_views.py pools them with seed 0's (docs/RESULTS.md).
 if [[ -z "$ONLY" ]]; then
   more_views views "$RUNS/navaff-12ep/model.safetensors" --checkpoint "$RUNS/navaff-12ep" \
     --checkpoint "$RUNS/pointnet2-12ep" --method oracle

@@ -12,7 +12,7 @@ measures, per view (the same views and corruption draws as ``momakitchen robustn
 
 then the medians and means over the views. It runs no model and no trial.
 
-    python scripts/robustness_ceiling.py --data DIR [--corruption NAME ...] [--json F]
+    python analyses/robustness_ceiling.py --data DIR [--corruption NAME ...] [--json F]
 """
 
 from __future__ import annotations
@@ -28,7 +28,12 @@ import numpy as np
 
 def main(argv: list[str] | None = None) -> int:
     from momakitchen.data.config import Preprocessing
-    from momakitchen.data.reader import dataset_generation, judged_configurations, judged_view, rebuilt_configurations
+    from momakitchen.data.reader import (
+        dataset_generation,
+        judged_configurations,
+        judged_view,
+        rebuilt_configurations,
+    )
     from momakitchen.eval.robustness.views import episode_frame, view_inputs
     from momakitchen.metrics import episode_metrics
     from momakitchen.sim.labels import floor_affordance

@@ -1,4 +1,4 @@
-"""scripts/label_blur.py: how far noise-aware training's labels move against the scene."""
+"""analyses/label_blur.py: how far noise-aware training's labels move against the scene."""
 
 from __future__ import annotations
 
@@ -7,19 +7,19 @@ import subprocess
 import sys
 from pathlib import Path
 
-SCRIPTS = Path(__file__).resolve().parents[2] / "scripts"
+ANALYSES = Path(__file__).resolve().parents[1]
 
 
 def _run(*args: str) -> subprocess.CompletedProcess:
     return subprocess.run(
-        [sys.executable, str(SCRIPTS / "label_blur.py"), *args], capture_output=True, text=True
+        [sys.executable, str(ANALYSES / "label_blur.py"), *args], capture_output=True, text=True
     )
 
 
 def test_height_and_pitch_errors_leave_the_labels_and_roll_and_yaw_move_them(
     real_dataset, monkeypatch, tmp_path
 ):
-    monkeypatch.syspath_prepend(str(SCRIPTS))
+    monkeypatch.syspath_prepend(str(ANALYSES))
     from label_blur import main
 
     out = tmp_path / "blur.json"

@@ -1,4 +1,4 @@
-"""scripts/descriptor_twins.py: one arm's ground truth on another arm's views."""
+"""analyses/descriptor_twins.py: one arm's ground truth on another arm's views."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-SCRIPT = Path(__file__).resolve().parents[2] / "scripts" / "descriptor_twins.py"
+SCRIPT = Path(__file__).resolve().parents[1] / "descriptor_twins.py"
 
 
 def _dataset(root: Path, robot: str) -> Path:

@@ -1,4 +1,4 @@
-"""scripts/msr_power.py: the power of McNemar's test on a set of MSR configurations."""
+"""analyses/msr_power.py: the power of McNemar's test on a set of MSR configurations."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ import pytest
 
 from momakitchen.errors import MomaError
 
-SCRIPTS = Path(__file__).resolve().parents[2] / "scripts"
+ANALYSES = Path(__file__).resolve().parents[1]
 
 
 def _msr(outcomes: dict[str, list[int]]) -> dict:
@@ -41,14 +41,14 @@ def _msr(outcomes: dict[str, list[int]]) -> dict:
 
 def _run(*args: str) -> subprocess.CompletedProcess:
     return subprocess.run(
-        [sys.executable, str(SCRIPTS / "msr_power.py"), *args], capture_output=True, text=True
+        [sys.executable, str(ANALYSES / "msr_power.py"), *args], capture_output=True, text=True
     )
 
 
 @pytest.fixture()
 def power_main(monkeypatch):
-    """The script's main(argv), imported (its imports need the scripts folder on the path)."""
-    monkeypatch.syspath_prepend(str(SCRIPTS))
+    """The script's main(argv), imported (its imports need the analyses folder on the path)."""
+    monkeypatch.syspath_prepend(str(ANALYSES))
     from msr_power import main
 
     return main

@@ -2,7 +2,7 @@
 of other seeds (each seed judges every configuration on another of its first-person views)
 pooled per configuration.
 
-    python scripts/msr_views.py --reference navaff --msr \
+    python analyses/msr_views.py --reference navaff --msr \
         results/runs/navaff-12ep/msr.json results/runs/pointnet2-12ep/msr.json \
         results/runs/msr-baselines.json results/runs/views/msr-seed*.json \
         navaff-seed1=results/runs/navaff-12ep-seed1/msr.json \
@@ -31,7 +31,7 @@ from collections import Counter, defaultdict
 from pathlib import Path
 
 import numpy as np
-from script_cli import run_main
+from analysis_cli import run_main
 
 from momakitchen.errors import MomaError
 from momakitchen.eval.msr import merge_msr

@@ -2,9 +2,9 @@
 registered in this process) or only its finger force (realman-x0.70-f40, a gripper variant
 the registry builds from its name, docs/ROBOTS.md "Grip force"), then one of:
 
-    python3 scripts/gripper_twins.py generate OUT eg|f40  # label scenes 910000-910005
-    python3 scripts/gripper_twins.py twins A B [--out F]  # scripts/descriptor_twins.py
-    python3 scripts/gripper_twins.py cli ARGS...          # any momakitchen command
+    python3 analyses/gripper_twins.py generate OUT eg|f40  # label scenes 910000-910005
+    python3 analyses/gripper_twins.py twins A B [--out F]  # analyses/descriptor_twins.py
+    python3 analyses/gripper_twins.py cli ARGS...          # any momakitchen command
 
 (results/anyarm/twins/README.md, "The gripper").
 """
@@ -15,7 +15,7 @@ import dataclasses
 import sys
 from pathlib import Path
 
-from script_cli import run_main
+from analysis_cli import run_main
 
 from momakitchen.errors import MomaError
 from momakitchen.robots.spec import get_robot_spec, register_robot

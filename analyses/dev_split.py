@@ -2,7 +2,7 @@
 out as the view's "test" split, so recipes are compared without touching the real test
 scenes.
 
-    python scripts/dev_split.py --data ~/mk-data/gt2-300 --out ~/mk-data/gt2-dev --every 10
+    python analyses/dev_split.py --data ~/mk-data/gt2-300 --out ~/mk-data/gt2-dev --every 10
     momakitchen train --data ~/mk-data/gt2-dev --model navaff --out ~/mk-runs/dev-navaff
     momakitchen evaluate --data ~/mk-data/gt2-dev --checkpoint ~/mk-runs/dev-navaff --json dev.json
 
@@ -12,7 +12,7 @@ out scenes are every ``--every``-th train scene in scene-id order, starting with
 so smaller views are subsets of larger ones) and the same held-out scenes: a learning
 curve against data size.
 
-    python scripts/dev_split.py --data ~/mk-data/gt2-300 --out ~/mk-data/gt2-dev54 \
+    python analyses/dev_split.py --data ~/mk-data/gt2-300 --out ~/mk-data/gt2-dev54 \
         --every 10 --train-scenes 54
 """
 
@@ -22,7 +22,7 @@ import argparse
 import copy
 from pathlib import Path
 
-from script_cli import run_main
+from analysis_cli import run_main
 
 from momakitchen.data import manifest as mf
 from momakitchen.errors import MomaError

@@ -11,7 +11,7 @@ whole frame and builds the model's input again. Per view (the views and corrupti
 draws of ``momakitchen robustness``), how far the apparent target lies from the clean
 frame's, on the floor, with the one scale and with the warp undone. Runs no model.
 
-    python scripts/mono_dewarp.py --data DIR [--corruption mono ...] [--seed 0]
+    python analyses/mono_dewarp.py --data DIR [--corruption mono ...] [--seed 0]
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ import json
 from pathlib import Path
 
 import numpy as np
-from script_cli import run_main
+from analysis_cli import run_main
 
 MIN_POINTS = 200  # floor pixels needed to read a warp
 

@@ -1,7 +1,7 @@
 """How large a closed-loop lead can McNemar's test see on these configurations? The power of
 the test `momakitchen msr` and `benchmark` report, from two methods' measured Top-1 outcomes.
 
-    python scripts/msr_power.py --reference navaff --other pointnet2 \
+    python analyses/msr_power.py --reference navaff --other pointnet2 \
         --msr results/runs/navaff-12ep/msr.json results/runs/pointnet2-12ep/msr.json
 
 From the configurations solved by only one of the two (their share: the discordant rate)
@@ -18,7 +18,7 @@ import argparse
 from pathlib import Path
 
 import numpy as np
-from script_cli import run_main
+from analysis_cli import run_main
 
 from momakitchen.errors import MomaError
 from momakitchen.eval.msr import merge_msr

@@ -1,7 +1,7 @@
 """How much each model's map depends on the robot: every test view scored once with its own
 robot's descriptor and once with each other robot's.
 
-    python scripts/robot_swap.py --data ~/mk-data/gt2-300 --every 20 \
+    python analyses/robot_swap.py --data ~/mk-data/gt2-300 --every 20 \
         --checkpoint ~/mk-runs/navaff ~/mk-runs/pointnet2
 
 Per run and robot, prints the PCC of the map with the label and the ground-truth label at
@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 import torch
-from script_cli import add_view_args, run_main, test_views
+from analysis_cli import add_view_args, run_main, test_views
 from torch.utils.data import Subset
 
 from momakitchen.data.batch import episode_maps

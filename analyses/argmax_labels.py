@@ -1,7 +1,7 @@
 """The ground-truth label at each model's best point, on every view of the test split: an
 offline view of closed-loop Top-1 with ten times the views `momakitchen msr` tries.
 
-    python scripts/argmax_labels.py --data ~/mk-data/gt2-300 \
+    python analyses/argmax_labels.py --data ~/mk-data/gt2-300 \
         --checkpoint ~/mk-runs/navaff ~/mk-runs/pointnet2
 
 For every test episode (every N-th with ``--every N``; one thread) each run scores the floor
@@ -21,8 +21,8 @@ from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
+from analysis_cli import add_view_args, run_main, test_views
 from scipy.stats import wilcoxon
-from script_cli import add_view_args, run_main, test_views
 from torch.utils.data import Dataset
 
 from momakitchen.eval.evaluate import predicted_maps

@@ -5,7 +5,7 @@ labels use (docs/LABELS.md: the base's box, facing the target, clear of the floo
 footprints); a sample of each side is checked in PyBullet with the trial's own first check
 (`TrialRunner.base_free`).
 
-    python scripts/mask_band.py --data ~/mk-data/gt2-300 --every 5
+    python analyses/mask_band.py --data ~/mk-data/gt2-300 --every 5
 
 Prints, per target and overall: the positive floor points, the share the mask zeroes (the
 "band"), the share of the band the base fits in PyBullet, and the share of the unmasked
@@ -21,13 +21,13 @@ from collections import defaultdict
 from pathlib import Path
 
 import numpy as np
-from script_cli import run_main
+from analysis_cli import run_main
 from tqdm.auto import tqdm
 
 from momakitchen.data.config import GenerationConfig
 from momakitchen.data.manifest import load_manifest
-from momakitchen.errors import MomaError
 from momakitchen.data.reader import rebuilt_configurations, split_configurations
+from momakitchen.errors import MomaError
 from momakitchen.frames import base_to_world_xy
 from momakitchen.robots.spec import get_robot_spec
 from momakitchen.scene.configuration import base_fits

@@ -7,7 +7,7 @@ Each configuration: the oracle succeeds with probability ``--oracle``, random wi
 share, succeeding where the oracle fails with probability ``--beyond``. The estimated
 share of a set is the one ``scripts/anyarm_report.py`` computes.
 
-    python3 scripts/goal_power.py --configurations 60 300 --share 0.92 0.95 0.98
+    python3 analyses/goal_power.py --configurations 60 300 --share 0.92 0.95 0.98
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ from __future__ import annotations
 import argparse
 
 import numpy as np
-from script_cli import run_main
+from analysis_cli import run_main
 
 from momakitchen.errors import MomaError
 

@@ -16,7 +16,7 @@ same picks. Given two datasets labelled on the same configurations by such arms 
    ``momakitchen msr --data A --predictions FILE``: A standing where B's ground truth
    says, executed in physics.
 
-    python3 scripts/descriptor_twins.py DATA_A DATA_B --out twin.npz
+    python3 analyses/descriptor_twins.py DATA_A DATA_B --out twin.npz
 """
 
 from __future__ import annotations
@@ -25,8 +25,8 @@ import argparse
 from collections import Counter, defaultdict
 
 import numpy as np
+from analysis_cli import run_main
 from scipy.spatial import cKDTree
-from script_cli import run_main
 
 from momakitchen.data.shard import SceneShard, list_shards
 from momakitchen.errors import MomaError

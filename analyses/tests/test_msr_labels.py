@@ -1,4 +1,4 @@
-"""scripts/msr_labels.py: closed-loop outcomes binned by the label at each Top-1 point."""
+"""analyses/msr_labels.py: closed-loop outcomes binned by the label at each Top-1 point."""
 
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ from momakitchen.data.manifest import load_manifest
 from momakitchen.data.shard import SceneShard
 from momakitchen.frames import base_to_world_xy
 
-SCRIPT = Path(__file__).resolve().parents[2] / "scripts" / "msr_labels.py"
+SCRIPT = Path(__file__).resolve().parents[1] / "msr_labels.py"
 BINS = (0.0, 0.3, 0.6, 0.9, 1.0 + 1e-9)  # the script's columns after its two label-0 ones
 
 

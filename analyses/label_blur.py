@@ -22,7 +22,7 @@ out):
 It runs no model and no trial; a mask error's move of the target is left out (see
 ``robustness_ceiling.py``).
 
-    python scripts/label_blur.py --data DIR [--split train] [--every 400] [--draws 8] [--json F]
+    python analyses/label_blur.py --data DIR [--split train] [--every 400] [--draws 8] [--json F]
 """
 
 from __future__ import annotations
@@ -35,9 +35,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from script_cli import run_main
+from analysis_cli import run_main
 
-RECIPES = Path(__file__).resolve().parent / "recipes"
+RECIPES = Path(__file__).resolve().parents[1] / "scripts" / "recipes"
 
 
 def mixes() -> dict[str, tuple[Callable[[np.random.Generator], Any], bool]]:

@@ -1,7 +1,7 @@
 """Does a NavAff run use the global cloud? Every test view scored as usual and once with the
 global tokens hidden from the cross-attention (key padding: only the robot tokens left).
 
-    python scripts/global_tokens.py --data ~/mk-data/gt2-300 --every 60 \
+    python analyses/global_tokens.py --data ~/mk-data/gt2-300 --every 60 \
         --checkpoint src/momakitchen/checkpoints/navaff results/runs/lambda-0.7
 
 Per run, over the views with a successful position: the attention mass the floor tokens
@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 import torch
-from script_cli import add_view_args, run_main, test_views
+from analysis_cli import add_view_args, run_main, test_views
 from torch.utils.data import Subset
 
 from momakitchen.data.batch import episode_maps

@@ -1,7 +1,7 @@
 """Do the ground-truth maps predict the closed-loop trials? The label at each method's Top-1
 point of a `momakitchen msr` result against that trial's outcome.
 
-    python scripts/msr_labels.py --data ~/mk-data/gt2-300 \
+    python analyses/msr_labels.py --data ~/mk-data/gt2-300 \
         --msr ~/mk-runs/navaff/msr.json ~/mk-runs/msr-baselines.json --versus oracle
 
 Per method: Top-1 success binned by the ground-truth value at the chosen floor point (the
@@ -23,8 +23,8 @@ import itertools
 from pathlib import Path
 
 import numpy as np
+from analysis_cli import run_main
 from msr_views import by_seed
-from script_cli import run_main
 
 from momakitchen.data.config import GenerationConfig
 from momakitchen.data.manifest import load_manifest

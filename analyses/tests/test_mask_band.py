@@ -1,4 +1,4 @@
-"""scripts/mask_band.py: the floor the standable mask takes from the maps, checked in PyBullet."""
+"""analyses/mask_band.py: the floor the standable mask takes from the maps, checked in PyBullet."""
 
 from __future__ import annotations
 
@@ -12,11 +12,11 @@ from momakitchen.data.manifest import load_manifest
 from momakitchen.data.shard import SceneShard
 from momakitchen.errors import MomaError
 
-SCRIPTS = Path(__file__).resolve().parents[2] / "scripts"
+ANALYSES = Path(__file__).resolve().parents[1]
 
 
 def test_band_is_what_the_labels_mask_and_the_floor_plan_is_conservative(real_dataset, monkeypatch):
-    monkeypatch.syspath_prepend(str(SCRIPTS))
+    monkeypatch.syspath_prepend(str(ANALYSES))
     from mask_band import count
 
     totals = count(real_dataset, every=1, sample=10_000)  # every point checked
@@ -41,14 +41,14 @@ def test_band_is_what_the_labels_mask_and_the_floor_plan_is_conservative(real_da
 
 def test_bad_input_is_one_line_and_status_2(tmp_path, monkeypatch):
     res = subprocess.run(
-        [sys.executable, str(SCRIPTS / "mask_band.py"), "--data", str(tmp_path / "none")],
+        [sys.executable, str(ANALYSES / "mask_band.py"), "--data", str(tmp_path / "none")],
         capture_output=True,
         text=True,
     )
     assert res.returncode == 2
     assert res.stderr.count("\n") == 1 and res.stderr.startswith("mask_band.py: error:")
     assert "none" in res.stderr
-    monkeypatch.syspath_prepend(str(SCRIPTS))
+    monkeypatch.syspath_prepend(str(ANALYSES))
     from mask_band import main
 
     for flag in ("--every", "--sample"):

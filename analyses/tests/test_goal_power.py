@@ -1,4 +1,4 @@
-"""scripts/goal_power.py: how often the held-out goal is met by chance of the draw."""
+"""analyses/goal_power.py: how often the held-out goal is met by chance of the draw."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-SCRIPT = Path(__file__).resolve().parents[2] / "scripts" / "goal_power.py"
+SCRIPT = Path(__file__).resolve().parents[1] / "goal_power.py"
 
 
 def _run(*args: str) -> subprocess.CompletedProcess:

@@ -15,7 +15,7 @@ import json
 from pathlib import Path
 
 import numpy as np
-from script_cli import run_main
+from analysis_cli import run_main
 
 from momakitchen.data.shard import SceneShard
 from momakitchen.errors import MomaError

@@ -1,4 +1,4 @@
-"""scripts/msr_views.py: closed-loop success pooled over several views per configuration."""
+"""analyses/msr_views.py: closed-loop success pooled over several views per configuration."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-SCRIPT = Path(__file__).resolve().parents[2] / "scripts" / "msr_views.py"
+SCRIPT = Path(__file__).resolve().parents[1] / "msr_views.py"
 
 
 def _result(seed: int, outcomes: dict[str, list[int]], top_k: int = 1) -> dict:

@@ -1,4 +1,4 @@
-"""scripts/mono_dewarp.py: the smooth warp of relative depth, read from a flat floor."""
+"""analyses/mono_dewarp.py: the smooth warp of relative depth, read from a flat floor."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ from momakitchen.perception.camera import Intrinsics, look_at
 from momakitchen.perception.clouds import cloud_in_base
 from momakitchen.perception.floor import fit_floor
 
-SCRIPTS = Path(__file__).resolve().parents[2] / "scripts"
+ANALYSES = Path(__file__).resolve().parents[1]
 
 
 def _floor_depth(intr: Intrinsics, tf: np.ndarray) -> np.ndarray:
@@ -25,7 +25,7 @@ def _floor_depth(intr: Intrinsics, tf: np.ndarray) -> np.ndarray:
 
 
 def test_a_quadratic_warp_of_the_floor_is_read_back(monkeypatch):
-    monkeypatch.syspath_prepend(str(SCRIPTS))
+    monkeypatch.syspath_prepend(str(ANALYSES))
     from mono_dewarp import warp_field
 
     intr = Intrinsics.from_fov(160, 120, 58.0)
@@ -54,7 +54,7 @@ def test_a_quadratic_warp_of_the_floor_is_read_back(monkeypatch):
 def test_a_pitch_error_is_read_as_a_warp(monkeypatch):
     """Relative depth cannot tell a calibration's pitch error from a warp: the floor of a
     camera pitched 1 degree more than calibrated, with exact depth, reads as warped."""
-    monkeypatch.syspath_prepend(str(SCRIPTS))
+    monkeypatch.syspath_prepend(str(ANALYSES))
     from mono_dewarp import warp_field
 
     intr = Intrinsics.from_fov(160, 120, 58.0)
@@ -71,7 +71,7 @@ def test_a_pitch_error_is_read_as_a_warp(monkeypatch):
 
 
 def test_too_little_floor_reads_no_warp(monkeypatch):
-    monkeypatch.syspath_prepend(str(SCRIPTS))
+    monkeypatch.syspath_prepend(str(ANALYSES))
     from mono_dewarp import warp_field
 
     intr = Intrinsics.from_fov(160, 120, 58.0)

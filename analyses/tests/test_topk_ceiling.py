@@ -1,4 +1,4 @@
-"""scripts/topk_ceiling.py: how high Top-k MSR can go on a dataset's grid trials."""
+"""analyses/topk_ceiling.py: how high Top-k MSR can go on a dataset's grid trials."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ import numpy as np
 from momakitchen.data.manifest import load_manifest
 from momakitchen.data.shard import SceneShard
 
-SCRIPT = Path(__file__).resolve().parents[2] / "scripts" / "topk_ceiling.py"
+SCRIPT = Path(__file__).resolve().parents[1] / "topk_ceiling.py"
 
 
 def _run(data: Path, *args: str) -> subprocess.CompletedProcess:

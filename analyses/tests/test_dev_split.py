@@ -1,4 +1,4 @@
-"""scripts/dev_split.py: a tuning view of a dataset that never holds its test scenes."""
+"""analyses/dev_split.py: a tuning view of a dataset that never holds its test scenes."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ from pathlib import Path
 from momakitchen.data import EpisodeDataset
 from momakitchen.data.manifest import load_manifest
 
-SCRIPT = Path(__file__).resolve().parents[2] / "scripts" / "dev_split.py"
+SCRIPT = Path(__file__).resolve().parents[1] / "dev_split.py"
 
 
 def test_dev_view_holds_out_train_scenes_only(small_dataset, tmp_path):

@@ -4,7 +4,7 @@ to the model, the target the mean of every point of its mask. For the "before" c
 docs/RESULTS.md's robustness table; everything else (views, corruptions, trials, metrics)
 is ``momakitchen robustness``'s.
 
-    python scripts/robustness_before.py --data DATA --json before.json \
+    python analyses/robustness_before.py --data DATA --json before.json \
         [--checkpoint RUN] [--corruption NAME ...] [--max-configs N]
 """
 
@@ -15,13 +15,13 @@ import json
 from typing import Any
 
 import numpy as np
-from script_cli import run_main
+from analysis_cli import run_main
 
 import momakitchen.perception.live as live
 from momakitchen.errors import MomaError
-from momakitchen.eval.robustness.views import RobustnessConfig
 from momakitchen.eval.robustness.tables import format_robustness_table
 from momakitchen.eval.robustness.track import run_robustness
+from momakitchen.eval.robustness.views import RobustnessConfig
 from momakitchen.fileio import atomic_write_text
 from momakitchen.perception.camera import CameraConfig
 from momakitchen.perception.clouds import CloudConfig, frame_clouds

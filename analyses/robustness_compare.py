@@ -1,10 +1,10 @@
 """Robustness results side by side: one row per corruption, Top-1 (all views / views whose
 mask kept a target pixel), PCC and SIM of each ``NAME=FILE[,FILE...]:MODEL`` column (a
-``momakitchen robustness`` or ``scripts/robustness_before.py`` JSON and the model in it;
+``momakitchen robustness`` or ``analyses/robustness_before.py`` JSON and the model in it;
 several files, e.g. one per ``--seed``, pool their views), as Markdown; then McNemar's test
 of the first column against each other one, per corruption (Top-1 per view).
 
-    python scripts/robustness_compare.py \
+    python analyses/robustness_compare.py \
         before=results/robustness/before-navaff.json:navaff \
         after=results/robustness/after-bundled.json:navaff
 
@@ -17,11 +17,10 @@ import argparse
 import json
 from pathlib import Path
 
-from script_cli import run_main
+from analysis_cli import run_main
 
 from momakitchen.errors import MomaError
-from momakitchen.eval.robustness.tables import summarize
-from momakitchen.eval.robustness.tables import top1_by_view
+from momakitchen.eval.robustness.tables import summarize, top1_by_view
 from momakitchen.eval.stats import mcnemar
 
 
