@@ -43,7 +43,9 @@ from momakitchen.data.shard import SceneShard
 from momakitchen.train.checkpoint import default_checkpoint, load_checkpoint
 
 
-def _episode(data: str | None):
+def one_view(data: str | None, view: int = -1):
+    """A 640x480 frame: view ``view`` of the first configuration of the first scene of
+    ``data`` (default: a one-scene dataset, scene 3, generated into a temporary folder)."""
     if data is None:
         from momakitchen.data.config import GenerationConfig, ViewConfig
         from momakitchen.data.generator import GenerateRequest, generate_dataset
@@ -61,7 +63,7 @@ def _episode(data: str | None):
         )
     shard_path = sorted((Path(data) / "scenes").glob("scene_*.h5"))[0]
     with SceneShard(shard_path) as shard:
-        return shard.episode(0, shard.episode_indices(0)[-1])
+        return shard.episode(0, shard.episode_indices(0)[view])
 
 
 def _png(array: np.ndarray) -> bytes:
@@ -115,7 +117,7 @@ def main() -> None:
     ap.add_argument("--requests", type=int, default=20)
     ap.add_argument("--repeats", type=int, default=3)
     args = ap.parse_args()
-    ep = _episode(args.data)
+    ep = one_view(args.data)
     assert ep.depth.shape == (480, 640), ep.depth.shape
     run = load_checkpoint(default_checkpoint())
     code = "import sys; from momakitchen.cli.main import main; sys.exit(main())"
