@@ -30,6 +30,7 @@ of the stop-error sweep.
 
 from __future__ import annotations
 
+import copy
 import functools
 import math
 from collections.abc import Callable, Sequence
@@ -167,6 +168,15 @@ class FreeSpace:
         return coo_matrix(
             (np.concatenate(weights), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n)
         ).tocsr()
+
+    def copy(self) -> FreeSpace:
+        """A copy whose obstacle layer grows apart from this one's (each driven episode
+        starts from the same prior map); the arrays are shared until :meth:`observe`
+        replaces them, the graphs until then too."""
+        other = copy.copy(self)
+        other._graphs = dict(self._graphs)
+        other._trees = {}
+        return other
 
     def observe(self, points_xy: np.ndarray) -> bool:
         """Add obstacle points to the obstacle layer: every cell whose base box (centred

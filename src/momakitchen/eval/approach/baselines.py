@@ -7,11 +7,12 @@ import numpy as np
 
 from momakitchen.eval.approach.episode import Context, GoalOf, Pose
 from momakitchen.eval.approach.starts import front_cells
-from momakitchen.sim.motion import BaseState, face
+from momakitchen.sim.motion import BaseState, FreeSpace, face
 
 
 def baseline_goal(ctx: Context, name: str) -> GoalOf:
-    """A baseline's goal from where the base is (odometry frame = world at the start):
+    """A baseline's goal from where the base is (odometry frame = world at the start) and
+    what its costmap knows (only cells it can reach there count):
     ``oracle`` the successful grid cell with the highest ground-truth map value (the
     first reachable one), ``nearest`` the reachable free cell nearest the target,
     ``random`` a floor cell drawn within the arm's reach in front of the target, free or
@@ -29,7 +30,7 @@ def baseline_goal(ctx: Context, name: str) -> GoalOf:
         else:
             candidates = np.zeros((0, 2))
     elif name == "nearest":
-        candidates = ctx.free.cells[front_cells(ctx)]
+        candidates = ctx.known.cells[front_cells(ctx, ctx.known)]
     else:  # as msr's: any floor cell within reach, where the base may not even fit
         rel = ctx.free.cells - anchor[:2]
         within = np.flatnonzero(
@@ -38,15 +39,15 @@ def baseline_goal(ctx: Context, name: str) -> GoalOf:
         rng = np.random.default_rng([ctx.config.seed, ctx.cfg.scene_id, ctx.cfg.index, 1])
         pick = ctx.free.cells[within[rng.integers(len(within))]] if len(within) else None
 
-        def random_goal(state: BaseState) -> Pose | None:
+        def random_goal(state: BaseState, costmap: FreeSpace) -> Pose | None:
             if pick is None:
                 return None
             return (float(pick[0]), float(pick[1]), face(pick, anchor))
 
         return random_goal
 
-    def goal(state: BaseState) -> Pose | None:
-        reach = ctx.free.reachable(state.odom[:2])
+    def goal(state: BaseState, costmap: FreeSpace) -> Pose | None:
+        reach = costmap.reachable(state.odom[:2])
         for x, y in candidates:
             if reach(x, y):
                 return (float(x), float(y), face((x, y), anchor))

@@ -15,6 +15,9 @@ from momakitchen.sim.motion import (
 )
 
 STARTS = ("near", "far")
+# What the robot knows of the room: ``static`` its walls and fixed furniture (a prior map),
+# the obstacles around the target only as its looks see them; ``full`` everything.
+MAPS = ("static", "full")
 # Named perception presets: a realistic robot's (a D435-like stereo camera, a segmenter's
 # masks shifted 5 px, the camera 1 cm high and rolled 1 deg) and a perfect one; any
 # corruption name of ``momakitchen robustness --list`` works too.
@@ -60,6 +63,7 @@ class ApproachConfig:
         stop_sweep: run the final trial again at these stop errors ((cm, deg) pairs) from
             the same pre-stop pose; () for none.
         motion: driving speed, drift and stop error.
+        map: what the robot knows of the room at the start (:data:`MAPS`).
     """
 
     starts: tuple[str, ...] = ("far",)
@@ -76,6 +80,7 @@ class ApproachConfig:
     pick_radius: float = PICK_RADIUS
     stop_sweep: tuple[tuple[float, float], ...] = ()
     motion: MotionConfig = field(default_factory=MotionConfig)
+    map: str = "static"
 
     def __post_init__(self) -> None:
         for name, values, allowed in (
@@ -90,6 +95,8 @@ class ApproachConfig:
             if len(set(values)) != len(values):
                 raise MomaError(f"{name} named twice: {list(values)}")
         perception_corruption(self.perception)
+        if self.map not in MAPS:
+            raise MomaError(f"unknown map {self.map!r}; choose from {', '.join(MAPS)}")
         if self.seed < 0 or self.max_configs < 0:
             raise MomaError("seed and max_configs must be >= 0")
         k, n = self.part

@@ -32,8 +32,9 @@ if TYPE_CHECKING:
     from momakitchen.sim.world import World
 
 Pose = tuple[float, float, float]
-# A baseline's goal in the odometry frame from the base's state (None: it has none).
-GoalOf = Callable[[BaseState], Pose | None]
+# A baseline's goal in the odometry frame from the base's state and its costmap (None:
+# it has none).
+GoalOf = Callable[[BaseState, FreeSpace], Pose | None]
 
 
 # ------------------------------------------------------------------------- perceivers
@@ -44,6 +45,9 @@ class LookResult:
     prediction: Any
     cause: str = ""
     seconds: float = 0.0
+    # (M, 2) base-frame xy of the frame's points above the floor (the costmap's obstacle
+    # layer reads them); None where the robot knows the whole room.
+    obstacles: np.ndarray | None = None
 
 
 class ModelPerceiver:
@@ -85,7 +89,8 @@ class Context:
     gen: GenerationConfig
     world: World
     runner: TrialRunner
-    free: FreeSpace
+    free: FreeSpace  # the room's true free space: starts, L*, figures
+    known: FreeSpace  # what the robot knows at the start (config.map): it plans on a copy
     spec: RobotSpec
     config: ApproachConfig
     successes: np.ndarray  # (S, 2) world xy of successful grid trials
@@ -161,7 +166,9 @@ class Context:
 
 def take_look(ctx: Context, perceiver: Any, frame: Any, ids: tuple[int, ...]) -> LookResult:
     """Corrupt a perfect frame by the perception preset and predict on it; a frame the
-    method cannot use is a failed look with the error's ``cause``, a fatal error stops."""
+    method cannot use is a failed look with the error's ``cause``, a fatal error stops.
+    With a static map the corrupted frame's points above the floor are the look's
+    ``obstacles``; ``perceiver`` None: a look for the costmap only (cause ``costmap``)."""
     from momakitchen.perception.sensors import (
         corrupt_frame,
         corruption_rng,
@@ -172,19 +179,51 @@ def take_look(ctx: Context, perceiver: Any, frame: Any, ids: tuple[int, ...]) ->
     name = perception_corruption(ctx.config.perception)
     corruption = get_corruption(name)
     t0 = time.perf_counter()
+    obstacles = None
+    if ctx.config.map == "static":
+        bad = corrupt_frame(frame, corruption, corruption_rng(ctx.config.seed, ids, name))
+        obstacles = _obstacle_points(bad, corruption.preset.max_range)
+    if perceiver is None:
+        return LookResult(None, "costmap", 0.0, obstacles)
     distance = target_range(frame)
     if distance > corruption.preset.max_range:
-        return LookResult(None, "beyond_range")
+        return LookResult(None, "beyond_range", 0.0, obstacles)
     if not frame.target_mask.any():
-        return LookResult(None, "target_not_in_view")
-    bad = corrupt_frame(frame, corruption, corruption_rng(ctx.config.seed, ids, name))
+        return LookResult(None, "target_not_in_view", 0.0, obstacles)
+    if obstacles is None:
+        bad = corrupt_frame(frame, corruption, corruption_rng(ctx.config.seed, ids, name))
     try:
         pred = perceiver(bad, ctx.robot, corruption.preset.depth.metric, ctx.config)
     except MomaError as exc:
         if exc.fatal:
             raise
-        return LookResult(None, exc.cause, time.perf_counter() - t0)
-    return LookResult(pred, "", time.perf_counter() - t0)
+        return LookResult(None, exc.cause, time.perf_counter() - t0, obstacles)
+    return LookResult(pred, "", time.perf_counter() - t0, obstacles)
+
+
+# Every method looks once this far (m, along its path) from its goal when the map is static.
+NEAR_GOAL = 1.5
+# Observed points within this margin (m) of the prior map's furniture are that furniture.
+KNOWN_MARGIN = 0.05
+# Obstacle points come from depth within this range (m): beyond it a 1 deg calibration
+# error alone lifts the floor by more than OBSTACLE_MIN_HEIGHT.
+OBSTACLE_RANGE = 3.0
+OBSTACLE_MIN_HEIGHT = 0.10  # m above the floor: its depth noise and calibration stay below
+
+
+def _obstacle_points(frame: Any, max_range: float) -> np.ndarray:
+    """(M, 2) base-frame xy of a (corrupted) frame's points above the floor, the target's
+    pixels left out (what the base approaches is no obstacle to it)."""
+    from momakitchen.perception.obstacles import obstacle_points
+
+    return obstacle_points(
+        frame.depth,
+        frame.intrinsics,
+        frame.camera_to_base,
+        min_height=OBSTACLE_MIN_HEIGHT,
+        max_range=min(OBSTACLE_RANGE, max_range),
+        exclude_mask=frame.target_mask,
+    )
 
 
 class Episode:
@@ -231,6 +270,11 @@ class Episode:
         self.first: LookResult | None = None
         self.inference = 0.0
         self.heads: list[list[float]] = []
+        # The robot's costmap: the prior map, and with a static one the obstacles its
+        # looks see (its own copy: episodes do not share what they saw).
+        self.static = config.map == "static"
+        self.costmap = ctx.known.copy() if self.static else ctx.known
+        self.looked_near_goal = False
 
     # ----------------------------------------------------------------------- looking
     def can_look(self) -> bool:
@@ -259,6 +303,39 @@ class Episode:
             self.fusion.add(result.prediction, state.odom)
             assert self.fusion.target_xy is not None
             self.target = np.array([*self.fusion.target_xy, ctx.anchor[2]])
+        if result.obstacles is not None:
+            self.observe(result.obstacles)
+
+    def observe(self, points: np.ndarray) -> None:
+        """Add a look's obstacle points (base frame at the look) to the costmap, without
+        those on the furniture the prior map already holds, thinned to its cells."""
+        from momakitchen.frames import base_to_world_xy
+        from momakitchen.scene.geometry import corners_of
+
+        if not len(points):
+            return
+        xy = base_to_world_xy(points, self.state.odom)
+        cell = self.costmap.step
+        xy = np.unique(np.floor(xy / cell), axis=0) * cell + cell / 2
+        known = corners_of(self.ctx.scene.layout.footprints(KNOWN_MARGIN))
+        self.costmap.observe(xy[~_in_boxes(xy, known)])
+
+    def costmap_look(self, head: np.ndarray | None = None) -> None:
+        """A look for the costmap only (a method that does not look, or a policy that
+        would not look here): the frame's obstacles, no map; ``head`` default: toward
+        the believed target."""
+        state, k = self.state, len(self.record.looks)
+        if head is None:
+            head = self.ctx.head(state.odom, self.target)
+        self.heads.append(np.round(head, 5).ravel().tolist())
+        frame = self.ctx.render(state.true, head)
+        ids = (self.ctx.cfg.scene_id, self.ctx.cfg.index, self.start_index, k)
+        result = take_look(self.ctx, None, frame, ids)
+        self.record.looks.append(
+            LookRecord(_round(state.true), _round(state.odom), False, result.cause, 0.0)
+        )
+        if result.obstacles is not None:
+            self.observe(result.obstacles)
 
     # ---------------------------------------------------------------------- deciding
     def next_goal(self) -> tuple[Pose | None, FusedGoal | None, str]:
@@ -267,18 +344,18 @@ class Episode:
         drives toward the target and looks again, while its policy allows."""
         ctx, state = self.ctx, self.state
         if self.goal_of is not None:
-            goal = self.goal_of(state)
+            goal = self.goal_of(state, self.costmap)
             return goal, None, "" if goal is not None else "no_goal"
         while True:
-            fused = self.fusion.goal(ctx.free.reachable(state.odom[:2]), ctx.config.pick_radius)
+            fused = self.fusion.goal(self.costmap.reachable(state.odom[:2]), ctx.config.pick_radius)
             if fused is not None:
                 row = [*_round(fused.pose), round(fused.affordance, 4), round(fused.uncertainty, 4)]
                 self.record.goals = [*(self.record.goals or []), row]
                 return fused.pose, fused, ""
-            point = _approach_point(ctx, state, self.target) if self.can_look() else None
+            point = _approach_point(self.costmap, state, self.target) if self.can_look() else None
             if point is None:
                 return None, None, "no_map" if self.fusion.looks == 0 else "no_goal"
-            path = ctx.free.plan(state.odom[:2], point[:2])
+            path = self.costmap.plan(state.odom[:2], point[:2])
             if path is None or self.drive(path, 1.5) is None:
                 return None, None, "no_map"
             self.look(ctx.head(state.odom, self.target))
@@ -312,6 +389,8 @@ class Episode:
         outcome = ""
         if self.perceiver is not None:
             self.look(self.start_head)
+        elif self.static:  # a method that does not look still looks for its costmap
+            self.costmap_look(self.start_head)
         while True:
             chosen, fused, outcome = self.next_goal()
             if chosen is None:
@@ -319,21 +398,32 @@ class Episode:
                 goal = None if self.goal_of is not None else goal
                 break
             goal = chosen
-            path = ctx.free.plan(state.odom[:2], goal[:2])
+            path = self.costmap.plan(state.odom[:2], goal[:2])
             if path is None:
                 outcome = "unreachable_goal"
                 break
+            remaining = float(np.sum(np.hypot(*np.diff(path, axis=0).T)))
             stop_after = math.inf
             if fused is not None and self.policy is not None:
-                remaining = float(np.sum(np.hypot(*np.diff(path, axis=0).T)))
                 looks = len(record.looks)
                 stop_after = self.policy.next_look(
                     looks, self.fusion, state.odom[:2], fused, remaining
                 )
+            # With a static map every method looks once within NEAR_GOAL of its goal,
+            # where the obstacles that decide the stance stand.
+            near = remaining - NEAR_GOAL
+            costmap_only = self.static and not self.looked_near_goal and 0 < near < stop_after
+            if costmap_only:
+                stop_after = near
             arrived = self.drive(path, stop_after)
             if arrived is None or arrived:  # blocked (stopped before contact) or at the goal
                 break
-            self.look(ctx.head(state.odom, self.target))
+            if costmap_only:
+                self.looked_near_goal = True
+                self.costmap_look()
+            else:
+                self.looked_near_goal |= remaining - stop_after <= NEAR_GOAL
+                self.look(ctx.head(state.odom, self.target))
         record.goal = None if goal is None else _round(goal)
         record.target_odom = _round(self.target[:2])
         if self.capture:
@@ -402,15 +492,27 @@ def _final_pose(
     raise AssertionError("unreachable")
 
 
-def _approach_point(ctx: Context, state: BaseState, target: np.ndarray) -> Pose | None:
-    """A reachable free cell about 2.5 m in front of the believed target (the middle of
-    the training views' range), nearest that distance; where a robot without a usable
-    map goes to look again."""
-    reach = ctx.free.reachable(state.odom[:2])
-    d = np.hypot(*(ctx.free.cells - target[:2]).T)
-    order = np.argsort(np.abs(d - 2.5) + 10.0 * ~ctx.free.free, kind="stable")
+def _in_boxes(xy: np.ndarray, corners: np.ndarray) -> np.ndarray:
+    """(M,) bool: points (M, 2) inside any of the convex quadrilaterals ``corners``
+    (B, 4, 2), counter-clockwise."""
+    inside = np.zeros(len(xy), bool)
+    for quad in corners:
+        edges = np.roll(quad, -1, axis=0) - quad  # (4, 2)
+        rel = xy[:, None, :] - quad[None]  # (M, 4, 2)
+        cross = edges[None, :, 0] * rel[..., 1] - edges[None, :, 1] * rel[..., 0]
+        inside |= (cross >= 0).all(axis=1)
+    return inside
+
+
+def _approach_point(free: FreeSpace, state: BaseState, target: np.ndarray) -> Pose | None:
+    """A reachable free cell of ``free`` (the robot's costmap) about 2.5 m in front of the
+    believed target (the middle of the training views' range), nearest that distance;
+    where a robot without a usable map goes to look again."""
+    reach = free.reachable(state.odom[:2])
+    d = np.hypot(*(free.cells - target[:2]).T)
+    order = np.argsort(np.abs(d - 2.5) + 10.0 * ~free.free, kind="stable")
     for i in order[:2000]:
-        x, y = ctx.free.cells[i]
-        if ctx.free.free[i] and y > target[1] and reach(x, y):
+        x, y = free.cells[i]
+        if free.free[i] and y > target[1] and reach(x, y):
             return (float(x), float(y), face((x, y), target))
     return None

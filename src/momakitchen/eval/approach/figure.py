@@ -72,6 +72,7 @@ def _config(result: dict[str, Any]) -> Any:
 
     c = dict(result["config"])
     c.pop("perception_corruption", None)
+    c.setdefault("map", "full")  # results from before the static map knew the whole room
     c["look"] = LookPolicy(**c["look"])
     c["motion"] = MotionConfig(**c["motion"])
     for key in ("starts", "policies", "far_range"):

@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 
 from momakitchen.eval.approach.episode import Context, Pose
-from momakitchen.sim.motion import face
+from momakitchen.sim.motion import FreeSpace, face
 
 
 def near_start(ctx: Context, shard: Any, scene: Any) -> tuple[Pose, np.ndarray] | None:
@@ -61,10 +61,12 @@ def far_start(ctx: Context) -> tuple[Pose, np.ndarray] | None:
     return None
 
 
-def front_cells(ctx: Context) -> np.ndarray:
-    """Free cells within the arm's reach in front of the target, nearest first."""
-    rel = ctx.free.cells - ctx.anchor[:2]
+def front_cells(ctx: Context, free: FreeSpace | None = None) -> np.ndarray:
+    """Cells of ``free`` (default: the room's true free space) within the arm's reach in
+    front of the target, nearest first."""
+    free = free or ctx.free
+    rel = free.cells - ctx.anchor[:2]
     d = np.hypot(rel[:, 0], rel[:, 1])
-    ok = ctx.free.free & (d <= ctx.spec.reach) & (rel[:, 1] > 0)
+    ok = free.free & (d <= ctx.spec.reach) & (rel[:, 1] > 0)
     idx = np.flatnonzero(ok)
     return idx[np.argsort(d[idx], kind="stable")]

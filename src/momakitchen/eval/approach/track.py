@@ -43,6 +43,9 @@ def opened_configuration(
         try:
             spec = get_robot_spec(cfg.robot)
             free = FreeSpace(scene.layout, cfg, spec.footprint, config.motion)
+            known = free
+            if config.map == "static":  # the prior map: the room without the obstacles
+                known = FreeSpace(scene.layout, cfg, spec.footprint, config.motion, False)
             successes = labels.trial_positions[labels.trial_stages == 0]
             yield Context(
                 scene,
@@ -52,6 +55,7 @@ def opened_configuration(
                 world,
                 runner,
                 free,
+                known,
                 spec,
                 config,
                 successes,
