@@ -84,8 +84,7 @@ def test_results_open_with_the_paper_beside_ours():
         assert numbers[0::2] == list(paper), (key, numbers)
 
 
-def test_results_are_short_and_the_history_is_elsewhere():
-    assert len(RESULTS.splitlines()) < 800
+def test_the_history_is_elsewhere():
     history = (ROOT / "docs" / "results" / "HISTORY.md").read_text(encoding="utf-8")
     assert "Earlier results: 100 scenes" in history and "100 scenes" not in RESULTS[:3000]
     assert "Made again on another machine" in history

@@ -29,13 +29,26 @@ def make_dataset(
     )
 
 
+# Where slow_scene_records leaves its marks (an environment variable: pool workers inherit it).
+SLOW_MARKS = "MOMAKITCHEN_TEST_SLOW_MARKS"
+
+
 def slow_scene_records(scene_id: int, config: SyntheticSceneConfig):
     """Synthetic records, a minute late for every scene but the first: a worker busy with a
-    long scene."""
+    long scene. With ``SLOW_MARKS`` set to a folder, the worker writes its pid there as
+    ``busy.pid`` when it starts a long scene and ``finished`` when it has done one."""
+    import os
     import time
 
+    marks = os.environ.get(SLOW_MARKS)
     if scene_id > 0:
+        if marks:
+            part = Path(marks) / f"busy.pid.{os.getpid()}"
+            part.write_text(str(os.getpid()))
+            part.replace(Path(marks) / "busy.pid")
         time.sleep(60)
+        if marks:
+            (Path(marks) / "finished").touch()
     return synthetic_scene_records(scene_id, config)
 
 

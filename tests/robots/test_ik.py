@@ -44,7 +44,7 @@ def test_ik_position_only_and_unreachable(client):
     assert res.success and res.orientation_error == 0.0
     far = robot.solve_ik(sh + np.array([3.0, 0.0, 0.0]), (1, 0, 0, 0))
     assert not far.success and far.position_error > 1.5
-    assert far.calls == 0 and far.seconds < 0.05  # rejected by the reach pre-check
+    assert far.calls == 0  # rejected by the reach pre-check: no iteration of the solver
     assert not robot.could_reach(sh + np.array([3.0, 0.0, 0.0]))
     assert robot.could_reach(sh + np.array([0.5, 0.0, 0.0]))
     # At the edge of the TCP sphere, pointing down puts the flange out of its own sphere.
