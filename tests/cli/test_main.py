@@ -54,17 +54,21 @@ def test_help_and_version_import_nothing_heavy():
 
 
 def test_names_spelled_out_for_the_parsers_match_the_registries():
-    """The parsers list model, preset, baseline and split names (and the demo's default
-    scene) without importing their modules; they must be those modules' values."""
-    from momakitchen.cli import demo, learn, msr
-    from momakitchen.eval import msr as msr_module
+    """The parsers list model, preset, split, start and policy names (and the demo's
+    default scene) without importing their modules; they must be those modules' values
+    (the baselines come from the light momakitchen.eval.methods itself)."""
+    from momakitchen.cli import approach, demo, learn, options
+    from momakitchen.data.manifest import SPLIT_CHOICES
+    from momakitchen.deploy.fusion import POLICIES
+    from momakitchen.eval.approach.config import STARTS
     from momakitchen.generation.demo import DEFAULT_SCENE_ID
     from momakitchen.models import model_names
     from momakitchen.train import PRESETS
 
     assert learn.MODEL_NAMES == model_names()
     assert learn.PRESET_NAMES == tuple(PRESETS)
-    assert (msr.BASELINES, msr.SPLITS) == (msr_module.BASELINES, msr_module.SPLITS)
+    assert options.SPLIT_CHOICES == SPLIT_CHOICES
+    assert (approach.STARTS, approach.POLICIES) == (STARTS, POLICIES)
     assert demo.DEFAULT_SCENE_ID == DEFAULT_SCENE_ID
 
 

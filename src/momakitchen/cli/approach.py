@@ -7,7 +7,8 @@ through the real-robot path ``momakitchen.predict``), drives a collision-free pa
 odometry drift, may look again on the way (``--policy``), stops with an error, turns to
 face the target and runs the labelling's trial where it really is. Reports success, SPL,
 looks and time per (method, policy, start), McNemar between every pair, and, with
-``--stop-sweep``, success against the final-stop error. See docs/APPROACH.md.
+``--stop-sweep``, success against the final-stop error. A ``--checkpoint`` may also be a
+plug-in's run, or ``bundled``. See docs/APPROACH.md.
 
 A killed run resumes: run the same command again (the configurations done so far are
 kept in ``JSON.partial.jsonl`` until the run ends).
@@ -20,15 +21,33 @@ import json
 import time
 from pathlib import Path
 
-from momakitchen.cli.common import add_robot_yaml, non_negative_int, output_file, part_arg
+from momakitchen.cli.common import output_file, part_arg
+from momakitchen.cli.options import (
+    add_baselines,
+    add_checkpoint,
+    add_data,
+    add_quiet,
+    add_results_json,
+    add_robot_yaml,
+    add_selection,
+    config_fields,
+)
 from momakitchen.errors import MomaError
+from momakitchen.eval.methods import BASELINES
 from momakitchen.fileio import atomic_write_bytes, atomic_write_text
 
-# Spelled out so that building the parser does not import numpy (tests/cli/test_main.py).
+# Spelled out so that building the parser does not import numpy (tests/cli/test_main.py),
+# as are the defaults of the options below: ApproachConfig's, LookPolicy's and
+# MotionConfig's (in the units of the options; tests/cli/test_options.py checks them).
 STARTS = ("near", "far")
 POLICIES = ("single", "relook", "uncertain")
-BASELINES = ("oracle", "nearest", "random")
-SPLITS = ("test", "train", "all")
+PERCEPTION = "realistic"
+MAX_LOOKS = 3
+RELOOK_DISTANCE = 1.5
+MAX_UNCERTAINTY = 0.10
+STOP_XY_CM = 3.0
+STOP_YAW_DEG = 2.0
+DRIFT_PERCENT = 2.0
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -38,16 +57,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    ap.add_argument("--data", required=True, help="dataset directory (momakitchen generate)")
-    ap.add_argument("--json", required=True, help="where to write the results (JSON)")
-    ap.add_argument(
-        "--checkpoint",
-        action="append",
-        default=[],
-        metavar="RUN",
-        help="a trained run or plug-in run, or `bundled` (repeatable; with no --checkpoint, "
-        "--server or --method: the bundled model)",
-    )
+    add_data(ap)
+    add_results_json(ap)
+    add_checkpoint(ap, repeatable=True)
     ap.add_argument(
         "--server",
         action="append",
@@ -56,13 +68,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="a method behind `momakitchen serve`'s HTTP API, asked at every look "
         "(repeatable; docs/METHODS.md)",
     )
-    ap.add_argument(
-        "--method",
-        action="append",
-        default=[],
-        metavar="METHOD",
-        help=f"baseline: {', '.join(BASELINES)} (repeatable)",
-    )
+    add_baselines(ap)
     ap.add_argument(
         "--start",
         action="append",
@@ -79,15 +85,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     ap.add_argument(
         "--perception",
-        default="realistic",
+        default=PERCEPTION,
         help="perception preset: realistic (D435 depth, masks shifted 5 px, camera 1 cm / "
         "1 deg off), ideal, or a corruption of `momakitchen robustness --list`",
     )
-    ap.add_argument("--seed", type=non_negative_int, default=0)
-    ap.add_argument("--split", default="test", choices=SPLITS)
-    ap.add_argument(
-        "--max-configs", type=non_negative_int, default=0, help="only the first N (0: all)"
-    )
+    add_selection(ap)
     ap.add_argument(
         "--part",
         type=part_arg,
@@ -97,27 +99,41 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "N processes; scripts/approach_report.py merges the parts' --json files",
     )
     ap.add_argument(
-        "--max-looks", type=int, default=3, help="most looks per episode, the first included (3)"
+        "--max-looks",
+        type=int,
+        default=MAX_LOOKS,
+        help="most looks per episode, the first included (%(default)s)",
     )
     ap.add_argument(
         "--relook-distance",
         type=float,
-        default=1.5,
-        help="relook: look again this far from the goal (m, 1.5)",
+        default=RELOOK_DISTANCE,
+        help="relook: look again this far from the goal (m, %(default)g)",
     )
     ap.add_argument(
         "--max-uncertainty",
         type=float,
-        default=0.10,
-        help="uncertain: look again while the MC-dropout std at the goal exceeds this (0.10)",
+        default=MAX_UNCERTAINTY,
+        help="uncertain: look again while the MC-dropout std at the goal exceeds this "
+        "(%(default).2f)",
     )
-    ap.add_argument("--stop-xy", type=float, default=3.0, help="final-stop error, cm per axis (3)")
-    ap.add_argument("--stop-yaw", type=float, default=2.0, help="final-stop yaw error, deg (2)")
+    ap.add_argument(
+        "--stop-xy",
+        type=float,
+        default=STOP_XY_CM,
+        help="final-stop error, cm per axis (%(default)g)",
+    )
+    ap.add_argument(
+        "--stop-yaw",
+        type=float,
+        default=STOP_YAW_DEG,
+        help="final-stop yaw error, deg (%(default)g)",
+    )
     ap.add_argument(
         "--drift",
         type=float,
-        default=2.0,
-        help="odometry error along the path, %% of the distance (2; across: half of it)",
+        default=DRIFT_PERCENT,
+        help="odometry error along the path, %% of the distance (%(default)g; across: half of it)",
     )
     ap.add_argument(
         "--stop-sweep",
@@ -137,7 +153,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     ap.add_argument(
         "--record-dir", metavar="DIR", help="where --record writes (default: beside --json)"
     )
-    ap.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_quiet(ap)
     add_robot_yaml(ap)
     ap.set_defaults(func=run)
 
@@ -165,14 +181,6 @@ def run(args: argparse.Namespace) -> int:
         if f:
             output_file(f)
     records = _record_ids(args.record)
-    for name, value, hi in (
-        ("--stop-xy", args.stop_xy, 50),
-        ("--stop-yaw", args.stop_yaw, 45),
-        ("--drift", args.drift, 50),
-    ):
-        if not 0 <= value <= hi:  # NaN fails too
-            unit = {"--stop-xy": "cm", "--stop-yaw": "deg", "--drift": "%"}[name]
-            raise MomaError(f"{name} must be in [0, {hi}] {unit}, got {value:g}")
     motion = MotionConfig(
         stop_xy=args.stop_xy / 100.0,
         stop_yaw=args.stop_yaw,
@@ -183,9 +191,6 @@ def run(args: argparse.Namespace) -> int:
         starts=tuple(args.start) or ("far",),
         policies=tuple(args.policy) or POLICIES,
         perception=args.perception,
-        seed=args.seed,
-        split=args.split,
-        max_configs=args.max_configs,
         part=args.part,
         look=LookPolicy(
             relook_distance=args.relook_distance,
@@ -194,6 +199,7 @@ def run(args: argparse.Namespace) -> int:
         ),
         stop_sweep=STOP_SWEEP if args.stop_sweep else (),
         motion=motion,
+        **config_fields(args, ApproachConfig),
     )
     unknown = [m for m in args.method if m not in BASELINES]
     if unknown:

@@ -22,7 +22,8 @@ import time
 from pathlib import Path
 from typing import Any
 
-from momakitchen.cli.common import add_robot_yaml, non_negative_int, positive_int
+from momakitchen.cli.common import non_negative_int, positive_int
+from momakitchen.cli.options import add_quiet, add_robot_yaml, add_seed
 from momakitchen.errors import MomaError
 from momakitchen.fileio import dumps_strict
 from momakitchen.scene.ids import scene_range_problem
@@ -77,8 +78,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         default=0,
         help="re-run at most N successful positions per configuration (0: all)",
     )
-    parser.add_argument("--seed", type=non_negative_int, default=0, help="MSR seed (0)")
-    parser.add_argument("--quiet", action="store_true", help="no progress bars")
+    add_seed(parser)
+    add_quiet(parser)
     add_robot_yaml(parser)
     parser.set_defaults(func=run)
 

@@ -12,14 +12,15 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from momakitchen.cli.common import add_robot_yaml, non_negative_int, positive_int
+from momakitchen.cli.common import positive_int
+from momakitchen.cli.options import add_data, add_max_configs, add_quiet, add_robot_yaml
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "benchmark", help="results tables and figures (RESULTS.md)", description=__doc__
     )
-    p.add_argument("--data", required=True, help="dataset directory (momakitchen generate)")
+    add_data(p)
     p.add_argument(
         "--runs",
         nargs="+",
@@ -74,17 +75,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="`momakitchen robustness` results: a robustness table, and McNemar's test of "
         "the models under each combined corruption",
     )
-    p.add_argument(
-        "--max-configs",
-        type=non_negative_int,
-        default=0,
-        help="MSR on the first N test configurations only (0: all)",
-    )
+    add_max_configs(p)
     p.add_argument(
         "--examples", type=positive_int, default=4, help="rows of the qualitative figure"
     )
     p.add_argument("--out", required=True, help="output directory")
-    p.add_argument("--quiet", action="store_true", help="no progress bars")
+    add_quiet(p)
     add_robot_yaml(p)
     p.set_defaults(func=run)
 

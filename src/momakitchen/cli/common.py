@@ -82,18 +82,6 @@ def scene_id(text: str) -> int:
     return value
 
 
-def add_robot_yaml(parser: argparse.ArgumentParser) -> None:
-    """``--robot-yaml FILE`` (repeatable) on a command that takes a robot; the entry point
-    registers the files' robots before the command runs (as MOMAKITCHEN_ROBOT_YAML does)."""
-    parser.add_argument(
-        "--robot-yaml",
-        action="append",
-        default=[],
-        metavar="FILE",
-        help="register a user robot (URDF + YAML, see `momakitchen robots`) first; repeatable",
-    )
-
-
 def check_config_index(index: int, count: int) -> None:
     """MomaError unless ``--config`` ``index`` names one of ``count`` configurations."""
     if not 0 <= index < count:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 
+from momakitchen.cli.options import add_quiet
 from momakitchen.cli.wording import counted
 from momakitchen.errors import MomaError
 from momakitchen.fileio import dumps_strict
@@ -26,7 +27,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         action="store_true",
         help="exit 0 on an unfinished generation whose shards are sound",
     )
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_quiet(p)
     p.set_defaults(func=run_check)
 
     p = sub.add_parser(

@@ -12,12 +12,12 @@ import argparse
 from pathlib import Path
 
 from momakitchen.cli.common import (
-    add_robot_yaml,
     check_config_index,
     non_negative_int,
     planned_output_dir,
     scene_id,
 )
+from momakitchen.cli.options import add_checkpoint, add_robot_yaml
 
 # momakitchen.generation.demo's default, spelled out so that building the parser
 # (``momakitchen --help``) does not import numpy; tests/cli/test_main.py checks it.
@@ -43,7 +43,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         default=0,
         help="configuration index within the scene (default 0)",
     )
-    p.add_argument("--checkpoint", default=None, help="run directory (default: bundled model)")
+    add_checkpoint(p)
     p.set_defaults(func=run)
 
 

@@ -21,11 +21,18 @@ import argparse
 import time
 from pathlib import Path
 
-from momakitchen.cli.common import add_robot_yaml, non_negative_int, output_file
+from momakitchen.cli.common import output_file
+from momakitchen.cli.options import (
+    add_data,
+    add_max_configs,
+    add_quiet,
+    add_robot_yaml,
+    add_seed,
+    add_split,
+    config_fields,
+)
 from momakitchen.errors import MomaError
 from momakitchen.fileio import existing_dir
-
-SPLITS = ("test", "train", "all")
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -35,8 +42,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("--data", required=True, help="dataset directory (momakitchen generate)")
-    p.add_argument("--split", default="test", choices=SPLITS)
+    add_data(p)
+    add_split(p)
     p.add_argument("--out", required=True, help="the inputs file to write (.npz, .h5 or .hdf5)")
     p.add_argument(
         "--images", action="store_true", help="also each view's rgb and depth images (large)"
@@ -54,11 +61,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         metavar="NAME",
         help="a corruption (repeatable; default: every one; 'clean' is always added first)",
     )
-    rob.add_argument("--seed", type=non_negative_int, default=0, help="as robustness's --seed")
-    rob.add_argument(
-        "--max-configs", type=non_negative_int, default=0, help="only the first N (0: all)"
-    )
-    rob.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_seed(rob)
+    add_max_configs(rob)
+    add_quiet(rob)
     add_robot_yaml(p)
     p.set_defaults(func=run)
 
@@ -87,9 +92,7 @@ def _robustness(args: argparse.Namespace, root: Path, out: Path, t0: float) -> i
     names = list(args.corruption) or list(CORRUPTIONS)
     config = RobustnessConfig(
         corruptions=("clean", *[n for n in names if n != "clean"]),
-        seed=args.seed,
-        split=args.split,
-        max_configs=args.max_configs,
+        **config_fields(args, RobustnessConfig),
     )
     counts = export_robustness_inputs(
         root, out, config, images=args.images, progress=not args.quiet

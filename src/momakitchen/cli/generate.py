@@ -32,7 +32,8 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from momakitchen.cli.common import add_robot_yaml, positive_int, scene_id
+from momakitchen.cli.common import positive_int, scene_id
+from momakitchen.cli.options import add_quiet, add_robot_yaml
 from momakitchen.errors import MomaError
 
 
@@ -106,7 +107,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "round-robin over configurations; default: the paper's six)",
     )
     add_robot_yaml(parser)
-    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_quiet(parser)
     parser.set_defaults(func=run)
 
 

@@ -14,7 +14,6 @@ import argparse
 import dataclasses
 
 from momakitchen.cli.common import (
-    add_robot_yaml,
     check_config_index,
     non_negative_float,
     non_negative_int,
@@ -23,6 +22,7 @@ from momakitchen.cli.common import (
     positive_float,
     scene_id,
 )
+from momakitchen.cli.options import add_quiet, add_robot_yaml
 from momakitchen.fileio import (
     atomic_path,
     atomic_write_bytes,
@@ -61,7 +61,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         default=None,
         help="override the target's lateral friction (what-if study)",
     )
-    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_quiet(parser)
     parser.set_defaults(func=run)
 
 

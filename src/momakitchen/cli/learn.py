@@ -15,12 +15,14 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from momakitchen.cli.common import (
+from momakitchen.cli.common import non_negative_float, non_negative_int, output_file, positive_int
+from momakitchen.cli.options import (
+    add_checkpoint,
+    add_data,
+    add_quiet,
+    add_results_json,
     add_robot_yaml,
-    non_negative_float,
-    non_negative_int,
-    output_file,
-    positive_int,
+    add_split,
 )
 from momakitchen.errors import MomaError
 from momakitchen.fileio import atomic_write_text, dumps_strict, existing_dir
@@ -28,7 +30,6 @@ from momakitchen.fileio import atomic_write_text, dumps_strict, existing_dir
 if TYPE_CHECKING:
     from momakitchen.train.config import TrainConfig
 
-SPLITS = ("train", "test", "all")
 # The registries' names, spelled out so that building the parser (``momakitchen --help``)
 # does not import torch; tests/cli/test_main.py checks them against the registries.
 MODEL_NAMES = (
@@ -145,7 +146,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "from (default 20; 0: only at epoch ends)",
     )
     tr.add_argument("--resume", action="store_true", help="continue the run in --out")
-    tr.add_argument("--quiet", action="store_true", help="no progress bars")
+    add_quiet(tr)
     add_robot_yaml(tr)
     tr.set_defaults(func=run_train)
 
@@ -154,13 +155,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="map metrics of a trained model on the test split",
         description=EVALUATE_DESCRIPTION,
     )
-    ev.add_argument("--data", required=True, help="dataset directory")
+    add_data(ev)
     which = ev.add_mutually_exclusive_group()
-    which.add_argument(
-        "--checkpoint",
-        metavar="RUN",
-        help="run directory written by train (default, with no --predictions: the bundled model)",
-    )
+    add_checkpoint(which)
     which.add_argument(
         "--predictions",
         metavar="FILE",
@@ -169,13 +166,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     ev.add_argument(
         "--name", default=None, help="the --predictions method's name (default: the file's stem)"
     )
-    ev.add_argument("--json", required=True, help="where to write the metrics (JSON)")
-    ev.add_argument("--split", default="test", choices=SPLITS)
+    add_results_json(ev)
+    add_split(ev)
     ev.add_argument(
         "--model", default=None, help="expected model name (refuses a checkpoint of another model)"
     )
     ev.add_argument("--batch-size", type=positive_int, default=8)
-    ev.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_quiet(ev)
     add_robot_yaml(ev)
     ev.set_defaults(func=run_evaluate)
 

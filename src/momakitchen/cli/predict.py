@@ -20,14 +20,8 @@ from __future__ import annotations
 import argparse
 import time
 
-from momakitchen.cli.common import (
-    add_robot_yaml,
-    non_negative_float,
-    non_negative_int,
-    output_dir,
-    planned_output_dir,
-    positive_int,
-)
+from momakitchen.cli.common import output_dir, planned_output_dir
+from momakitchen.cli.options import add_checkpoint, add_prediction, add_robot_yaml, config_fields
 from momakitchen.cli.predict_bag import BAG_ONLY, add_bag_arguments, run_bag
 from momakitchen.fileio import dumps_strict
 
@@ -79,32 +73,15 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         default=None,
         help="the shoulder's distance from the first joint's axis (m), with --reach (default 0)",
     )
-    p.add_argument("--checkpoint", default=None, help="run directory (default: bundled model)")
-    p.add_argument("--top-k", type=positive_int, default=5, help="poses to return, best first (5)")
-    p.add_argument(
-        "--pick-radius",
-        type=non_negative_float,
-        default=None,
-        help="rank the poses by the map averaged over this radius (m; default 0: the raw map)",
-    )
-    p.add_argument(
-        "--mc-samples",
-        type=non_negative_int,
-        default=8,
-        help="MC-dropout passes for the uncertainty (0: none)",
-    )
-    p.add_argument(
-        "--relative-depth",
-        action="store_true",
-        help="the depth is known only up to scale (a monocular depth network): the "
-        "calibrated camera height fixes the scale, read from the floor",
-    )
+    add_checkpoint(p)
+    add_prediction(p)
     p.add_argument("--out", required=True, help="output directory")
     add_bag_arguments(p)
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
+    from momakitchen.deploy.options import PredictOptions
     from momakitchen.deploy.predict import (
         load_depth,
         load_extrinsics,
@@ -136,13 +113,7 @@ def run(args: argparse.Namespace) -> int:
     }
     out = planned_output_dir(args.out)
     # The model's options, the same for a frame from files and for a bag's frames.
-    options = dict(
-        checkpoint=args.checkpoint,
-        top_k=args.top_k,
-        mc_samples=args.mc_samples,
-        metric_depth=not args.relative_depth,
-        **({} if args.pick_radius is None else {"pick_radius": args.pick_radius}),
-    )
+    options = PredictOptions(**config_fields(args, PredictOptions))
     if args.bag is not None:
         return run_bag(args, robot, out, options)
     for flag, value in BAG_ONLY.items():
@@ -163,7 +134,8 @@ def run(args: argparse.Namespace) -> int:
         robot,
         rgb=rgb,
         obstacle_masks=args.obstacle_mask,
-        **options,
+        checkpoint=args.checkpoint,
+        options=options,
     )
     seconds = time.perf_counter() - t0
     output_dir(out)  # created only now: a failed prediction leaves no empty directory

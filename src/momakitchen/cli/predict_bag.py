@@ -12,9 +12,12 @@ from __future__ import annotations
 import argparse
 import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from momakitchen.cli.common import non_negative_float, positive_float, positive_int
+
+if TYPE_CHECKING:
+    from momakitchen.deploy.options import PredictOptions
 
 # Bag-only option -> its attribute (checked to be unset without --bag).
 BAG_ONLY = {
@@ -83,7 +86,7 @@ def add_bag_arguments(p: argparse.ArgumentParser) -> None:
     )
 
 
-def run_bag(args: argparse.Namespace, robot: Any, out: Path, options: dict[str, Any]) -> int:
+def run_bag(args: argparse.Namespace, robot: Any, out: Path, options: PredictOptions) -> int:
     """Predict on the bag's selected frames and write their outputs into ``out``.
 
     Every frame is checked before the model runs; the frames are then read, predicted and
@@ -123,12 +126,12 @@ def run_bag(args: argparse.Namespace, robot: Any, out: Path, options: dict[str, 
         args.bag, topics, time=args.time, every=args.every, target_mask=args.target_mask
     ) as frames:
         print(f"{len(frames)} frame(s) of {args.bag} checked", flush=True)
-        preds = predict_frames(frames, robot, **options)
+        preds = predict_frames(frames, robot, checkpoint=args.checkpoint, options=options)
         with BagOutputs(
             out,
             single=args.time is not None,
             odom_frame=topics.odom_frame,
-            pick_radius=options.get("pick_radius", 0.0),
+            pick_radius=options.pick_radius,
         ) as outputs:
             for frame, pred in preds:
                 best = outputs.add(frame, pred)["poses"][0]

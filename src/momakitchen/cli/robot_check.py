@@ -27,13 +27,8 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from momakitchen.cli.common import (
-    add_robot_yaml,
-    non_negative_float,
-    non_negative_int,
-    positive_int,
-    scene_id,
-)
+from momakitchen.cli.common import non_negative_float, non_negative_int, positive_int, scene_id
+from momakitchen.cli.options import add_checkpoint, add_quiet, add_robot_yaml, add_seed
 from momakitchen.errors import MomaError
 
 # Fine-tuning for one robot: the bundled model's recipe (the cpu preset), from its
@@ -60,16 +55,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="first scene id of the check (900000)",
     )
     ap.add_argument("--workers", type=positive_int, default=1, help="generation workers")
-    ap.add_argument(
-        "--checkpoint", default="bundled", metavar="RUN", help="the model (default: bundled)"
-    )
+    add_checkpoint(ap)
     ap.add_argument(
         "--tolerance",
         type=non_negative_float,
         default=10.0,
         help="points below the oracle that still serve (10)",
     )
-    ap.add_argument("--seed", type=non_negative_int, default=0, help="msr's seed (views, random)")
+    add_seed(ap)
     ap.add_argument(
         "--config",
         metavar="FILE",
@@ -94,7 +87,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="training options over the fine-tuning recipe (as `train --config`)",
     )
     add_robot_yaml(ap)
-    ap.add_argument("--quiet", action="store_true", help="no progress bars")
+    add_quiet(ap)
     ap.set_defaults(func=run)
 
 
@@ -215,6 +208,8 @@ def run(args: argparse.Namespace) -> int:
     from momakitchen.robots.spec import get_robot_spec
 
     get_robot_spec(args.robot)  # an unknown robot fails here, before anything is written
+    if args.checkpoint is None:
+        args.checkpoint = "bundled"
     if args.checkpoint != "bundled" and not (Path(args.checkpoint) / "config.json").is_file():
         raise MomaError(f"--checkpoint {args.checkpoint!r} is not a run directory")
     first, last = args.first_scene_id, args.first_scene_id + args.scenes - 1

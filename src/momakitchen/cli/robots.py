@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from momakitchen.cli.options import add_robot_yaml
 from momakitchen.errors import MomaError
 from momakitchen.fileio import dumps_strict
 
@@ -26,13 +27,7 @@ def add_parser(subparsers) -> None:
         description="List the registered robots, or export one robot's URDF.",
     )
     parser.add_argument("--json", action="store_true", help="print JSON instead of a table")
-    parser.add_argument(
-        "--robot-yaml",
-        action="append",
-        default=[],
-        metavar="FILE",
-        help="register a user robot from a YAML file (repeatable)",
-    )
+    add_robot_yaml(parser)
     parser.set_defaults(func=run, robots_command=None)
     sub = parser.add_subparsers(
         dest="robots_command",
@@ -54,14 +49,7 @@ def add_parser(subparsers) -> None:
         metavar="M",
         help="mount the arm this high (m; default: the robot's own; any height of 0.3-1.3)",
     )
-    export.add_argument(
-        "--robot-yaml",
-        dest="robot_yaml_sub",
-        action="append",
-        default=[],
-        metavar="FILE",
-        help="register a user robot from a YAML file",
-    )
+    add_robot_yaml(export, dest="robot_yaml_sub")
 
 
 def robot_rows() -> list[dict]:

@@ -20,17 +20,20 @@ import argparse
 import time
 from typing import Any
 
-from momakitchen.cli.common import (
+from momakitchen.cli.common import checked_methods, output_file
+from momakitchen.cli.options import (
+    ROBUSTNESS_TOP_K,
+    add_checkpoint,
+    add_data,
+    add_method_names,
+    add_picking,
+    add_quiet,
+    add_results_json,
     add_robot_yaml,
-    checked_methods,
-    non_negative_float,
-    non_negative_int,
-    output_file,
-    positive_int,
+    add_selection,
+    config_fields,
 )
 from momakitchen.fileio import atomic_write_bytes, atomic_write_text, dumps_strict, existing_dir
-
-SPLITS = ("test", "train", "all")
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -44,15 +47,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     rb.add_argument(
         "--list", action=_ListAction, nargs=0, help="list the corruptions and sensors, and exit"
     )
-    rb.add_argument("--data", required=True, help="dataset directory (momakitchen generate)")
-    rb.add_argument(
-        "--checkpoint",
-        action="append",
-        default=[],
-        metavar="RUN",
-        help="run directory of a trained model (repeatable; with no --checkpoint or "
-        "--predictions: the bundled model)",
-    )
+    add_data(rb)
+    add_checkpoint(rb, repeatable=True)
     rb.add_argument(
         "--predictions",
         action="append",
@@ -61,12 +57,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="a method's maps of every view of export-inputs --robustness (.npz or .h5, "
         "docs/METHODS.md; repeatable)",
     )
-    rb.add_argument(
-        "--name",
-        action="append",
-        default=[],
-        help="the name of each --predictions method, in order (default: the file's stem)",
-    )
+    add_method_names(rb)
     rb.add_argument(
         "--corruption",
         action="append",
@@ -74,28 +65,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         metavar="NAME",
         help="a corruption (repeatable; default: every one; 'clean' is always added first)",
     )
-    rb.add_argument("--json", required=True, help="where to write the results (JSON)")
+    add_results_json(rb)
     rb.add_argument("--out", required=True, help="directory for robustness.png and robustness.md")
-    rb.add_argument("--split", default="test", choices=SPLITS)
-    rb.add_argument("--top-k", type=positive_int, default=1, help="points per view (1)")
-    rb.add_argument(
-        "--min-spread",
-        type=non_negative_float,
-        default=0.2,
-        help="minimum distance between the Top-k points (m, 0.2; as msr's)",
-    )
-    rb.add_argument(
-        "--pick-radius",
-        type=non_negative_float,
-        default=None,
-        help="rank points by the map averaged over this radius (m; default 0: the raw map, "
-        "as msr's)",
-    )
-    rb.add_argument("--seed", type=non_negative_int, default=0, help="as msr's --seed")
-    rb.add_argument(
-        "--max-configs", type=non_negative_int, default=0, help="only the first N (0: all)"
-    )
-    rb.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_selection(rb)
+    add_picking(rb, ROBUSTNESS_TOP_K)
+    add_quiet(rb)
     add_robot_yaml(rb)
     rb.set_defaults(func=run)
 
@@ -142,16 +116,7 @@ def run(args: argparse.Namespace) -> int:
     planned_output_dir(args.out)
     names = list(args.corruption) or list(CORRUPTIONS)
     names = ["clean", *[n for n in names if n != "clean"]]
-    radius = {} if args.pick_radius is None else {"pick_radius": args.pick_radius}
-    config = RobustnessConfig(
-        corruptions=tuple(names),
-        top_k=args.top_k,
-        min_spread=args.min_spread,
-        **radius,
-        seed=args.seed,
-        split=args.split,
-        max_configs=args.max_configs,
-    )
+    config = RobustnessConfig(corruptions=tuple(names), **config_fields(args, RobustnessConfig))
     t0 = time.perf_counter()
     maps: dict = {}
     result = run_robustness(

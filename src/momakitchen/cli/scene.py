@@ -8,7 +8,6 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from momakitchen.cli.common import (
-    add_robot_yaml,
     check_config_index,
     non_negative_int,
     output_dir,
@@ -16,6 +15,7 @@ from momakitchen.cli.common import (
     positive_int,
     scene_id,
 )
+from momakitchen.cli.options import add_robot_yaml
 from momakitchen.fileio import atomic_path, atomic_write_text, dumps_strict
 from momakitchen.version import __version__
 

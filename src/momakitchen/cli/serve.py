@@ -28,7 +28,8 @@ from __future__ import annotations
 import argparse
 import os
 
-from momakitchen.cli.common import add_robot_yaml, non_negative_int, positive_float, positive_int
+from momakitchen.cli.common import non_negative_int, positive_float, positive_int
+from momakitchen.cli.options import MC_SAMPLES, add_checkpoint, add_robot_yaml
 
 MAX_MC_SAMPLES = 64  # the server's own limit on a request's mc_samples
 
@@ -58,13 +59,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1)")
     p.add_argument("--port", type=_port, default=8000, help="port (default 8000; 0: any free)")
-    p.add_argument("--checkpoint", default=None, help="run directory (default: bundled model)")
+    add_checkpoint(p)
     p.add_argument(
         "--mc-samples",
         type=_mc_samples,
         default=None,
-        help="default MC-dropout passes of a request that does not say (predict's default: 8; "
-        f"at most {MAX_MC_SAMPLES})",
+        help="default MC-dropout passes of a request that does not say (predict's default: "
+        f"{MC_SAMPLES}; at most {MAX_MC_SAMPLES})",
     )
     p.add_argument(
         "--token",

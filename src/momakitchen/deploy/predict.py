@@ -17,14 +17,16 @@ from __future__ import annotations
 
 import os
 from collections.abc import Mapping, Sequence
+from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import Any, Unpack
 
 import numpy as np
 
+from momakitchen.deploy.options import PredictFields, PredictOptions
 from momakitchen.errors import MomaError
 from momakitchen.fileio import dumps_strict, existing_file
-from momakitchen.models.inference import MC_SAMPLES, PICK_RADIUS, Prediction
+from momakitchen.models.inference import Prediction
 from momakitchen.perception.camera import Intrinsics
 
 
@@ -229,13 +231,9 @@ def predict(
     rgb: np.ndarray | str | os.PathLike | None = None,
     obstacle_masks: Sequence[np.ndarray | str | os.PathLike] = (),
     checkpoint: str | os.PathLike | Any | None = None,
-    top_k: int = 5,
-    min_spread: float = 0.2,
-    pick_radius: float = PICK_RADIUS,
-    mc_samples: int = MC_SAMPLES,
     episode_id: tuple[int, int, int] | None = None,
-    threads: int | None = 1,
-    metric_depth: bool = True,
+    options: PredictOptions | None = None,
+    **fields: Unpack[PredictFields],
 ) -> Prediction:
     """Affordance map and Top-k base poses from one RGB-D frame.
 
@@ -256,32 +254,18 @@ def predict(
         obstacle_masks: optional (H, W) masks of obstacles (chairs, bins, ...).
         checkpoint: a run directory (``momakitchen train``) or a loaded run; default: the
             bundled model.
-        top_k, min_spread: number of poses and their minimum spacing (m).
-        pick_radius: rank the poses by the map averaged over this radius (m; 0, the
-            default: the raw map).
-        mc_samples: MC-dropout passes for the uncertainty (0: none).
         episode_id: ``(scene_id, config_index, episode_index)`` of a dataset episode, which
             seeds the cloud down-sampling exactly as ``evaluate`` does; None for live frames.
-        threads: torch threads for the model while it runs (the previous setting is
-            restored). One is fastest for a single frame: the model is many small
-            operations, and a second thread mostly waits (BENCHMARKS.md). None: leave
-            torch's setting.
-        metric_depth: False for depth known only up to scale (a monocular depth
-            network): the calibrated camera height then fixes the scale, read from the
-            floor, instead of the floor correcting the height.
+        options: how poses are ranked and returned (a
+            :class:`~momakitchen.deploy.options.PredictOptions`; default: its defaults).
+        **fields: any of its fields (``top_k``, ``min_spread``, ``pick_radius``,
+            ``mc_samples``, ``threads``, ``metric_depth``), which override ``options``.
     """
     from momakitchen.models.inference import predict_map
     from momakitchen.perception.live import frame_inputs
     from momakitchen.train.checkpoint import LoadedRun, default_checkpoint, load_checkpoint
 
-    if not 1 <= top_k <= 50:
-        raise MomaError(f"top_k must be in [1, 50], got {top_k}")
-    if mc_samples < 0:
-        raise MomaError(f"mc_samples must be >= 0, got {mc_samples}")
-    if not 0.0 <= pick_radius <= 1.0:
-        raise MomaError(f"pick_radius must be in [0, 1] m, got {pick_radius}")
-    if threads is not None and threads < 1:
-        raise MomaError(f"threads must be >= 1 or None, got {threads}")
+    opts = replace(options or PredictOptions(), **fields)  # checked by PredictOptions
     d = load_depth(depth)
     h, w = d.shape
     intr = load_intrinsics(intrinsics, (h, w))
@@ -320,19 +304,19 @@ def predict(
         tf,
         run.preprocessing.cloud,
         run.preprocessing.max_depth,
-        metric_depth=metric_depth,
+        metric_depth=opts.metric_depth,
     )
     return predict_map(
         run,
         clouds,
         name,
         descriptor,
-        top_k=top_k,
-        min_spread=min_spread,
-        pick_radius=pick_radius,
-        mc_samples=mc_samples,
+        top_k=opts.top_k,
+        min_spread=opts.min_spread,
+        pick_radius=opts.pick_radius,
+        mc_samples=opts.mc_samples,
         episode_id=episode_id,
-        threads=threads,
+        threads=opts.threads,
     )
 
 
