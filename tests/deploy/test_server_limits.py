@@ -5,6 +5,8 @@ checked before decoding, and no traceback for any of it."""
 
 from __future__ import annotations
 
+import gzip
+import json
 import logging
 import socket
 import threading
@@ -17,9 +19,10 @@ import pytest
 
 pytest.importorskip("aiohttp")
 
-from server_helpers import H, W, form, get, npy, png, post, running
+from server_helpers import CAMERA, H, W, form, get, multipart, npy, png, post, running
 
 from momakitchen.deploy import server as srv
+from momakitchen.deploy.server_inputs import predict_arguments
 from momakitchen.errors import MomaError
 
 
@@ -67,7 +70,9 @@ def no_tracebacks(caplog):
     unexpected exceptions with their traceback)."""
     caplog.set_level(logging.DEBUG, logger="aiohttp")
     yield
-    bad = [r for r in caplog.records if r.exc_info and r.levelno >= logging.WARNING]
+    # caplog.records here would be the teardown's only: the test's own are the call's
+    records = caplog.get_records("call") + caplog.records
+    bad = [r for r in records if r.exc_info and r.levelno >= logging.WARNING]
     assert not bad, [r.getMessage() for r in bad]
 
 
@@ -309,3 +314,129 @@ def test_health_names_the_bundled_run_without_its_path():
 
     assert srv.checkpoint_label(DEFAULT_CHECKPOINT) == "navaff (bundled)"
     assert srv.checkpoint_label("/home/someone/runs/navaff-12ep") == "navaff-12ep"
+
+
+def _raw(addr, data: bytes) -> tuple[int, dict, bytes]:
+    """Status, JSON answer and head of ``data`` sent as is (it asks the server to close)."""
+    with socket.create_connection(addr) as s:
+        s.sendall(data)
+        answer, seconds = closed_within(s, 10)
+    assert seconds < 10, answer[:200]
+    head, _, body = answer.partition(b"\r\n\r\n")
+    return int(head.split()[1]), json.loads(body), head
+
+
+def _request(body: bytes, ctype: str, **headers: str) -> bytes:
+    head = {"Host": "x", "Content-Type": ctype, "Content-Length": str(len(body))}
+    head.update({k.replace("_", "-"): v for k, v in headers.items()})
+    head["Connection"] = "close"
+    lines = "".join(f"{k}: {v}\r\n" for k, v in head.items())
+    return f"POST /predict HTTP/1.1\r\n{lines}\r\n".encode() + body
+
+
+def test_malformed_requests_and_forms_get_one_line_json(no_tracebacks):
+    server = SleepyServer()
+    body, ctype = form()
+    boundary = ctype.split("boundary=")[1].encode()
+    with running(server) as addr:
+        cases = [
+            # a 600 kB line before the first boundary
+            (_request(b"x" * 600_000 + b"\r\n" + body, ctype), 400, "malformed multipart body"),
+            # 1,000 small fields: too many, whatever their size
+            (
+                _request(*multipart({f"f{i}": "1" for i in range(1000)}, {})),
+                413,
+                "the form has more than 64 fields (the limit)",
+            ),
+            (
+                _request(*form(robot="r" * 5000)),
+                413,
+                "text field 'robot' is over 4096 bytes (the limit of a text field)",
+            ),
+            (
+                _request(*form(), Content_Length="-5"),
+                400,
+                "malformed HTTP request: Invalid character in Content-Length",
+            ),
+            (b"NOT HTTP AT ALL\r\n\r\n", 400, "malformed HTTP request"),
+            (
+                _request(
+                    body.replace(b"\r\n\r\n", b"\r\nContent-Encoding: gzip\r\n\r\n", 1), ctype
+                ),
+                415,
+                "has Content-Encoding 'gzip': send it plain",
+            ),
+            (
+                _request(
+                    body.replace(b"--" + boundary + b"\r\n", b"--" + boundary + b"\r\nX: y\r\n", 1),
+                    ctype,
+                ),
+                200,
+                "",
+            ),
+        ]
+        for data, status, message in cases:
+            got, doc, head = _raw(addr, data)
+            assert got == status, (message, got, doc)
+            assert b"application/json" in head
+            if message:
+                assert message in one_line_error(doc), (message, doc)
+        assert post(addr, *form())[0] == 200  # and it serves on
+    assert server.calls == ["r", "r"]
+
+
+def test_encoded_bodies_are_refused_unread(no_tracebacks):
+    server = SleepyServer()
+    body, ctype = form(files={"rgb": np.random.default_rng(0).bytes(2_000_000)})
+    with running(server) as addr:
+        # not gzip at all, gzip, and a gzip bomb (200 MB of zeros): 415, never inflated
+        for data in (body, gzip.compress(body), gzip.compress(bytes(200_000_000), 1)):
+            status, doc, _ = _raw(addr, _request(data, ctype, Content_Encoding="gzip"))
+            assert status == 415 and "'gzip' is not accepted" in one_line_error(doc)
+        assert post(addr, *form())[0] == 200
+    assert server.calls == ["r"]
+
+
+class DecodingServer(SleepyServer):
+    """The server that decodes each request's fields as the real model's does."""
+
+    def predict(self, files, text):
+        predict_arguments(files, text)
+        return super().predict(files, text)
+
+
+def test_non_finite_numbers_and_colours_are_named(no_tracebacks):
+    server = DecodingServer()
+    with running(server) as addr:
+        cases = {
+            "field 'intrinsics' must be 4 finite numbers, got 'nan' in '4 nan 4 3'": form(
+                intrinsics="4 nan 4 3"
+            ),
+            "field 'camera_to_base' must be 16 finite numbers, got '-inf' in": form(
+                camera_to_base="1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 -inf"
+            ),
+            "field 'intrinsics' must be 4 finite numbers, got 3: '4 4 4'": form(intrinsics="4 4 4"),
+            "field 'reach' must be 1 finite numbers, got 'inf' in 'inf'": multipart(
+                {"intrinsics": "4 4 4 3", "camera_to_base": CAMERA, "reach": "inf"}
+                | {"mount_height": "1"},
+                {"depth": npy(np.ones((H, W), np.float32)), "target_mask": npy(np.ones((H, W)))},
+            ),
+            "field 'rgb' holds 144 non-finite values (e.g. nan): give finite numbers": form(
+                files={"rgb": npy(np.full((H, W, 3), np.nan, np.float32))}
+            ),
+            "field 'obstacle_mask 0' holds 1 non-finite values (e.g. inf)": form(
+                files={"obstacle_mask": npy(_one_inf())}
+            ),
+        }
+        for message, (body, ctype) in cases.items():
+            status, doc, _ = post(addr, body, ctype)
+            assert status == 400 and message in one_line_error(doc), (message, doc)
+        rgb = np.random.default_rng(0).random((H, W, 3)).astype(np.float32)
+        assert post(addr, *form(files={"rgb": npy(rgb)}))[0] == 200  # finite floats are fine
+    assert server.calls == ["r"]
+
+
+def _one_inf() -> np.ndarray:
+    out = np.zeros((H, W))
+    out[2, 3] = np.inf
+    return out

@@ -11,9 +11,11 @@ Limits: a body of at most --max-body-mb (413 beyond); at most --max-inflight-mb 
 being read, waiting or predicted at once and at most --queue requests waiting for the model
 (503 with Retry-After beyond); --read-timeout seconds each to send a request's headers, its
 body (408) and to take the answer, then the connection is closed; images of at most
-4096x4096 (16 Mpx), checked from their headers before decoding; .npy files of numbers only.
-A client that has gone is not predicted; one frame of at most 64 MC-dropout passes that is
-running finishes first. Every refusal is one line of JSON {"error": ...} naming the field.
+4096x4096 (16 Mpx), checked from their headers before decoding; .npy files of numbers only
+(finite ones for colour and masks); at most 64 form fields and 4096 bytes a text field (413);
+no Content-Encoding (415). A client that has gone is not predicted; one frame of at most 64
+MC-dropout passes that is running finishes first. Every refusal, a malformed HTTP request
+included, is one line of JSON {"error": ...} naming the field.
 
 The default host, 127.0.0.1, serves this machine only. To serve a robot, give --host
 0.0.0.0 (or the address of the robot's network) and a token: --token, or better the

@@ -43,8 +43,13 @@ Limits (:class:`Limits`; ``momakitchen serve`` options in brackets):
 - each image is at most 4096x4096 = 16 Mpx, checked from its PNG / JPEG / ``.npy`` header
   before anything is decoded, and every image must have the depth image's size; a
   ``.npy`` must hold bool, integer or float numbers (no structured, string or object
-  arrays), as (H, W) or (H, W, C) with C <= 4; a body with a ``Content-Encoding`` is
-  refused (415);
+  arrays), as (H, W) or (H, W, C) with C <= 4, and a float colour image or mask finite
+  numbers; a body or a part with a ``Content-Encoding`` is refused (415) and never
+  inflated;
+- a form has at most 64 fields, files included, and a text field at most 4096 bytes
+  (:data:`~momakitchen.deploy.server_inputs.MAX_FIELDS`, ``MAX_TEXT_BYTES``): 413 beyond;
+- a malformed request (its request line or headers, a negative ``Content-Length``, an
+  overlong line in the form) is a 400 with the same one-line JSON, logged as one line;
 - ``mc_samples`` <= 64 bounds the work of one frame: a frame whose client has gone is not
   predicted when its turn comes, but one already running finishes (at most 65 forward
   passes, a few seconds) before the model moves on;
@@ -76,7 +81,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from momakitchen.deploy.server_inputs import check_fields, predict_arguments
+from momakitchen.deploy.server_inputs import (
+    MAX_FIELDS,
+    MAX_TEXT_BYTES,
+    check_fields,
+    predict_arguments,
+)
 from momakitchen.errors import MomaError
 
 LOG = logging.getLogger("momakitchen.serve")
@@ -140,6 +150,77 @@ def checkpoint_label(run_dir: str | Path) -> str:
 
 class _ClientGone(Exception):
     """The client of a queued frame left before the model got to it."""
+
+
+class _Refusal(Exception):
+    """A request refused while its body is read: the status and the one-line message."""
+
+    def __init__(self, status: int, message: str) -> None:
+        super().__init__(message)
+        self.status = status
+        self.message = message
+
+
+def _one_line(text: str, width: int = 200) -> str:
+    """An HTTP parser's message as one line: its lines joined, the caret lines under a
+    quoted header dropped, shortened to ``width``."""
+    lines = [ln.strip() for ln in str(text).splitlines() if ln.strip().strip("^~")]
+    joined = " ".join(" ".join(lines).split())
+    return joined if len(joined) <= width else joined[: width - 3] + "..."
+
+
+def _runner_class(web: Any) -> Any:
+    """aiohttp's AppRunner whose connections answer what aiohttp refuses before any
+    handler runs (a malformed request line or header, a negative Content-Length) as the
+    one-line JSON of every other refusal, logged as one line, not a traceback."""
+    from aiohttp import web_protocol
+
+    from momakitchen.fileio import dumps_strict
+
+    class JsonErrors(web_protocol.RequestHandler):
+        __slots__ = ()
+
+        def handle_error(
+            self,
+            request: Any,
+            status: int = 500,
+            exc: BaseException | None = None,
+            message: str | None = None,
+        ) -> Any:
+            if request.writer.output_size > 0:  # as aiohttp: an answer is already on its way
+                raise ConnectionError("an answer was sent already; cannot send the error")
+            if status >= 500:  # a bug, not the client's fault: keep its traceback
+                LOG.error("internal error: %r", exc, exc_info=exc)
+                why = f"internal error: {type(exc).__name__}"
+            else:
+                why = f"malformed HTTP request: {_one_line(message or str(exc))}"
+                LOG.info("refused %s: %s", request.remote, why)
+            resp = web.json_response({"error": why}, status=status, dumps=dumps_strict)
+            resp.force_close()
+            return resp
+
+    class JsonServer(web.Server):
+        def __call__(self) -> Any:
+            return JsonErrors(self, loop=self._loop, **self._kwargs)
+
+    class Runner(web.AppRunner):
+        async def _make_server(self) -> Any:
+            server = await super()._make_server()
+            server.__class__ = JsonServer  # the application's server, with JSON errors
+            return server
+
+    return Runner
+
+
+def _no_decompression() -> dict[str, Any]:
+    """The server's keyword that keeps aiohttp from inflating a request body (refused with
+    415 anyway: inflating one that is not gzip logged a traceback), where it has one."""
+    import inspect
+
+    from aiohttp import web_protocol
+
+    params = inspect.signature(web_protocol.RequestHandler.__init__).parameters
+    return {"auto_decompress": False} if "auto_decompress" in params else {}
 
 
 class ModelServer:
@@ -211,6 +292,7 @@ class ModelServer:
         web = _require_aiohttp()
         limits = self.limits
         max_body = limits.max_body_mb * 1024 * 1024
+        inflates = not _no_decompression()  # an aiohttp that inflates every encoded body
 
         def error(status: int, message: str, **headers: str) -> Any:
             doc = {"error": " ".join(message.split())}
@@ -228,8 +310,10 @@ class ModelServer:
                 request.protocol.force_close()
             except ConnectionError:  # the client left: nothing to tell anyone
                 pass
-            if resp.status == 408 and request.protocol is not None:
-                # now, rather than after aiohttp's wait for the rest of the body (10 s)
+            encoded = resp.status == 415 and "Content-Encoding" in request.headers
+            if (resp.status == 408 or (inflates and encoded)) and request.protocol is not None:
+                # now, rather than after aiohttp's wait for the rest of the body (10 s), in
+                # which it would inflate a refused body
                 request.protocol.force_close()
             return resp
 
@@ -283,26 +367,71 @@ class ModelServer:
             finally:
                 self.inflight -= reserve
 
+        async def read_form(
+            request: Any, files: dict[str, list[bytes]], text: dict[str, str]
+        ) -> None:
+            """The form's parts into ``files`` and ``text``, each limit checked as the
+            parts arrive; _Refusal otherwise."""
+            from aiohttp import BodyPartReader
+
+            reader = await request.multipart()
+            count = 0
+            while (part := await reader.next()) is not None:
+                count += 1
+                if count > MAX_FIELDS:
+                    raise _Refusal(413, f"the form has more than {MAX_FIELDS} fields (the limit)")
+                if not isinstance(part, BodyPartReader):
+                    raise _Refusal(400, "malformed multipart body: a nested multipart part")
+                name = part.name
+                if not name:
+                    raise _Refusal(400, "malformed multipart body: a part without a name")
+                for header in ("Content-Encoding", "Content-Transfer-Encoding"):
+                    # never decoded: a compressed part could be any size once inflated
+                    coding = part.headers.get(header, "identity").lower()
+                    if coding not in ("identity", "binary", "7bit", "8bit"):
+                        raise _Refusal(
+                            415, f"field {name[:40]!r} has {header} {coding[:40]!r}: send it plain"
+                        )
+                data = bytearray()
+                while chunk := await part.read_chunk():
+                    data.extend(chunk)
+                    if request.content.total_bytes > max_body:  # a body without a length
+                        raise _Refusal(413, f"the request is larger than {limits.max_body_mb} MB")
+                    if part.filename is None and len(data) > MAX_TEXT_BYTES:
+                        raise _Refusal(
+                            413,
+                            f"text field {name[:40]!r} is over {MAX_TEXT_BYTES} bytes (the "
+                            "limit of a text field)",
+                        )
+                if part.filename is not None:
+                    files.setdefault(name, []).append(bytes(data))
+                elif name in text:
+                    raise _Refusal(400, f"field {name[:40]!r} is given more than once")
+                else:
+                    try:
+                        text[name] = data.decode("utf-8")
+                    except UnicodeDecodeError:
+                        raise _Refusal(400, f"field {name[:40]!r} is not UTF-8 text") from None
+
         async def receive_and_predict(request: Any) -> Any:
+            from aiohttp.http_exceptions import HttpProcessingError
+
             files: dict[str, list[bytes]] = {}
             text: dict[str, str] = {}
             try:
-                form = await asyncio.wait_for(request.post(), limits.read_timeout)
+                await asyncio.wait_for(read_form(request, files, text), limits.read_timeout)
+            except _Refusal as exc:
+                return error(exc.status, exc.message)
             except asyncio.TimeoutError:
                 return error(408, f"the body did not arrive within {limits.read_timeout:g} s")
             except web.HTTPRequestEntityTooLarge:
                 return error(413, f"the request is larger than {limits.max_body_mb} MB")
             except ConnectionError:  # the client left mid-body
                 return error(400, "the connection was lost")
+            except HttpProcessingError as exc:  # a line too long, too many part headers
+                return error(400, f"malformed multipart body: {_one_line(exc.message)}")
             except (ValueError, AssertionError, RuntimeError) as exc:
-                return error(400, f"malformed multipart body: {exc}")
-            for name, value in form.items():
-                if isinstance(value, web.FileField):
-                    files.setdefault(name, []).append(value.file.read())
-                elif name in text:
-                    return error(400, f"field {name!r} is given more than once")
-                else:
-                    text[name] = str(value)
+                return error(400, f"malformed multipart body: {_one_line(str(exc))}")
             try:
                 check_fields(files, text)  # here, so that a bad request does not wait its turn
             except MomaError as exc:
@@ -358,8 +487,11 @@ class ModelServer:
         web = _require_aiohttp()
         # keepalive_timeout: an idle connection, or one trickling its next request's
         # head, is closed after the read timeout
-        runner = web.AppRunner(
-            self.app(), access_log=None, keepalive_timeout=self.limits.read_timeout
+        runner = _runner_class(web)(
+            self.app(),
+            access_log=None,
+            keepalive_timeout=self.limits.read_timeout,
+            **_no_decompression(),
         )
         await runner.setup()
         self.watch(runner.server)

@@ -17,6 +17,10 @@ from momakitchen.errors import MomaError
 
 MAX_PIXELS = 4096 * 4096  # per image; a 16 Mpx frame takes about 2 GB to predict
 MAX_OBSTACLE_MASKS = 16
+# Parts of one form: every field once and 16 obstacle masks make 36, so more is not a frame
+# (and each part costs the parser work before any field is checked).
+MAX_FIELDS = 64
+MAX_TEXT_BYTES = 4096  # one text field: 16 numbers of camera_to_base are ~300 bytes
 REQUIRED = ("depth", "target_mask", "intrinsics", "camera_to_base")
 FILES = ("depth", "target_mask", "rgb", "obstacle_mask")
 # name -> (type, least, greatest); the top_k and pick_radius ranges are predict's own
@@ -128,12 +132,20 @@ def decode_array(data: bytes, name: str) -> tuple[np.ndarray, str]:
 
 
 def _numbers(text: str, name: str, count: int) -> list[float]:
+    words = text.replace(",", " ").split()
     try:
-        values = [float(v) for v in text.replace(",", " ").split()]
+        values = [float(v) for v in words]
     except ValueError:
         raise MomaError(f"field {name!r} must be {count} numbers, got {text[:80]!r}") from None
-    if len(values) != count or not np.isfinite(values).all():
-        raise MomaError(f"field {name!r} must be {count} finite numbers, got {len(values)}")
+    if len(values) != count:
+        raise MomaError(
+            f"field {name!r} must be {count} finite numbers, got {len(values)}: {text[:80]!r}"
+        )
+    for word, value in zip(words, values, strict=True):
+        if not math.isfinite(value):
+            raise MomaError(
+                f"field {name!r} must be {count} finite numbers, got {word[:20]!r} in {text[:80]!r}"
+            )
     return values
 
 
@@ -241,14 +253,27 @@ def predict_arguments(
             raise MomaError(f"depth PNG must be 16-bit (millimetres), got {depth.dtype}")
         depth = depth.astype(np.float32) / 1000.0
     kwargs["depth"] = load_depth(depth)
-    kwargs["target_mask"] = decode_array(files["target_mask"][0], "target_mask")[0]
+    kwargs["target_mask"] = _finite(decode_array(files["target_mask"][0], "target_mask")[0])
     kwargs["obstacle_masks"] = [
-        decode_array(b, f"obstacle_mask {i}")[0]
+        _finite(decode_array(b, f"obstacle_mask {i}")[0], f"obstacle_mask {i}")
         for i, b in enumerate(files.get("obstacle_mask", []))
     ]
     if "rgb" in files:
-        kwargs["rgb"] = decode_array(files["rgb"][0], "rgb")[0]
+        kwargs["rgb"] = _finite(decode_array(files["rgb"][0], "rgb")[0], "rgb")
     return kwargs, floor
+
+
+def _finite(array: np.ndarray, name: str = "target_mask") -> np.ndarray:
+    """``array`` if it holds no NaN or infinity (a float colour image or mask full of NaN
+    would become some colour or mask silently); MomaError naming the field otherwise. The
+    depth is not checked: there NaN means no reading."""
+    if array.dtype.kind == "f" and not np.isfinite(array).all():
+        bad = array[~np.isfinite(array)]
+        raise MomaError(
+            f"field {name!r} holds {bad.size} non-finite values (e.g. {bad.flat[0]}): "
+            "give finite numbers"
+        )
+    return array
 
 
 # ---------------------------------------------------------------------------- the app
