@@ -12,7 +12,9 @@ import pytest
 SRC = Path(__file__).resolve().parents[1] / "src" / "momakitchen"
 # Pipeline order: a package may import only from packages before it (and from itself).
 # Evaluation comes last: the approach track renders new frames (generation) and scores
-# what a robot runs (deploy's predict and map fusion), so it sits after both.
+# what a robot runs (deploy's predict and map fusion), so it sits after both. The classical
+# base placement methods answer what a model answers (a Prediction) from what it reads:
+# after models, before deploy and eval, which call them beside the learned maps.
 LAYERS = (
     "assets",
     "robots",
@@ -23,6 +25,7 @@ LAYERS = (
     "models",
     "train",
     "generation",
+    "placement",
     "deploy",
     "eval",
     "cli",
