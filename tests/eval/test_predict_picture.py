@@ -7,7 +7,10 @@ import subprocess
 import sys
 from pathlib import Path
 
-SCRIPT = Path(__file__).resolve().parents[2] / "scripts" / "predict_picture.py"
+import pytest
+
+SCRIPTS = Path(__file__).resolve().parents[2] / "scripts"
+SCRIPT = SCRIPTS / "predict_picture.py"
 
 
 def _run(*args: str) -> subprocess.CompletedProcess:
@@ -24,14 +27,25 @@ def test_the_floor_fit_undoes_the_pitch_error_it_was_given(real_dataset, tmp_pat
     assert abs(correction["height_m"]) < 0.01, correction
 
 
-def test_bad_input_is_one_line_and_status_2(tmp_path, real_dataset):
+def test_bad_input_is_one_line_and_status_2(tmp_path, real_dataset, monkeypatch, capsys):
+    # In this process: the command itself runs in the test above.
+    monkeypatch.syspath_prepend(str(SCRIPTS))
+    from predict_picture import main
+    from script_cli import run_main
+
     for args, message in [
         (["--data", str(tmp_path / "none")], "holds no scene shards"),
         (["--data", str(real_dataset), "--scene-id", "123456"], "scene 123456 is not in"),
         (["--data", str(real_dataset), "--sensor", "nosuch"], "nosuch"),
         (["--data", str(real_dataset), "--pitch", "45"], "pitch"),
     ]:
-        r = _run(*args, "--out", str(tmp_path / "x"))
-        assert r.returncode == 2, (args, r.stderr)
-        assert message in r.stderr and len(r.stderr.strip().splitlines()) == 1, r.stderr
+        monkeypatch.setattr(
+            sys, "argv", ["predict_picture.py", *args, "--out", str(tmp_path / "x")]
+        )
+        with pytest.raises(SystemExit) as exit_:
+            run_main(main, "predict_picture.py")
+        err = capsys.readouterr().err
+        assert exit_.value.code == 2, (args, err)
+        assert message in err and len(err.strip().splitlines()) == 1, err
+        assert err.startswith("predict_picture.py: error: "), err
     assert not (tmp_path / "x").exists()
