@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import json
 import math
+import warnings
+from dataclasses import replace
 from types import SimpleNamespace
 
 import numpy as np
@@ -27,6 +29,7 @@ from bag_helpers import (
     changed,
     episode_frames,
     frame_stamps,
+    one_line_error,
     predict_cli,
     quarter,
     read_output_bag,
@@ -35,7 +38,8 @@ from bag_helpers import (
 )
 
 from momakitchen.deploy.fusion import MapFusion
-from momakitchen.deploy.rosbag import BagTopics, fuse_frames, predict_bag
+from momakitchen.deploy.rosbag import BagFrames, BagTopics, fuse_frames, predict_bag
+from momakitchen.errors import MomaError
 
 XS = [1.0, 1.25, 1.5]  # the base's x in odom at the three frames (1 s apart)
 
@@ -130,3 +134,53 @@ def test_fused_goal_in_the_odometry_frame(recording, tmp_path):
     _, api_goal = fuse_frames(pairs)
     assert api_goal is not None
     np.testing.assert_allclose(api_goal.pose, [goal["x"], goal["y"], goal["yaw"]], atol=1e-5)
+
+
+def _drive(real_view, path, odom):
+    """A three-frame recording whose odometry is ``odom`` (stamp -> T_odom_base)."""
+    first = quarter(episode_frames(real_view))[0]
+    return write_bag(path, [first] * 3, storage="mcap", odom=odom), first.extra["robot"]
+
+
+def test_odometry_that_jumps_is_refused_before_any_prediction(real_view, tmp_path, capsys):
+    second = frame_stamps(3)[1]
+
+    def jumps(stamp_ns: int) -> np.ndarray:  # 100 m further after the second frame
+        return odom_along_x(stamp_ns) @ translation(100.0 if stamp_ns > second + 10**8 else 0.0)
+
+    bag, robot = _drive(real_view, tmp_path / "jump", jumps)
+    out = tmp_path / "out"
+    argv = ["--bag", bag, *TOPICS, "--every", 1, "--odom-frame", "odom", "--robot", robot]
+    assert predict_cli(*argv, "--mc-samples", 0, "--out", out) == 2
+    err = one_line_error(capsys)
+    assert "the odometry jumps 100.25 m between depth frame 1 at t=1700000002.000 s and " in err
+    assert "depth frame 2 at t=1700000003.000 s, 1.000 s apart: more than a base drives" in err
+    assert not out.exists()
+    topics = BagTopics(DEPTH, INFO, rgb=RGB, target_mask=MASK, odom_frame="odom")
+    # a faster base, declared: the same odometry is taken
+    with BagFrames(bag, replace(topics, max_odom_speed=100.0), every=1) as frames:
+        assert [round(f.odom_pose[0], 2) for f in frames.planned] == [1.0, 1.25, 101.5]
+    with pytest.raises(MomaError, match=r"max_odom_speed must be in \(0, 100\] m/s, got nan"):
+        replace(topics, max_odom_speed=float("nan"))
+
+
+@pytest.mark.parametrize("axis", [0, 1])
+def test_infinite_odometry_is_named_at_its_coordinate(real_view, tmp_path, axis):
+    second = frame_stamps(3)[1]
+
+    def broken(stamp_ns: int) -> np.ndarray:  # the samples around the second frame
+        m = odom_along_x(stamp_ns)
+        if abs(stamp_ns - second) < 40_000_000:
+            m[axis, 3] = np.inf
+        return m
+
+    bag, _ = _drive(real_view, tmp_path / "inf", broken)
+    topics = BagTopics(DEPTH, INFO, rgb=RGB, target_mask=MASK, odom_frame="odom")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no NumPy warning before the error
+        with pytest.raises(MomaError) as info:
+            BagFrames(bag, topics, every=1)
+    message = str(info.value)
+    assert message.startswith("depth frame 1 at t=1700000002.000 s: ")
+    assert "/tf transform 'odom' -> 'base_link' at t=" in message
+    assert f"has {'xy'[axis]} = inf: not a finite number" in message and "nan" not in message

@@ -12,6 +12,12 @@ optical frame (REP 103: x right, y down, z forward), which is the OpenCV convent
 :func:`momakitchen.predict` takes. The base frame must follow REP 105 with z = 0 on the
 floor (``base_footprint`` where ``base_link`` sits above the floor).
 
+With an odometry frame, the base may move between two consecutive selected frames at most
+:data:`ODOM_MAX_SPEED` (2 m/s) times the time between their stamps, plus
+:data:`ODOM_SLACK` (0.5 m): odometry that jumps further (a reset, a relocalisation, a
+broken sample) would fuse one scene into several islands, so it is refused naming both
+frames and the jump.
+
 Every selected frame is read and checked before a single prediction runs, so a bad bag
 costs no model time and leaves nothing behind. Reading needs the ``robot`` extra
 (``rosbags``).
@@ -19,10 +25,12 @@ costs no model time and leaves nothing behind. Reading needs the ``robot`` extra
 
 from __future__ import annotations
 
+import math
 import os
 from collections import defaultdict
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
+from itertools import pairwise
 from pathlib import Path
 from typing import Any
 
@@ -46,6 +54,11 @@ from momakitchen.deploy.bagread import (
 from momakitchen.deploy.bagtf import TransformBuffer, planar_pose
 from momakitchen.errors import MomaError
 
+# The fastest a mobile base plausibly drives between two frames (mobile manipulators drive
+# at about 1 m/s), and the slack for odometry noise and stamps taken at once.
+ODOM_MAX_SPEED = 2.0  # m/s
+ODOM_SLACK = 0.5  # m
+
 
 # ---------------------------------------------------------------------------- options
 @dataclass(frozen=True)
@@ -56,7 +69,9 @@ class BagTopics:
     output); without ``target_mask`` the caller supplies a mask. ``max_dt`` (s) is the
     largest stamp difference between the depth frame and the colour / mask message paired
     with it. ``odom_frame`` (e.g. ``odom``): also look up the base's pose in that frame at
-    every selected frame's stamp (:attr:`BagFrame.odom_pose`), to fuse the frames' maps.
+    every selected frame's stamp (:attr:`BagFrame.odom_pose`), to fuse the frames' maps;
+    ``max_odom_speed`` (m/s): between two consecutive selected frames the base may move
+    at most this fast, plus :data:`ODOM_SLACK`, or the odometry is refused as a jump.
     """
 
     depth: str
@@ -67,6 +82,7 @@ class BagTopics:
     base_frame: str = "base_link"
     max_dt: float = 0.05
     odom_frame: str | None = None
+    max_odom_speed: float = ODOM_MAX_SPEED
 
     def __post_init__(self) -> None:
         for name in ("depth", "camera_info", "base_frame"):
@@ -74,6 +90,8 @@ class BagTopics:
                 raise MomaError(f"{name} must be a non-empty name")
         if not (np.isfinite(self.max_dt) and 0 < self.max_dt <= 10):
             raise MomaError(f"max_dt must be in (0, 10] s, got {self.max_dt}")
+        if not (np.isfinite(self.max_odom_speed) and 0 < self.max_odom_speed <= 100):
+            raise MomaError(f"max_odom_speed must be in (0, 100] m/s, got {self.max_odom_speed}")
         if self.odom_frame is not None and (
             not self.odom_frame.lstrip("/")
             or self.odom_frame.lstrip("/") == self.base_frame.lstrip("/")
@@ -138,6 +156,26 @@ class BagFrame:
 def frame_label(index: int, stamp_ns: int) -> str:
     """How errors name a depth frame: its index in the bag and its stamp."""
     return f"depth frame {index} at t={stamp_ns * 1e-9:.3f} s"
+
+
+def check_odometry_steps(frames: Sequence[Any], max_speed: float = ODOM_MAX_SPEED) -> None:
+    """MomaError naming the first two consecutive ``frames`` (each with ``index``,
+    ``stamp_ns`` and ``odom_pose``) between which the base moved further than
+    ``max_speed`` (m/s) times the time between them plus :data:`ODOM_SLACK`: odometry
+    that jumps would fuse one scene into several islands."""
+    for a, b in pairwise(frames):
+        if a.odom_pose is None or b.odom_pose is None:
+            continue
+        step = math.hypot(b.odom_pose[0] - a.odom_pose[0], b.odom_pose[1] - a.odom_pose[1])
+        seconds = abs(b.stamp_ns - a.stamp_ns) * 1e-9
+        limit = max_speed * seconds + ODOM_SLACK
+        if step > limit:
+            raise MomaError(
+                f"the odometry jumps {step:.2f} m between {frame_label(a.index, a.stamp_ns)} "
+                f"and {frame_label(b.index, b.stamp_ns)}, {seconds:.3f} s apart: more than "
+                f"a base drives ({max_speed:g} m/s, plus {ODOM_SLACK:g} m, allows "
+                f"{limit:.2f} m), so their maps cannot be fused; check the odometry"
+            )
 
 
 @dataclass
@@ -339,6 +377,8 @@ class BagFrames:
                 planned.append(self._place(index, stamp, frame_ids[index], info, tf))
             except MomaError as exc:
                 raise MomaError(f"{frame_label(index, stamp)}: {exc}") from None
+        if topics.odom_frame is not None:
+            check_odometry_steps(planned, topics.max_odom_speed)
         return planned
 
     def _place(self, index: int, stamp: int, frame_id: str, info: Any, tf: Any) -> _Planned:

@@ -28,10 +28,20 @@ def transform_matrix(
     q = np.asarray(quaternion_xyzw, np.float64)
     if not (np.isfinite(q).all() and np.linalg.norm(q) > 1e-9):
         raise MomaError(f"TF rotation {q.tolist()} is not a quaternion")
+    _check_translation(translation, "TF translation")
     m = np.eye(4)
     m[:3, :3] = Rotation.from_quat(q / np.linalg.norm(q)).as_matrix()
     m[:3, 3] = translation
     return m
+
+
+def _check_translation(translation: Sequence[float] | np.ndarray, what: str) -> None:
+    """MomaError naming the first non-finite coordinate of ``translation``: checked before
+    any transform is composed, so that an infinity is named where it is (composing spreads
+    it, as NaN, to the other coordinates) and NumPy never warns."""
+    for axis, value in zip("xyz", np.asarray(translation, np.float64).tolist(), strict=True):
+        if not math.isfinite(value):
+            raise MomaError(f"{what} has {axis} = {value}: not a finite number")
 
 
 class TransformBuffer:
@@ -56,7 +66,11 @@ class TransformBuffer:
         t, r = transform.translation, transform.rotation
         parent, child = parent.lstrip("/"), child.lstrip("/")
         if static:
-            self.static[(parent, child)] = transform_matrix((t.x, t.y, t.z), (r.x, r.y, r.z, r.w))
+            try:
+                m = transform_matrix((t.x, t.y, t.z), (r.x, r.y, r.z, r.w))
+            except MomaError as exc:
+                raise MomaError(f"/tf_static {parent!r} -> {child!r}: {exc}") from None
+            self.static[(parent, child)] = m
         else:
             q = np.array([r.x, r.y, r.z, r.w], np.float64)
             self._dynamic[(parent, child)].append((stamp_ns, np.array([t.x, t.y, t.z]), q))
@@ -91,13 +105,19 @@ class TransformBuffer:
             )
         i = int(np.searchsorted(stamps, stamp_ns))
         if i == 0 or i == len(stamps):
-            _, trans, quat = samples[0 if i == 0 else -1]
+            t, trans, quat = samples[0 if i == 0 else -1]
+            _check_translation(
+                trans, f"the /tf transform {edge[0]!r} -> {edge[1]!r} at t={t * 1e-9:.3f} s"
+            )
             return transform_matrix(trans, quat)
         (t0, p0, q0), (t1, p1, q1) = samples[i - 1], samples[i]
         a = (stamp_ns - t0) / (t1 - t0) if t1 > t0 else 0.0
-        for q in (q0, q1):
+        for t, p, q in ((t0, p0, q0), (t1, p1, q1)):
             if not (np.isfinite(q).all() and np.linalg.norm(q) > 1e-9):
                 raise MomaError(f"TF rotation {q.tolist()} of {edge[0]!r} -> {edge[1]!r}")
+            _check_translation(
+                p, f"the /tf transform {edge[0]!r} -> {edge[1]!r} at t={t * 1e-9:.3f} s"
+            )
         rot = Slerp([0.0, 1.0], Rotation.from_quat([q0, q1]))([a])
         m = np.eye(4)
         m[:3, :3] = rot.as_matrix()[0]

@@ -162,7 +162,9 @@ def fuse_frames(
 ) -> tuple[MapFusion, FusedGoal | None]:
     """Fuse the maps of ``(frame, prediction)`` pairs in the odometry frame.
 
-    Each frame needs its ``odom_pose`` (read with ``BagTopics(odom_frame=...)``). Returns
+    Each frame needs its ``odom_pose`` (read with ``BagTopics(odom_frame=...)``, which
+    refuses odometry that jumps between consecutive frames further than a base drives:
+    ``BagTopics.max_odom_speed``, 2 m/s, plus 0.5 m). Returns
     the :class:`~momakitchen.deploy.fusion.MapFusion` (its ``fused()`` cells are (M, 2)
     odometry-frame xy with (M,) affordance and uncertainty) and its goal: ``pose`` =
     (x, y, yaw) in the odometry frame facing the target, or None when no cell qualifies.
