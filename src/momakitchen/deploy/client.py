@@ -114,8 +114,9 @@ def server_url(url: str) -> tuple[str, str, int, str]:
     if not parts.hostname:
         raise MomaError(f"--server URL {_show(url)} names no host")
     if parts.username is not None or parts.password is not None:
-        raise MomaError(
-            f"--server URL {_show(url)} holds a user name or password: give the token in "
+        shown = urllib.parse.urlunsplit(parts._replace(netloc="***@" + parts.netloc.split("@")[-1]))
+        raise MomaError(  # not shown: a password is a secret
+            f"--server URL {_show(shown)} holds a user name or password: give the token in "
             f"{TOKEN_ENV} instead"
         )
     if parts.query or parts.fragment or url.endswith(("?", "#")):
