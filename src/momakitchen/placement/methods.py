@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -110,7 +111,8 @@ def place(
             differs from the robot's own (a configuration's drawn mount).
 
     Shapes: ``Prediction.floor_xyz`` (N, 3), ``affordance`` (N,) in [0, 1], ``poses``
-    (k, 3) rows ``x, y, yaw``, best first.
+    (k, 3) rows ``x, y, yaw``, best first: up to ``top_k``, only where the map is
+    positive (none, with a warning, where the frame shows no floor the method accepts).
     """
     from momakitchen.models.inference import map_prediction
     from momakitchen.perception.inputs import load_frame
@@ -131,7 +133,7 @@ def place(
     frame = load_frame(depth, intrinsics, camera_to_base, target_mask, obstacle_masks, rgb)
     seen = observe(frame, metric_depth)
     affordance, warnings = METHODS[method](seen, body)
-    return map_prediction(
+    pred = map_prediction(
         seen.floor_xyz,
         affordance,
         np.zeros(len(affordance)),
@@ -143,4 +145,13 @@ def place(
         pick_radius=pick_radius,
         correction=seen.correction,
         warnings=tuple(warnings),
+    )
+    # A pose where the map is 0 (no free floor, out of reach) is no candidate: such poses
+    # come last in the ranking, so dropping them leaves the best of the others.
+    keep = pred.pose_scores > 0
+    return replace(
+        pred,
+        poses=pred.poses[keep],
+        pose_scores=pred.pose_scores[keep],
+        pose_uncertainty=pred.pose_uncertainty[keep],
     )

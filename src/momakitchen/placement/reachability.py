@@ -83,6 +83,17 @@ class ReachabilityMap:
 
     def __post_init__(self) -> None:
         grid = np.asarray(self.reachable)
+        pitches = tuple(float(v) for v in self.pitches)
+        if (
+            len(pitches) < 2
+            or pitches[0] != 0.0
+            or pitches[-1] != 90.0
+            or np.any(np.diff(pitches) <= 0)
+        ):
+            raise MomaError(
+                f"ReachabilityMap.pitches must increase from 0 to 90 degrees, got {self.pitches}"
+            )
+        object.__setattr__(self, "pitches", pitches)
         if grid.dtype != bool or grid.ndim != 4 or grid.shape[0] != len(self.pitches):
             raise MomaError(
                 f"ReachabilityMap.reachable must be a (P, S, R, Z) bool grid with P = "

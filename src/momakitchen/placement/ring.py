@@ -8,8 +8,9 @@ its shoulder (the target's height from the frame, the shoulder's from the robot)
                     footprint_length / 2 + CLEARANCE,  mount_offset_x + reach)
 
 measured horizontally from the base's centre to the target. The map is a Gaussian band
-of width :data:`BAND` about that distance, on the floor the frame shows free of obstacle
-points within the base's footprint, on the camera's side of the target. The constants
+of width :data:`BAND` about that distance, cut where the target lies beyond the reach
+from the shoulder, on the floor the frame shows free of obstacle points within the
+base's footprint, on the camera's side of the target. The constants
 come from the geometry alone: no dataset was used to choose them.
 """
 
@@ -44,6 +45,12 @@ def ring_standoff(robot: PlacementRobot, target_z: float) -> float:
     return float(np.clip(robot.mount_offset_x + horizontal, lo, hi))
 
 
+def shoulder_distance(robot: PlacementRobot, distance: np.ndarray, target_z: float) -> np.ndarray:
+    """The target's distance from the shoulder (m) for bases ``distance`` (m, (N,))
+    from it horizontally, facing it (the shoulder above the arm mount)."""
+    return np.hypot(distance - robot.mount_offset_x, target_z - robot.shoulder_height)
+
+
 def ring_map(frame: ObservedFrame, robot: PlacementRobot) -> tuple[np.ndarray, list[str]]:
     """The ring's map over the frame's floor points and what the robot should know.
 
@@ -52,8 +59,9 @@ def ring_map(frame: ObservedFrame, robot: PlacementRobot) -> tuple[np.ndarray, l
     standoff = ring_standoff(robot, float(frame.target_xyz[2]))
     d = np.hypot(*(frame.floor_xyz[:, :2] - frame.target_xyz[:2]).T)
     band = np.exp(-0.5 * ((d - standoff) / BAND) ** 2)
-    usable = free_floor(frame, robot.footprint, robot.mount_height) & camera_side(frame)
+    within = shoulder_distance(robot, d, float(frame.target_xyz[2])) <= robot.reach
+    usable = within & free_floor(frame, robot.footprint, robot.mount_height) & camera_side(frame)
     warnings = []
     if not usable.any():
-        warnings.append("no visible floor is free for the base on the camera's side")
+        warnings.append("no visible floor within reach is free for the base on the camera's side")
     return np.where(usable, band, 0.0), warnings

@@ -1,0 +1,50 @@
+"""Fixtures of the placement tests: one real generated view, its inputs, and a coarse
+reachability sampling that keeps the default suite fast."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import pytest
+from placement_helpers import COARSE
+
+from momakitchen.placement.sampling import SamplingConfig
+
+
+@pytest.fixture(scope="session")
+def real_view(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A one-scene dataset from the simulator-backed producer: 1 configuration x 2 views."""
+    from momakitchen.data.config import GenerationConfig, ViewConfig
+    from momakitchen.data.generator import GenerateRequest, generate_dataset
+    from momakitchen.generation.producer import scene_records
+    from momakitchen.scene.configuration import SceneConfig
+
+    root = tmp_path_factory.mktemp("view") / "ds"
+    cfg = GenerationConfig(scene=SceneConfig(configs_per_scene=1), views=ViewConfig(episodes=2))
+    generate_dataset(
+        GenerateRequest(out=root, num_scenes=1, first_scene_id=3),
+        scene_records,
+        cfg,
+        progress=False,
+        write_card=False,
+    )
+    return root
+
+
+@pytest.fixture(scope="session")
+def episodes(real_view: Path) -> list[Any]:
+    """The view's episodes (each with depth, masks, camera pose, robot and labels)."""
+    from momakitchen.data.shard import SceneShard
+
+    with SceneShard(real_view / "scenes" / "scene_000003.h5") as shard:
+        return [shard.episode(0, i) for i in shard.episode_indices(0)]
+
+
+@pytest.fixture
+def coarse_maps(monkeypatch: pytest.MonkeyPatch) -> SamplingConfig:
+    """``place`` samples reachability coarsely (:data:`COARSE`) while the test runs."""
+    from momakitchen.placement import reachability
+
+    monkeypatch.setattr(reachability, "DEFAULT_SAMPLING", COARSE)
+    return COARSE
