@@ -60,16 +60,19 @@ def test_names_spelled_out_for_the_parsers_match_the_registries():
     from momakitchen.cli import approach, demo, learn, options
     from momakitchen.data.manifest import SPLIT_CHOICES
     from momakitchen.deploy.fusion import POLICIES
-    from momakitchen.eval.approach.config import STARTS
+    from momakitchen.eval.approach.config import MAPS, STARTS
+    from momakitchen.eval.methods import CLASSICAL
     from momakitchen.generation.demo import DEFAULT_SCENE_ID
     from momakitchen.models import model_names
+    from momakitchen.placement.methods import CLASSICAL_METHODS
     from momakitchen.train import PRESETS
 
     assert learn.MODEL_NAMES == model_names()
     assert learn.PRESET_NAMES == tuple(PRESETS)
     assert options.SPLIT_CHOICES == SPLIT_CHOICES
-    assert (approach.STARTS, approach.POLICIES) == (STARTS, POLICIES)
+    assert (approach.STARTS, approach.POLICIES, approach.MAPS) == (STARTS, POLICIES, MAPS)
     assert demo.DEFAULT_SCENE_ID == DEFAULT_SCENE_ID
+    assert CLASSICAL == CLASSICAL_METHODS
 
 
 def test_a_reader_that_goes_away_is_no_traceback():

@@ -191,6 +191,7 @@ def test_a_server_that_answers_garbage_stops_the_run_and_keeps_what_was_done(
         (["--perception", "x-ray"], "unknown perception preset 'x-ray'"),
         (["--stop-xy", "-1"], "stop_xy must be in [0, 0.5], got -0.01"),
         (["--method", "teleport"], "unknown method 'teleport'"),
+        (["--map", "psychic"], "psychic"),
         (["--server", "http://127.0.0.1:9"], "cannot reach server"),
         (["--record", "7"], "--record wants SCENE:CONFIG"),
         (["--part", "3/2"], "expected K/N with 1 <= K <= N, got '3/2'"),

@@ -33,7 +33,7 @@ from momakitchen.cli.options import (
     config_fields,
 )
 from momakitchen.errors import MomaError
-from momakitchen.eval.methods import BASELINES
+from momakitchen.eval.methods import METHODS
 from momakitchen.fileio import atomic_write_bytes, atomic_write_text
 
 # Spelled out so that building the parser does not import numpy (tests/cli/test_main.py),
@@ -41,6 +41,7 @@ from momakitchen.fileio import atomic_write_bytes, atomic_write_text
 # MotionConfig's (in the units of the options; tests/cli/test_options.py checks them).
 STARTS = ("near", "far")
 POLICIES = ("single", "relook", "uncertain")
+MAPS = ("static", "full")
 PERCEPTION = "realistic"
 MAX_LOOKS = 3
 RELOOK_DISTANCE = 1.5
@@ -88,6 +89,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         default=PERCEPTION,
         help="perception preset: realistic (D435 depth, masks shifted 5 px, camera 1 cm / "
         "1 deg off), ideal, or a corruption of `momakitchen robustness --list`",
+    )
+    ap.add_argument(
+        "--map",
+        default=MAPS[0],
+        choices=MAPS,
+        help="what the robot knows of the room: static (walls and fixed furniture; the "
+        "obstacles around the target only as its looks see them, the default) or full "
+        "(everything, as before)",
     )
     add_selection(ap)
     ap.add_argument(
@@ -199,11 +208,12 @@ def run(args: argparse.Namespace) -> int:
         ),
         stop_sweep=STOP_SWEEP if args.stop_sweep else (),
         motion=motion,
+        map=args.map,
         **config_fields(args, ApproachConfig),
     )
-    unknown = [m for m in args.method if m not in BASELINES]
+    unknown = [m for m in args.method if m not in METHODS]
     if unknown:
-        raise MomaError(f"unknown method {unknown[0]!r}; baselines: {', '.join(BASELINES)}")
+        raise MomaError(f"unknown method {unknown[0]!r}; methods: {', '.join(METHODS)}")
     checkpoints = list(args.checkpoint)
     if not checkpoints and not args.server and not args.method:
         from momakitchen.train.checkpoint import default_checkpoint

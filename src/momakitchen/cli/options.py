@@ -21,7 +21,7 @@ import dataclasses
 from typing import Any
 
 from momakitchen.cli.common import non_negative_float, non_negative_int, positive_int
-from momakitchen.eval.methods import BASELINES
+from momakitchen.eval.methods import BASELINES, CLASSICAL
 
 # momakitchen.data.manifest.SPLIT_CHOICES (that module imports numpy).
 SPLIT_CHOICES = ("train", "test", "all")
@@ -136,7 +136,8 @@ BASELINE = Option(
     action="append",
     default=[],
     metavar="METHOD",
-    help=f"baseline: {', '.join(BASELINES)} (repeatable)",
+    help=f"baseline ({', '.join(BASELINES)}) or classical base placement "
+    f"({', '.join(CLASSICAL)}; docs/PLACEMENT.md), repeatable",
 )
 METHOD_NAMES = Option(
     "--name",
@@ -236,7 +237,8 @@ def add_checkpoint(parser: Any, repeatable: bool = False) -> None:
 
 
 def add_baselines(parser: Any) -> None:
-    """``--method METHOD`` (repeatable): the baselines a track scores."""
+    """``--method METHOD`` (repeatable): the baselines and classical methods a track
+    scores."""
     BASELINE.add(parser)
 
 

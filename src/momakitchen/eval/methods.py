@@ -1,5 +1,5 @@
-"""The methods every track scores besides a model: one declaration, light to import (the
-command line builds its choices from it without loading torch)."""
+"""The methods every track scores besides a trained model: one declaration each, light
+to import (the command line builds its choices from them without loading torch)."""
 
 from __future__ import annotations
 
@@ -7,3 +7,9 @@ from __future__ import annotations
 # ``nearest`` (the free point nearest the target: conventional navigation) and ``oracle``
 # (the ground-truth map's best point).
 BASELINES = ("random", "nearest", "oracle")
+# Classical base placement (``ring``, ``reachability``: docs/PLACEMENT.md): methods that
+# take what a model takes, one RGB-D frame, and no training. Spelled out:
+# momakitchen.placement.methods.CLASSICAL_METHODS imports numpy (a test keeps them equal).
+CLASSICAL = ("ring", "reachability")
+# What ``--method`` names.
+METHODS = (*BASELINES, *CLASSICAL)

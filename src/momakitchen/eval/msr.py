@@ -38,7 +38,7 @@ from momakitchen.data.reader import (
 from momakitchen.data.shard import SceneShard
 from momakitchen.data.torch_dataset import CLOUD_FIELDS, episode_sample
 from momakitchen.errors import MomaError
-from momakitchen.eval.methods import BASELINES
+from momakitchen.eval.methods import BASELINES, CLASSICAL, METHODS
 from momakitchen.frames import base_to_world_xy
 from momakitchen.models.inference import MC_SAMPLES, PICK_RADIUS, run_model, select_points
 
@@ -124,6 +124,45 @@ class _PredictionsMethod:
         return scores, None
 
 
+class _ClassicalMethod:
+    """A classical base-placement method (:func:`momakitchen.placement.place`) as an MSR
+    method: it sees the judged view's frame (depth, masks, camera pose) and the robot at
+    its mount, as a model's prediction would, and its map is read at the episode's floor
+    points (the same render's floor: the nearest of its points within ``MATCH`` m, else
+    0)."""
+
+    MATCH = 0.05
+
+    def __init__(self, name: str) -> None:
+        self.name = name
+        self.floor_context: int | None = None
+
+    def episode_scores(self, episode: Any, cfg: Any) -> np.ndarray:
+        from scipy.spatial import cKDTree
+
+        from momakitchen.data.episode import stored_frame
+        from momakitchen.placement.methods import place
+
+        names = ("depth", "rgb", "semantic", "intrinsics", "camera_to_base")
+        frame = stored_frame({n: getattr(episode, n) for n in names})
+        pred = place(
+            self.name,
+            frame.depth,
+            frame.intrinsics,
+            frame.camera_to_base,
+            frame.target_mask,
+            cfg.robot,
+            obstacle_masks=list(frame.obstacle_masks),
+            top_k=1,
+            mount_height=cfg.mount,
+        )
+        floor = np.asarray(episode.floor_xyz, np.float64)[:, :2]
+        if not len(pred.floor_xyz):
+            return np.zeros(len(floor))
+        dist, idx = cKDTree(np.asarray(pred.floor_xyz)[:, :2]).query(floor)
+        return np.where(dist <= self.MATCH, np.asarray(pred.affordance)[idx], 0.0)
+
+
 def run_configuration(
     shard: SceneShard,
     scene: Any,
@@ -181,6 +220,8 @@ def run_configuration(
                 elif name == "nearest":
                     scores, radius = -dist, 0.0
                     accept = _base_free(runner, world_xy)
+                elif isinstance(models[name], _ClassicalMethod):
+                    scores, is_map = models[name].episode_scores(episode, cfg), True
                 else:
                     arrays = {f: getattr(episode, f) for f in CLOUD_FIELDS}
                     scores, std = models[name](episode_sample(arrays, sid, ci, ep, cfg.robot))
@@ -254,10 +295,10 @@ def run_msr(
     from momakitchen.train.checkpoint import check_preprocessing
 
     config = config or MsrConfig()
-    unknown = [m for m in methods if m not in BASELINES]
+    unknown = [m for m in methods if m not in METHODS]
     if unknown:
         raise MomaError(
-            f"unknown MSR method {unknown[0]!r}; methods: {', '.join(BASELINES)} "
+            f"unknown MSR method {unknown[0]!r}; methods: {', '.join(METHODS)} "
             "(or --checkpoint RUN, --predictions FILE)"
         )
     if not checkpoints and not methods and not predictions:  # the bundled model
@@ -269,7 +310,7 @@ def run_msr(
     # Models score the episodes' stored clouds: they must be built as for their training.
     preprocessing = Preprocessing(gen.cloud, gen.camera.max_depth)
 
-    models: dict[str, _Checkpoint | _PredictionsMethod] = {}
+    models: dict[str, _Checkpoint | _PredictionsMethod | _ClassicalMethod] = {}
     for entry in checkpoints:
         run_dir, label = entry if isinstance(entry, tuple) else (entry, None)
         run = _Checkpoint(run_dir)
@@ -295,6 +336,11 @@ def run_msr(
                     "a name already taken by another method; give it another name"
                 )
             models[method.name] = method
+    # Classical methods score maps as models do (the pick radius applies).
+    for name in methods:
+        if name in CLASSICAL:
+            models[name] = _ClassicalMethod(name)
+    methods = [m for m in methods if m not in CLASSICAL]
     names = [*models, *methods]
     # Every shard to be read is there and sound before the first (slow) configuration.
     check_shard_files(root, manifest, {sid for sid, _, _ in todo})

@@ -78,6 +78,36 @@ class ModelPerceiver:
         )
 
 
+class ClassicalPerceiver:
+    """A classical base-placement method (:func:`momakitchen.placement.place`) as a look:
+    the same frame a model gets, the robot by name and mount height. Its map has no
+    spread, so under ``uncertain`` it looks again as ``relook`` does."""
+
+    has_spread = False
+
+    def __init__(self, name: str) -> None:
+        self.name = name
+
+    def __call__(
+        self, frame: Any, robot: str, metric: bool, config: ApproachConfig, mount: float
+    ) -> Any:
+        from momakitchen.placement.methods import place
+
+        return place(
+            self.name,
+            frame.depth,
+            frame.intrinsics,
+            frame.camera_to_base,
+            frame.target_mask,
+            robot,
+            obstacle_masks=list(frame.obstacle_masks),
+            top_k=1,
+            pick_radius=config.pick_radius,
+            metric_depth=metric,
+            mount_height=mount,
+        )
+
+
 # ------------------------------------------------------------------------ the episode
 @dataclass
 class Context:
@@ -192,8 +222,12 @@ def take_look(ctx: Context, perceiver: Any, frame: Any, ids: tuple[int, ...]) ->
         return LookResult(None, "target_not_in_view", 0.0, obstacles)
     if obstacles is None:
         bad = corrupt_frame(frame, corruption, corruption_rng(ctx.config.seed, ids, name))
+    metric = corruption.preset.depth.metric
     try:
-        pred = perceiver(bad, ctx.robot, corruption.preset.depth.metric, ctx.config)
+        if isinstance(perceiver, ClassicalPerceiver):  # a robot by name, at its mount
+            pred = perceiver(bad, ctx.cfg.robot, metric, ctx.config, ctx.cfg.mount)
+        else:
+            pred = perceiver(bad, ctx.robot, metric, ctx.config)
     except MomaError as exc:
         if exc.fatal:
             raise
@@ -260,8 +294,10 @@ class Episode:
         self.stop_noise = np.random.default_rng([config.seed, sid, ci, start_index, 12])
         self.state = BaseState(true=start, odom=start, odom_trace=[start])
         self.record = EpisodeRecord(method, policy, path=[_round(start[:2], 3)])
+        # A map without spread cannot say how sure it is: ``uncertain`` looks as ``relook``.
+        kind = "relook" if policy == "uncertain" and not _has_spread(perceiver) else policy
         self.policy: LookPolicy | None = (
-            replace(config.look, kind=policy) if perceiver is not None else None
+            replace(config.look, kind=kind) if perceiver is not None else None
         )
         self.fusion = MapFusion(cell=config.motion.cell)
         # Where the robot believes the target is (odometry frame): the scene's anchor
@@ -270,6 +306,7 @@ class Episode:
         self.first: LookResult | None = None
         self.inference = 0.0
         self.heads: list[list[float]] = []
+        self.images: list[dict[str, Any] | None] = []  # with capture: each look's frame
         # The robot's costmap: the prior map, and with a static one the obstacles its
         # looks see (its own copy: episodes do not share what they saw).
         self.static = config.map == "static"
@@ -286,8 +323,10 @@ class Episode:
         self.heads.append(np.round(head, 5).ravel().tolist())
         if k == 0 and self.first_look is not None:
             result = self.first_look
+            self.keep_images(None)
         else:
             frame = ctx.render(state.true, head)
+            self.keep_images(frame)
             ids = (ctx.cfg.scene_id, ctx.cfg.index, self.start_index, k)
             result = take_look(ctx, self.perceiver, frame, ids)
         if k == 0:
@@ -305,6 +344,19 @@ class Episode:
             self.target = np.array([*self.fusion.target_xy, ctx.anchor[2]])
         if result.obstacles is not None:
             self.observe(result.obstacles)
+
+    def keep_images(self, frame: Any) -> None:
+        """With ``capture``: a look's rendered colour and depth (metres), every
+        ``stride``-th pixel so that they are at most 320 pixels wide (None: a first look
+        reused from another policy, not rendered again)."""
+        if not self.capture:
+            return
+        if frame is None:
+            self.images.append(None)
+            return
+        s = max(1, math.ceil(frame.depth.shape[1] / 320))
+        rgb, depth = frame.rgb[::s, ::s].copy(), frame.depth[::s, ::s].copy()
+        self.images.append({"rgb": rgb, "depth": depth, "stride": s})
 
     def observe(self, points: np.ndarray) -> None:
         """Add a look's obstacle points (base frame at the look) to the costmap, without
@@ -329,6 +381,7 @@ class Episode:
             head = self.ctx.head(state.odom, self.target)
         self.heads.append(np.round(head, 5).ravel().tolist())
         frame = self.ctx.render(state.true, head)
+        self.keep_images(frame)
         ids = (self.ctx.cfg.scene_id, self.ctx.cfg.index, self.start_index, k)
         result = take_look(self.ctx, None, frame, ids)
         self.record.looks.append(
@@ -431,6 +484,7 @@ class Episode:
             record.capture = {
                 "odom_path": [_round(p, 4) for p in state.odom_trace],
                 "heads": self.heads,
+                "images": self.images,
                 "fused": {"xy": np.round(xy, 3).tolist(), "value": np.round(value, 4).tolist()},
             }
         self.stop(outcome)
@@ -490,6 +544,11 @@ def _final_pose(
         if ctx.base_free(pose) or k == 4:
             return pose
     raise AssertionError("unreachable")
+
+
+def _has_spread(perceiver: Any) -> bool:
+    """Whether a method's maps come with an uncertainty (models and servers do)."""
+    return bool(getattr(perceiver, "has_spread", True))
 
 
 def _in_boxes(xy: np.ndarray, corners: np.ndarray) -> np.ndarray:

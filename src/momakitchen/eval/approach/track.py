@@ -17,10 +17,16 @@ import numpy as np
 from momakitchen.errors import MomaError
 from momakitchen.eval.approach.baselines import baseline_goal
 from momakitchen.eval.approach.config import STARTS, ApproachConfig
-from momakitchen.eval.approach.episode import Context, Episode, ModelPerceiver, Pose
+from momakitchen.eval.approach.episode import (
+    ClassicalPerceiver,
+    Context,
+    Episode,
+    ModelPerceiver,
+    Pose,
+)
 from momakitchen.eval.approach.records import ApproachRecord, StartRecord, shortest_or_none
 from momakitchen.eval.approach.starts import far_start, near_start
-from momakitchen.eval.methods import BASELINES
+from momakitchen.eval.methods import CLASSICAL, METHODS
 from momakitchen.sim.motion import FreeSpace
 
 
@@ -216,12 +222,14 @@ def run_approach(
     )
 
     config = config or ApproachConfig()
-    unknown = [b for b in baselines if b not in BASELINES]
+    unknown = [b for b in baselines if b not in METHODS]
     if unknown:
-        raise MomaError(f"unknown method {unknown[0]!r}; baselines: {', '.join(BASELINES)}")
+        raise MomaError(f"unknown method {unknown[0]!r}; methods: {', '.join(METHODS)}")
     if len(set(baselines)) != len(baselines):
         raise MomaError(f"method named twice: {list(baselines)}")
-    if not checkpoints and not baselines and not servers and methods is None:
+    classical = [b for b in baselines if b in CLASSICAL]
+    baselines = [b for b in baselines if b not in CLASSICAL]
+    if not checkpoints and not baselines and not classical and not servers and methods is None:
         from momakitchen.train.checkpoint import default_checkpoint
 
         checkpoints = [default_checkpoint()]
@@ -230,6 +238,8 @@ def run_approach(
     if methods is None:
         preprocessing = Preprocessing(gen.cloud, gen.camera.max_depth)
         methods = load_methods(checkpoints, servers, preprocessing, root)
+    # Classical methods look as models do: what they take is one frame, too.
+    methods = {**methods, **{name: ClassicalPerceiver(name) for name in classical}}
     todo = judged_configurations(root, manifest, config.split, config.max_configs)
     todo = part_of(todo, *config.part)
     check_shard_files(root, manifest, {sid for sid, _, _ in todo})

@@ -1,0 +1,46 @@
+"""Classical base placement (ring, reachability) as methods of the tracks: msr scores their
+maps at the judged view's floor points, the approach track drives them as it drives a
+model, and a map without spread looks under ``uncertain`` as ``relook`` does."""
+
+from __future__ import annotations
+
+import pytest
+
+from momakitchen.errors import MomaError
+from momakitchen.eval.approach.config import ApproachConfig
+from momakitchen.eval.approach.track import run_approach
+from momakitchen.eval.msr import MsrConfig, run_msr
+
+
+@pytest.mark.slow  # the reachability maps of the fixture's robots are sampled first
+def test_msr_scores_the_classical_methods_on_the_judged_views(real_dataset):
+    result = run_msr(real_dataset, methods=["ring", "reachability", "oracle"], config=MsrConfig())
+    assert list(result["methods"]) == ["ring", "reachability", "oracle"]
+    for record in result["records"]:
+        for name in ("ring", "reachability"):
+            got = record["methods"][name]
+            assert got["points"] and len(got["outcomes"]) == len(got["points"])
+            assert all(0.0 <= a <= 1.0 for a in got["affordance"])  # a map, as a model's
+    again = run_msr(real_dataset, methods=["ring", "reachability", "oracle"], config=MsrConfig())
+    assert again["records"] == result["records"]
+    with pytest.raises(MomaError, match="unknown MSR method 'circle'"):
+        run_msr(real_dataset, methods=["circle"])
+
+
+def test_the_approach_drives_a_classical_method_and_uncertain_looks_as_relook(real_dataset):
+    cfg = ApproachConfig(policies=("relook", "uncertain"), max_configs=1)
+    result = run_approach(real_dataset, baselines=["ring"], config=cfg)
+    relook, uncertain = (
+        [r for r in result["records"] if r["policy"] == p] for p in ("relook", "uncertain")
+    )
+    assert relook and len(relook) == len(uncertain)
+    for a, b in zip(relook, uncertain, strict=True):
+        assert a["method"] == b["method"] == "ring"
+        assert a["looks"][0]["cause"] != "costmap"  # its own look, a map
+        same = ("path", "goal", "final", "success", "stage")
+        assert {k: a[k] for k in same} == {k: b[k] for k in same}
+        untimed = [
+            [{k: v for k, v in look.items() if k != "seconds"} for look in r["looks"]]
+            for r in (a, b)
+        ]
+        assert untimed[0] == untimed[1]
