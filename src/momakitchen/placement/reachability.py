@@ -139,7 +139,7 @@ class ReachabilityMap:
         key = _digest(robot, cfg)
         if (robot, mount, key) not in _MAPS:
             grid = _sampled(robot, cfg, key)
-            z_first = spec.mount_height + grid.z_first + (mount - spec.mount_height)
+            z_first = mount + grid.z_first  # the same arm, raised or lowered with its mount
             heights = z_first + np.arange(grid.reachable.shape[3]) * cfg.cell
             # The arm does not reach below the floor, whatever IK says without it.
             reachable = grid.reachable & (heights >= 0.0)

@@ -139,8 +139,8 @@ def _first_axis(robot) -> float:
 
     joint = robot.arm_joints[0]
     info = p.getJointInfo(robot.body, joint, physicsClientId=robot.client)
-    _, orn = robot.link_pose(joint)
-    axis = np.array(p.getMatrixFromQuaternion(orn)).reshape(3, 3) @ robot._axes_local[0]
+    _, orn = robot.link_pose(joint)  # the joint's axis is given in its child link's frame
+    axis = np.array(p.getMatrixFromQuaternion(orn)).reshape(3, 3) @ np.asarray(info[13])
     if info[2] != p.JOINT_REVOLUTE or abs(float(axis[2])) < math.cos(math.radians(1.0)):
         raise MomaError(
             f"robot {robot.name!r}: its first arm joint does not turn about a vertical axis, "
@@ -162,6 +162,8 @@ def _fk_samples(
     qs[:, 0] = 0.0
     pos, zax = np.empty((n, 3)), np.empty((n, 3))
     for i, q in enumerate(qs):
+        # A kinematic reset, as IK does (set_joint_positions also drives the motors, and
+        # nothing steps physics here): FK only.
         robot._reset_arm(q)
         st = p.getLinkState(
             robot.body, robot.tcp_link, computeForwardKinematics=True, physicsClientId=robot.client
