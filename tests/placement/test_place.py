@@ -59,10 +59,10 @@ def test_poses_stand_on_free_floor_within_reach(episodes, coarse_maps, method):
         index = [int(np.flatnonzero((seen.floor_xyz[:, :2] == p).all(1))[0]) for p in xy]
         assert free_floor(seen, body.footprint, body.mount_height)[index].all()
         assert not free_floor(seen, body.footprint, body.mount_height).all()  # it decides
+        assert camera_side(seen)[index].all()
+        assert not camera_side(seen).all()  # it decides
         dist = np.hypot(to[:, 0], to[:, 1])
         if method == "ring":
-            assert camera_side(seen)[index].all()
-            assert not camera_side(seen).all()
             standoff = ring_standoff(body, float(pred.target_xyz[2]))
             assert abs(dist[0] - standoff) < 2 * BAND
             assert (shoulder_distance(body, dist, pred.target_xyz[2]) <= body.reach).all()

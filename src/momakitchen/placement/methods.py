@@ -18,7 +18,13 @@ import numpy as np
 
 from momakitchen.errors import MomaError
 from momakitchen.placement.body import PlacementRobot, placement_robot
-from momakitchen.placement.observed import ObservedFrame, free_floor, grasp_approaches, observe
+from momakitchen.placement.observed import (
+    ObservedFrame,
+    camera_side,
+    free_floor,
+    grasp_approaches,
+    observe,
+)
 from momakitchen.placement.ring import ring_map
 
 if TYPE_CHECKING:
@@ -37,7 +43,8 @@ def reachability_map(frame: ObservedFrame, robot: PlacementRobot) -> tuple[np.nd
     """The robot's inverse-reachability map at the target's grasp pose (its height, the
     approaches the frame suggests, :func:`~momakitchen.placement.observed.grasp_approaches`),
     the best approach at each floor point, on the floor the frame shows free within the
-    base's footprint.
+    base's footprint, on the camera's side of the target (a grasp from the far side
+    would take a face of the target the frame does not show).
 
     Shapes: -> (N,) float64 in [0, 1] over ``frame.floor_xyz``.
     """
@@ -50,14 +57,14 @@ def reachability_map(frame: ObservedFrame, robot: PlacementRobot) -> tuple[np.nd
     score = np.zeros(len(xy))
     for approach in grasp_approaches(frame):
         score = np.maximum(score, reach.floor_map(frame.target_xyz, approach, xy))
-    free = free_floor(frame, robot.footprint, robot.mount_height)
+    usable = free_floor(frame, robot.footprint, robot.mount_height) & camera_side(frame)
     warnings = []
-    if not (free & (score > 0)).any():
+    if not (usable & (score > 0)).any():
         warnings.append(
             f"robot {robot.name!r} reaches the target from no visible floor that is free "
-            "for its base"
+            "for its base on the camera's side"
         )
-    return np.where(free, score, 0.0), warnings
+    return np.where(usable, score, 0.0), warnings
 
 
 # The methods by name, in the order tables show them: the one source of truth.
