@@ -86,7 +86,7 @@ def test_evaluate_defaults_to_the_bundled_model(dataset, tmp_path, capsys):
     argv = ["evaluate", "--data", str(dataset), "--json", str(out), "--quiet"]
     assert main(argv) == 0
     report = json.loads(out.read_text())
-    assert report["checkpoint"] == str(default_checkpoint()) and report["model"] == "navaff"
+    assert report["checkpoint"] == str(default_checkpoint()) and report["model"] == "bundled"
 
 
 @pytest.mark.parametrize(

@@ -192,6 +192,7 @@ def test_a_server_that_answers_garbage_stops_the_run_and_keeps_what_was_done(
         (["--stop-xy", "-1"], "stop_xy must be in [0, 0.5], got -0.01"),
         (["--method", "teleport"], "unknown method 'teleport'"),
         (["--map", "psychic"], "psychic"),
+        (["--record", "999:0"], "--record 999:0 is not a configuration of this run"),
         (["--server", "http://127.0.0.1:9"], "cannot reach server"),
         (["--record", "7"], "--record wants SCENE:CONFIG"),
         (["--part", "3/2"], "expected K/N with 1 <= K <= N, got '3/2'"),
@@ -254,6 +255,29 @@ def test_approach_cli_writes_tables_figure_and_recordings(real_dataset, tiny_run
     assert {"/approach/base", "/approach/odom", "/approach/fused_map"} <= topics
     assert not (tmp_path / "a.json.partial.jsonl").exists()
     assert "navaff (single)" in capsys.readouterr().out
+
+
+def test_runs_of_other_methods_merge_into_one_result_and_csv(real_dataset, tmp_path, capsys):
+    common = ["approach", "--data", str(real_dataset), "--max-configs", "1", "--quiet"]
+    common += ["--policy", "single"]
+    a, b, merged = tmp_path / "a.json", tmp_path / "b.json", tmp_path / "m.json"
+    assert main([*common, "--json", str(a), "--method", "oracle"]) == 0
+    assert main([*common, "--json", str(b), "--method", "nearest"]) == 0
+    csv = tmp_path / "m.csv"
+    argv = ["approach", "--merge", str(a), str(b), "--json", str(merged), "--csv", str(csv)]
+    assert main(argv) == 0
+    result = json.loads(merged.read_text())
+    runs = [json.loads(p.read_text()) for p in (a, b)]
+    assert result["records"] == runs[0]["records"] + runs[1]["records"]
+    lines = csv.read_text().splitlines()
+    assert lines[0].startswith("start,method,policy,episodes,success,spl")
+    assert {line.split(",")[1] for line in lines[1:]} == {"oracle", "nearest"}
+    assert any(h.startswith("stratum:target=") for h in lines[0].split(","))
+    capsys.readouterr()
+    assert main(["approach", "--merge", str(a), str(a), "--json", str(merged)]) == 2
+    assert "repeats methods" in capsys.readouterr().err
+    assert main(["approach", "--json", str(merged)]) == 2  # neither --data nor --merge
+    assert "--data is required" in capsys.readouterr().err
 
 
 def test_a_look_sees_the_configuration_as_labelled_after_a_trial(real_dataset):

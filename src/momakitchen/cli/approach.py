@@ -20,6 +20,7 @@ import argparse
 import json
 import time
 from pathlib import Path
+from typing import Any
 
 from momakitchen.cli.common import output_file, part_arg
 from momakitchen.cli.options import (
@@ -58,7 +59,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    add_data(ap)
+    add_data(ap, required=False)  # not with --merge
     add_results_json(ap)
     add_checkpoint(ap, repeatable=True)
     ap.add_argument(
@@ -105,7 +106,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         default=(1, 1),
         metavar="K/N",
         help="only part K of N of the split (every N-th scene from the K-th), to run it in "
-        "N processes; scripts/approach_report.py merges the parts' --json files",
+        "N processes; --merge joins the parts' --json files",
     )
     ap.add_argument(
         "--max-looks",
@@ -151,6 +152,20 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "(0, 2, 4, 6, 10, 15 deg) from the same pre-stop pose",
     )
     ap.add_argument("--markdown", metavar="FILE", help="also write the tables as Markdown")
+    ap.add_argument(
+        "--csv",
+        metavar="FILE",
+        help="also write the summary rows as CSV (one per row of the table)",
+    )
+    ap.add_argument(
+        "--merge",
+        nargs="+",
+        default=[],
+        metavar="JSON",
+        help="join earlier runs' --json files (the parts of a --part run, or methods run "
+        "apart on the same dataset and settings) into --json, --markdown, --csv and "
+        "--figure; runs no episode (--checkpoint: the models to replay for --figure)",
+    )
     ap.add_argument("--figure", metavar="PNG", help="a top-down picture of one episode per robot")
     ap.add_argument(
         "--record",
@@ -181,15 +196,23 @@ def _record_ids(values: list[str]) -> list[tuple[int, int]]:
 def run(args: argparse.Namespace) -> int:
     from momakitchen.deploy.fusion import LookPolicy
     from momakitchen.eval.approach.config import STOP_SWEEP, ApproachConfig
-    from momakitchen.eval.approach.report import format_table, pairwise, report_markdown, summarize
+    from momakitchen.eval.approach.report import merge_results, pairwise, summarize
     from momakitchen.eval.approach.track import load_methods, run_approach
     from momakitchen.sim.motion import MotionConfig
 
     out = output_file(args.json)
-    for f in (args.markdown, args.figure):
+    for f in (args.markdown, args.figure, args.csv):
         if f:
             output_file(f)
     records = _record_ids(args.record)
+    if args.merge:
+        from momakitchen.fileio import read_json_object
+
+        result = merge_results([(str(p), read_json_object(Path(p))) for p in args.merge])
+        _write_outputs(args, out, result, records, list(args.checkpoint), list(args.server))
+        return 0
+    if not args.data:
+        raise MomaError("--data is required (or --merge FILE ... to join earlier runs)")
     motion = MotionConfig(
         stop_xy=args.stop_xy / 100.0,
         stop_yaw=args.stop_yaw,
@@ -216,13 +239,12 @@ def run(args: argparse.Namespace) -> int:
         raise MomaError(f"unknown method {unknown[0]!r}; methods: {', '.join(METHODS)}")
     checkpoints = list(args.checkpoint)
     if not checkpoints and not args.server and not args.method:
-        from momakitchen.train.checkpoint import default_checkpoint
-
-        checkpoints = [str(default_checkpoint())]
+        checkpoints = ["bundled"]
     from momakitchen.data.config import Preprocessing
     from momakitchen.data.reader import dataset_generation
 
-    _, gen = dataset_generation(Path(args.data))
+    manifest, gen = dataset_generation(Path(args.data))
+    _check_recorded(Path(args.data), manifest, config, records)  # before any work
     # Servers are asked for /health here: an unreachable one fails before any work.
     methods = load_methods(
         checkpoints, args.server, Preprocessing(gen.cloud, gen.camera.max_depth), Path(args.data)
@@ -240,36 +262,96 @@ def run(args: argparse.Namespace) -> int:
     result["results"] = summarize(result)
     result["pairs"] = pairwise(result)
     result["seconds"] = round(time.perf_counter() - t0, 1)
+    _write_outputs(args, out, result, records, methods=methods)
+    resume.unlink(missing_ok=True)
+    return 0
+
+
+def _check_recorded(
+    root: Path, manifest: dict, config: Any, records: list[tuple[int, int]]
+) -> None:
+    """Every ``--record`` id is a configuration this run judges (one line otherwise)."""
+    from momakitchen.data.reader import judged_configurations
+    from momakitchen.eval.approach.track import part_of
+
+    if not records:
+        return
+    todo = part_of(
+        judged_configurations(root, manifest, config.split, config.max_configs), *config.part
+    )
+    judged = {(sid, ci) for sid, ci, _ in todo}
+    for sid, ci in records:
+        if (sid, ci) not in judged:
+            raise MomaError(
+                f"--record {sid}:{ci} is not a configuration of this run ({config.split} "
+                f"split, {len(judged)} configurations; e.g. {min(judged)[0]}:{min(judged)[1]})"
+            )
+
+
+def _write_outputs(
+    args: argparse.Namespace,
+    out: Path,
+    result: dict[str, Any],
+    records: list[tuple[int, int]],
+    checkpoints: list[str] | None = None,
+    servers: list[str] | None = None,
+    methods: dict[str, Any] | None = None,
+) -> None:
+    """The result's JSON, tables (terminal, --markdown, --csv), then the figure and
+    recordings, which replay episodes (with a progress bar: they take minutes)."""
+    from momakitchen.eval.approach.report import format_table, report_markdown, summary_csv
+
     out.parent.mkdir(parents=True, exist_ok=True)
     atomic_write_text(out, json.dumps(result, indent=1, allow_nan=False) + "\n")
-    resume.unlink(missing_ok=True)
     print(format_table(result["results"]))
     if args.markdown:
         atomic_write_text(Path(args.markdown), report_markdown(result))
+    if args.csv:
+        atomic_write_text(Path(args.csv), summary_csv(result["results"]))
     if args.figure or records:
+        from tqdm.auto import tqdm
+
+        from momakitchen.eval.approach.episode import ClassicalPerceiver
         from momakitchen.eval.approach.figure import (
             episode_figure,
             figure_picks,
             replay,
             write_mcap,
         )
+        from momakitchen.eval.methods import CLASSICAL
+
+        data = result["dataset"]
+        if methods is None:  # a merged result: its models loaded again
+            from momakitchen.data.config import Preprocessing
+            from momakitchen.data.reader import dataset_generation
+            from momakitchen.eval.approach.track import load_methods
+
+            _, gen = dataset_generation(Path(data))
+            prep = Preprocessing(gen.cloud, gen.camera.max_depth)
+            methods = load_methods(checkpoints or ["bundled"], servers or [], prep, Path(data))
+        methods = {**methods, **{name: ClassicalPerceiver(name) for name in CLASSICAL}}
+
+        def replayed(picks: list[dict[str, Any]], what: str) -> list[tuple[dict[str, Any], Any]]:
+            bar = tqdm(picks, desc=what, unit="episode", disable=args.quiet)
+            return [e for pick in bar for e in replay(data, result, [pick], methods)]
 
         if args.figure:
-            episodes = replay(args.data, result, figure_picks(result), methods)
+            episodes = replayed(figure_picks(result), "figure")
             atomic_write_bytes(Path(args.figure), episode_figure(episodes))
         if records:
             folder = Path(args.record_dir) if args.record_dir else out.with_name(out.stem + "-mcap")
-            folder.mkdir(parents=True, exist_ok=True)
             picks = [
                 r for r in result["records"] if (r["scene_id"], r["config_index"]) in set(records)
             ]
             missing = set(records) - {(r["scene_id"], r["config_index"]) for r in picks}
             if missing:
                 raise MomaError(f"--record {sorted(missing)[0]}: no such episode in this run")
-            for rec, _ in replay(args.data, result, picks, methods):
+            folder.mkdir(parents=True, exist_ok=True)
+            motion = result["config"]["motion"]
+            for rec, _ in replayed(picks, "recordings"):
                 name = f"{rec['scene_id']}_{rec['config_index']}_{rec['start']}_{rec['method']}"
                 name = f"{name}_{rec['policy']}.mcap".replace("-.", "baseline.").replace(":", "-")
-                write_mcap(folder / name, rec, config.motion.speed)
+                write_mcap(folder / name, rec, motion["speed"])
             print(f"recordings -> {folder}")
-    print(f"{result['seconds']:.0f} s -> {out}")
-    return 0
+    seconds = result.get("seconds")
+    print(f"{seconds:.0f} s -> {out}" if seconds is not None else f"-> {out}")

@@ -142,11 +142,22 @@ def output_file(path: str | os.PathLike) -> Path:
     return out
 
 
+def checked_run_dir(run_dir: str) -> Path:
+    """A ``--checkpoint`` that exists (``bundled``: the bundled model's directory)."""
+    from momakitchen.train.checkpoint import BUNDLED, default_checkpoint
+
+    return (
+        default_checkpoint()
+        if run_dir == BUNDLED
+        else existing_dir(run_dir, "checkpoint directory")
+    )
+
+
 def checked_methods(args: argparse.Namespace) -> list[tuple[str, str | None]]:
     """Check ``--checkpoint`` directories, ``--predictions`` files and their ``--name``s
     before any work; the ``(file, name or None)`` pair of each predictions file."""
     for run_dir in args.checkpoint:
-        existing_dir(run_dir, "checkpoint directory")
+        checked_run_dir(run_dir)
     for path in args.predictions:
         existing_file(path, "predictions file")
     if args.name and len(args.name) != len(args.predictions):

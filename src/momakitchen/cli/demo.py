@@ -13,6 +13,7 @@ from pathlib import Path
 
 from momakitchen.cli.common import (
     check_config_index,
+    checked_run_dir,
     non_negative_int,
     planned_output_dir,
     scene_id,
@@ -49,12 +50,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from momakitchen.data.config import GenerationConfig
-    from momakitchen.fileio import existing_dir
     from momakitchen.generation.demo import STEPS, run_demo
 
     # Everything that can be checked is checked before any work or any directory exists.
     if args.checkpoint is not None:
-        existing_dir(args.checkpoint, "checkpoint directory")
+        checked_run_dir(args.checkpoint)
     check_config_index(args.config, GenerationConfig().scene.configs_per_scene)
     planned_output_dir(args.out)
 

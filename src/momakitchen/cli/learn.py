@@ -15,7 +15,13 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from momakitchen.cli.common import non_negative_float, non_negative_int, output_file, positive_int
+from momakitchen.cli.common import (
+    checked_run_dir,
+    non_negative_float,
+    non_negative_int,
+    output_file,
+    positive_int,
+)
 from momakitchen.cli.options import (
     add_checkpoint,
     add_data,
@@ -330,7 +336,7 @@ def run_evaluate(args: argparse.Namespace) -> int:
 
         run_dir = default_checkpoint()
     else:
-        run_dir = existing_dir(args.checkpoint, "checkpoint directory")
+        run_dir = checked_run_dir(args.checkpoint)
     out = output_file(args.json)  # an unwritable --json fails now, not after the work
     load_checkpoint(run_dir, model=args.model)  # fails early on a checkpoint of another model
     data = _dataset(args.data, args.split)

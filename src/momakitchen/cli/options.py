@@ -170,9 +170,10 @@ OPTIONS = (
 PER_COMMAND_DEFAULT = ("--top-k",)
 
 
-def add_data(parser: Any) -> None:
-    """``--data DIR``: the dataset a command reads (required)."""
-    DATA.add(parser)
+def add_data(parser: Any, required: bool = True) -> None:
+    """``--data DIR``: the dataset a command reads (required unless the command says
+    when it is not)."""
+    DATA.add(parser).required = required
 
 
 def add_results_json(parser: Any) -> None:

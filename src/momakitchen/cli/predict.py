@@ -20,7 +20,7 @@ from __future__ import annotations
 import argparse
 import time
 
-from momakitchen.cli.common import output_dir, planned_output_dir
+from momakitchen.cli.common import checked_run_dir, output_dir, planned_output_dir
 from momakitchen.cli.options import add_checkpoint, add_prediction, add_robot_yaml, config_fields
 from momakitchen.cli.predict_bag import BAG_ONLY, add_bag_arguments, run_bag
 from momakitchen.fileio import dumps_strict
@@ -90,7 +90,6 @@ def run(args: argparse.Namespace) -> int:
         write_outputs,
     )
     from momakitchen.errors import MomaError
-    from momakitchen.fileio import existing_dir
 
     if args.robot is None and (args.reach is None or args.mount_height is None):
         raise MomaError("give --robot NAME, or both --reach and --mount-height")
@@ -105,7 +104,7 @@ def run(args: argparse.Namespace) -> int:
             "give either --robot or --reach/--mount-height/--finger-force/--shoulder-*, not both"
         )
     if args.checkpoint is not None:
-        existing_dir(args.checkpoint, "checkpoint directory")
+        checked_run_dir(args.checkpoint)
     robot = args.robot or {
         "reach": args.reach,
         "mount_height": args.mount_height,

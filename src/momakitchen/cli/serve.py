@@ -30,7 +30,7 @@ from __future__ import annotations
 import argparse
 import os
 
-from momakitchen.cli.common import non_negative_int, positive_float, positive_int
+from momakitchen.cli.common import checked_run_dir, non_negative_int, positive_float, positive_int
 from momakitchen.cli.options import MC_SAMPLES, add_checkpoint, add_robot_yaml
 
 MAX_MC_SAMPLES = 64  # the server's own limit on a request's mc_samples
@@ -108,13 +108,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from momakitchen.deploy.server import TOKEN_ENV, Limits, _require_aiohttp, serve
-    from momakitchen.fileio import existing_dir
 
     _require_aiohttp()
     limits = Limits(args.queue, args.max_body_mb, args.max_inflight_mb, args.read_timeout)
     token = args.token if args.token is not None else (os.environ.get(TOKEN_ENV) or None)
     if args.checkpoint is not None:
-        existing_dir(args.checkpoint, "checkpoint directory")
+        checked_run_dir(args.checkpoint)
 
     def ready(host: str, port: int) -> None:
         guard = "; a token is required" if token else ""

@@ -22,6 +22,7 @@ from momakitchen.train.checkpoint import (
     check_preprocessing,
     dataset_preprocessing,
     load_checkpoint,
+    run_label,
 )
 
 
@@ -60,7 +61,7 @@ def evaluate(
         scenes += list(batch["scene_id"])
         robots += list(batch["robot_name"])
         configs += list(zip(batch["scene_id"], batch["config_index"], strict=True))
-    head = {"model": run.config.model, "preset": run.config.preset}
+    head = {"model": run_label(run), "preset": run.config.preset}
     return _report(head, run.config.num_floor, preds, gts, robots, scenes, configs, targets)
 
 

@@ -92,10 +92,10 @@ class _Checkpoint:
     map's MC-dropout standard deviation, exactly as ``predict`` computes them."""
 
     def __init__(self, run_dir: str | Path) -> None:
-        from momakitchen.train.checkpoint import load_checkpoint
+        from momakitchen.train.checkpoint import load_checkpoint, run_label
 
         self.run = load_checkpoint(run_dir)
-        self.name = self.run.config.model
+        self.name = run_label(self.run)
         self.floor_context: int | None = self.run.config.num_floor
 
     def __call__(self, sample: dict[str, Any]) -> tuple[np.ndarray, np.ndarray | None]:

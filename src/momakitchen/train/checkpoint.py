@@ -23,6 +23,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import os
 import struct
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -52,6 +53,21 @@ STATE_FILE = "trainer_state.safetensors"
 STATE_JSON = "trainer_state.json"
 # The checkpoint shipped inside the package (see its CARD.md).
 DEFAULT_CHECKPOINT = Path(__file__).resolve().parent.parent / "checkpoints" / "navaff"
+
+
+# The bundled model's name wherever a checkpoint is taken, and in every table.
+BUNDLED = "bundled"
+
+
+def resolve_run_dir(run_dir: str | os.PathLike) -> Path:
+    """A run directory as given, or the bundled model's for ``bundled``."""
+    return default_checkpoint() if str(run_dir) == BUNDLED else Path(run_dir)
+
+
+def run_label(run: LoadedRun) -> str:
+    """What a run is reported as: ``bundled`` for the bundled model (its model's name
+    would not tell it from any run of that model), else its model's name."""
+    return BUNDLED if run.run_dir.resolve() == DEFAULT_CHECKPOINT.resolve() else run.config.model
 
 
 def default_checkpoint() -> Path:
@@ -419,15 +435,15 @@ class LoadedRun:
     preprocessing: Preprocessing = field(default_factory=Preprocessing)
 
 
-def load_checkpoint(run_dir: str | Path, model: str | None = None) -> LoadedRun:
+def load_checkpoint(run_dir: str | os.PathLike, model: str | None = None) -> LoadedRun:
     """Load a trained model from ``run_dir``.
 
     Args:
-        run_dir: a directory written by :func:`momakitchen.train.train`.
+        run_dir: a directory written by :func:`momakitchen.train.train`, or ``bundled``.
         model: if given, the model name the caller expects; a checkpoint of another model
             raises MomaError naming both.
     """
-    run_dir = Path(run_dir)
+    run_dir = resolve_run_dir(run_dir)
     config, info = read_run_config(run_dir)
     preprocessing = run_preprocessing(info, run_dir)
     if model is not None and model != config.model:

@@ -54,7 +54,7 @@ class ApproachConfig:
         split, max_configs: which configurations.
         part: ``(k, n)``: only the scenes ``k-1, k-1+n, ...`` of the split's scenes in
             order (part k of n, to run one split in several processes or on several
-            machines; ``scripts/approach_report.py`` merges the parts); (1, 1): all.
+            machines; ``approach --merge`` joins the parts); (1, 1): all.
         far_range: distance range (m) of far starts; ``far_angle``: deg either side of
             the direction the target faces.
         look: the look policy's thresholds (its ``kind`` is set per policy).

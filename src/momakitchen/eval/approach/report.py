@@ -255,6 +255,44 @@ def report_markdown(result: dict[str, Any]) -> str:
     return "\n".join(parts) + "\n"
 
 
+CSV_COLUMNS = (
+    "start",
+    "method",
+    "policy",
+    "episodes",
+    "success",
+    "spl",
+    "looks",
+    "seconds",
+    "cpu_seconds",
+    "success_feasible",
+    "blocked",
+)
+
+
+def summary_csv(rows: Sequence[dict[str, Any]]) -> str:
+    """The summary rows as CSV: :data:`CSV_COLUMNS`, then success per stratum
+    (``stratum:AXIS=VALUE``) and failures per stage (``failures:STAGE``)."""
+    import csv
+    import io
+
+    strata = sorted({(a, v) for r in rows for a, g in r.get("per_stratum", {}).items() for v in g})
+    stages = sorted({k for r in rows for k in r["failures"]})
+    buf = io.StringIO()
+    writer = csv.writer(buf, lineterminator="\n")
+    writer.writerow(
+        [*CSV_COLUMNS, *(f"stratum:{a}={v}" for a, v in strata), *(f"failures:{k}" for k in stages)]
+    )
+    for r in sorted(rows, key=lambda r: (r["start"] != "far", _label(r))):
+        cells = [r[c] for c in CSV_COLUMNS]
+        cells += [
+            r.get("per_stratum", {}).get(a, {}).get(v, {}).get("success", "") for a, v in strata
+        ]
+        cells += [r["failures"].get(k, 0) for k in stages]
+        writer.writerow(cells)
+    return buf.getvalue()
+
+
 def format_table(rows: Sequence[dict[str, Any]]) -> str:
     """A plain-text table for the terminal."""
     out = [("start", "method (policy)", "episodes", "success", "SPL", "looks", "time (s)", "CPU s")]

@@ -169,17 +169,13 @@ def load_methods(
     """The model methods: trained runs (or plug-ins; ``bundled``: the bundled model) and
     servers, by unique name."""
     from momakitchen.deploy.client import ServerPerceiver
-    from momakitchen.train.checkpoint import check_preprocessing, load_checkpoint
+    from momakitchen.train.checkpoint import check_preprocessing, load_checkpoint, run_label
 
     methods: dict[str, Any] = {}
     for run_dir in checkpoints:
-        if str(run_dir) == "bundled":
-            from momakitchen.train.checkpoint import default_checkpoint
-
-            run_dir = default_checkpoint()
-        run = load_checkpoint(Path(run_dir))
+        run = load_checkpoint(run_dir)
         check_preprocessing(run, preprocessing, f"dataset {str(root)!r}")
-        name = run.config.model
+        name = run_label(run)
         if name in methods:
             name = f"{name}:{Path(run_dir).name}"
         methods[name] = ModelPerceiver(run, name)
@@ -270,8 +266,12 @@ def run_approach(
             if resume:
                 _append_resume(Path(resume), scene.layout.scene_id, ci, recs, skip)
             bar.update(1)
-            first = [r["success"] for r in records if r["method"] == records[0]["method"]]
-            bar.set_postfix(success=f"{np.mean(first):.2f}" if first else "-", refresh=False)
+            # The first row's success so far, named (a pool over rows would say nothing).
+            head = (records[0]["method"], records[0]["policy"]) if records else None
+            first = [r["success"] for r in records if (r["method"], r["policy"]) == head]
+            if head is not None:
+                label = head[0] if head[1] == "-" else f"{head[0]} ({head[1]})"
+                bar.set_postfix({f"{label} success": f"{np.mean(first):.2f}"}, refresh=False)
     finally:
         bar.close()
     order = {(sid, ci): k for k, (sid, ci, _) in enumerate(todo)}

@@ -62,6 +62,7 @@ def run_robustness(
         check_preprocessing,
         default_checkpoint,
         load_checkpoint,
+        run_label,
     )
 
     config = config or RobustnessConfig()
@@ -72,11 +73,9 @@ def run_robustness(
     for run_dir in checkpoints or ([] if predictions else [default_checkpoint()]):
         run = load_checkpoint(run_dir)
         check_preprocessing(run, preprocessing, f"dataset {str(root)!r}")
-        name = (
-            run.config.model
-            if run.config.model not in runs
-            else f"{run.config.model}:{Path(run_dir).name}"
-        )
+        name = run_label(run)
+        if name in runs:
+            name = f"{name}:{Path(run_dir).name}"
         runs[name] = run
     for path, label in predictions:
         method = load_robustness_predictions(path, config.corruptions, label)
