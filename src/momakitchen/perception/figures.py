@@ -18,9 +18,25 @@ def pyplot():
     return plt
 
 
-def png_bytes(fig: Any) -> bytes:
+# The width (inches) at which the documentation shows a figure: 860 pixels at 100 dpi, the
+# width of a page's text column. A figure this wide keeps its point sizes there; every
+# text of a figure the documents show is at least MIN_POINTS large at that width.
+DOC_WIDTH = 8.6
+MIN_POINTS = 8.0
+
+
+def text_sizes(points: float = MIN_POINTS) -> dict[str, float]:
+    """matplotlib settings that set every text of a figure (titles, labels, ticks,
+    legends) to ``points`` (for ``pyplot().rc_context``)."""
+    keys = ["font.size", "axes.titlesize", "axes.labelsize", "xtick.labelsize"]
+    keys += ["ytick.labelsize", "legend.fontsize", "legend.title_fontsize", "figure.titlesize"]
+    return dict.fromkeys(keys, points)
+
+
+def png_bytes(fig: Any, dpi: float = 100) -> bytes:
+    """The figure as PNG bytes (closed afterwards)."""
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=100)
+    fig.savefig(buf, format="png", dpi=dpi, metadata={"Software": None})
     pyplot().close(fig)
     return buf.getvalue()
 
