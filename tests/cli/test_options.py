@@ -33,7 +33,10 @@ DISTINCT = {
     "stats": {"--json": "print JSON instead of a table"},
     "robots": {"--json": "print JSON instead of a table"},
     "evaluate": {"--name": "the name of its one --predictions file"},
-    "serve": {"--mc-samples": "a request's default, capped at the server's limit"},
+    "serve": {
+        "--mc-samples": "a request's default, capped at the server's limit",
+        "--method": "the one classical method served instead of a model",
+    },
 }
 SHARED = {option.flag for option in options.OPTIONS}
 # What an action is, as argparse shows and parses it.

@@ -340,3 +340,54 @@ def test_serving_another_address_needs_a_token(tmp_path):
     assert done.stderr.count("\n") == 1, done.stderr
     assert "refusing to serve 0.0.0.0 without a token" in done.stderr
     assert "MOMAKITCHEN_SERVE_TOKEN" in done.stderr
+
+
+def test_a_registered_robot_at_a_drawn_mount(server, episodes):
+    """``robot`` and ``mount_height``: the model reads that robot's numbers at that mount."""
+    from momakitchen.deploy.client import _robot_fields
+    from momakitchen.robots.descriptor import robot_descriptor
+    from momakitchen.robots.spec import get_robot_spec
+
+    ep = episodes[0]
+    fields_of = dict(_robot_fields(("elephant", 0.9)))
+    assert fields_of == {"robot": "elephant", "mount_height": "0.9"}
+    files, fields = _request(ep, floor_points="0")
+    status, doc, _ = _post(server, files, {**fields, **fields_of})
+    assert status == 200, doc
+    expected = momakitchen.predict(
+        np.round(ep.depth * 1000) / 1000,
+        ep.intrinsics,
+        ep.camera_to_base,
+        ep.semantic == TARGET,
+        robot_descriptor(get_robot_spec("elephant"), 0.9),
+        rgb=ep.rgb,
+        obstacle_masks=[ep.semantic == OBSTACLE],
+        mc_samples=0,
+    )
+    _check(doc, expected, floor_points=False)
+    status, doc, _ = _post(server, files, {**fields, "robot": "elephant", "mount_height": "3"})
+    assert status == 400 and "mount_height" in doc["error"]
+
+
+def test_a_classical_method_served(episodes):
+    """``serve --method ring``: the same API, the method's map; no model loaded."""
+    from momakitchen.placement.methods import place
+
+    ep = episodes[0]
+    with serve_process("--method", "ring") as url:
+        files, fields = _request(ep, floor_points="0")
+        status, doc, _ = _post(url, files, {**fields, "mount_height": "0.9"})
+        assert status == 200, doc
+        expected = place(
+            "ring",
+            np.round(ep.depth * 1000) / 1000,
+            ep.intrinsics,
+            ep.camera_to_base,
+            ep.semantic == TARGET,
+            ep.robot,
+            obstacle_masks=[ep.semantic == OBSTACLE],
+            mount_height=0.9,
+        )
+        assert doc["model"] == "ring"
+        got = [(p["x"], p["y"]) for p in doc["poses"]]
+        assert got == [(round(float(x), 4), round(float(y), 4)) for x, y, _ in expected.poses]

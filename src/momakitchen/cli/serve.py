@@ -32,6 +32,8 @@ import os
 
 from momakitchen.cli.common import checked_run_dir, non_negative_int, positive_float, positive_int
 from momakitchen.cli.options import MC_SAMPLES, add_checkpoint, add_robot_yaml
+from momakitchen.errors import MomaError
+from momakitchen.eval.methods import CLASSICAL
 
 MAX_MC_SAMPLES = 64  # the server's own limit on a request's mc_samples
 
@@ -62,6 +64,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1)")
     p.add_argument("--port", type=_port, default=8000, help="port (default 8000; 0: any free)")
     add_checkpoint(p)
+    p.add_argument(
+        "--method",
+        choices=CLASSICAL,
+        default=None,
+        help="serve a classical base-placement method instead of a model (docs/PLACEMENT.md)",
+    )
     p.add_argument(
         "--mc-samples",
         type=_mc_samples,
@@ -113,6 +121,8 @@ def run(args: argparse.Namespace) -> int:
     limits = Limits(args.queue, args.max_body_mb, args.max_inflight_mb, args.read_timeout)
     token = args.token if args.token is not None else (os.environ.get(TOKEN_ENV) or None)
     if args.checkpoint is not None:
+        if args.method is not None:
+            raise MomaError("give --checkpoint or --method, not both")
         checked_run_dir(args.checkpoint)
 
     def ready(host: str, port: int) -> None:
@@ -125,7 +135,14 @@ def run(args: argparse.Namespace) -> int:
     defaults = {} if args.mc_samples is None else {"mc_samples": args.mc_samples}
     try:
         serve(
-            args.host, args.port, args.checkpoint, defaults, ready=ready, limits=limits, token=token
+            args.host,
+            args.port,
+            args.checkpoint,
+            defaults,
+            ready=ready,
+            limits=limits,
+            token=token,
+            method=args.method,
         )
     except KeyboardInterrupt:  # Ctrl-C is how a server stops: not an error
         print("stopped", flush=True)

@@ -212,11 +212,14 @@ def multipart(fields: list[tuple[str, str | bytes]]) -> tuple[bytes, str]:
 
 
 def _robot_fields(robot: Any) -> list[tuple[str, str | bytes]]:
-    """A registered name as ``robot``; a descriptor (a drawn mount height) as the numbers
-    the API takes: reach, mount height, joints, suction, a gripper's finger force and
-    where the shoulder stands."""
+    """A registered name as ``robot``; ``(name, mount height)`` as ``robot`` and
+    ``mount_height`` (a registered robot at a drawn mount: what a classical method needs of
+    it, its URDF); a descriptor as the numbers the API takes: reach, mount height, joints,
+    suction, a gripper's finger force and where the shoulder stands."""
     if isinstance(robot, str):
         return [("robot", robot)]
+    if isinstance(robot[0], str):  # a registered robot at a drawn mount height
+        return [("robot", robot[0]), ("mount_height", f"{float(robot[1]):.6g}")]
     suction = bool(robot[3] >= 0.5)
     fields: list[tuple[str, str | bytes]] = [
         ("reach", f"{robot[0]:.6g}"),
@@ -410,7 +413,11 @@ class ServerPerceiver:
             pose_scores=pose_rows[:, 3],
             pose_uncertainty=pose_rows[:, 4],
             target_xyz=target,
-            robot=robot if isinstance(robot, str) else "custom",
+            robot=robot
+            if isinstance(robot, str)
+            else str(robot[0])
+            if isinstance(robot[0], str)
+            else "custom",
             model=model,
         )
 

@@ -237,8 +237,10 @@ class ModelServer:
         predict_defaults: Mapping[str, Any] | None = None,
         limits: Limits | None = None,
         token: str | None = None,
+        method: str | None = None,
     ) -> None:
         self.run = run
+        self.method = method  # a classical method served instead of a model
         self.defaults = dict(predict_defaults or {})
         self.limits = limits or Limits()
         self.token = token
@@ -251,6 +253,8 @@ class ModelServer:
     def health(self) -> dict[str, Any]:
         from momakitchen.version import __version__
 
+        if self.method is not None:
+            return {"status": "ok", "model": self.method, "version": __version__}
         return {
             "status": "ok",
             "model": self.run.config.model,
@@ -266,7 +270,21 @@ class ModelServer:
 
         kwargs, floor = predict_arguments(files, text)
         t0 = time.perf_counter()
-        pred = predict(**{**self.defaults, **kwargs}, checkpoint=self.run)
+        if self.method is not None:  # a classical method: no model, no MC-dropout
+            from momakitchen.placement.methods import place
+
+            args = {**self.defaults, **kwargs}
+            for name in ("mc_samples", "threads"):
+                args.pop(name, None)
+            pred = place(self.method, **args)
+        else:
+            mount = kwargs.pop("mount_height", None)
+            if mount is not None:  # the model reads the robot's numbers at that mount
+                from momakitchen.robots.descriptor import robot_descriptor
+                from momakitchen.robots.spec import get_robot_spec
+
+                kwargs["robot"] = robot_descriptor(get_robot_spec(kwargs["robot"]), mount)
+            pred = predict(**{**self.defaults, **kwargs}, checkpoint=self.run)
         return pred.to_dict(floor_points=floor), time.perf_counter() - t0
 
     def _job(
@@ -531,8 +549,10 @@ def serve(
     ready: Any = None,
     limits: Limits | None = None,
     token: str | None = None,
+    method: str | None = None,
 ) -> None:
-    """Load the model and serve until interrupted. ``ready(host, port)`` is called once
+    """Load the model (or a classical ``method``: ``ring``, ``reachability``) and serve
+    until interrupted. ``ready(host, port)`` is called once
     the socket listens. A ``host`` that is not a loopback address needs a ``token``."""
     from momakitchen.train.checkpoint import LoadedRun, default_checkpoint, load_checkpoint
 
@@ -545,12 +565,23 @@ def serve(
             f"model; give --token or set {TOKEN_ENV} (or serve 127.0.0.1 only)"
         )
     limits = limits or Limits()
-    run = (
-        checkpoint
-        if isinstance(checkpoint, LoadedRun)
-        else load_checkpoint(checkpoint if checkpoint is not None else default_checkpoint())
-    )
-    server = ModelServer(run, predict_defaults, limits, token)
+    if method is not None:
+        from momakitchen.placement.methods import CLASSICAL_METHODS
+
+        if method not in CLASSICAL_METHODS:
+            raise MomaError(
+                f"unknown method {method!r}; serve takes {', '.join(CLASSICAL_METHODS)}"
+            )
+        if checkpoint is not None:
+            raise MomaError("give a checkpoint or a classical method to serve, not both")
+        server = ModelServer(None, predict_defaults, limits, token, method)
+    else:
+        run = (
+            checkpoint
+            if isinstance(checkpoint, LoadedRun)
+            else load_checkpoint(checkpoint if checkpoint is not None else default_checkpoint())
+        )
+        server = ModelServer(run, predict_defaults, limits, token)
 
     async def main() -> None:
         runner = await server.start(host, port)

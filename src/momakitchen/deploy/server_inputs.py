@@ -205,9 +205,17 @@ def check_fields(
         ),
     }
     if "robot" in text:
-        if "reach" in text or "mount_height" in text:
+        if "reach" in text:
             raise MomaError("give either 'robot' or 'reach' and 'mount_height', not both")
         kwargs["robot"] = text["robot"]
+        if "mount_height" in text:  # a registered robot at a drawn mount height
+            from momakitchen.robots.spec import mount_height_problem
+
+            mount = _numbers(text["mount_height"], "mount_height", 1)[0]
+            problem = mount_height_problem(mount)
+            if problem:
+                raise MomaError(f"field {problem}")
+            kwargs["mount_height"] = mount
     elif "reach" in text and "mount_height" in text:
         robot: dict[str, Any] = {
             "reach": _numbers(text["reach"], "reach", 1)[0],

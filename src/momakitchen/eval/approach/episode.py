@@ -89,17 +89,18 @@ class ClassicalPerceiver:
         self.name = name
 
     def __call__(
-        self, frame: Any, robot: str, metric: bool, config: ApproachConfig, mount: float
+        self, frame: Any, robot: str | tuple[str, float], metric: bool, config: ApproachConfig
     ) -> Any:
         from momakitchen.placement.methods import place
 
+        name, mount = (robot, None) if isinstance(robot, str) else robot
         return place(
             self.name,
             frame.depth,
             frame.intrinsics,
             frame.camera_to_base,
             frame.target_mask,
-            robot,
+            name,
             obstacle_masks=list(frame.obstacle_masks),
             top_k=1,
             pick_radius=config.pick_radius,
@@ -145,6 +146,14 @@ class Context:
         from momakitchen.robots.descriptor import robot_descriptor
 
         return robot_descriptor(self.spec, self.cfg.mount_height)
+
+    @property
+    def robot_by_name(self) -> str | tuple[str, float]:
+        """The robot as a classical method takes it: its name, or ``(name, mount
+        height)`` for a drawn mount height."""
+        if self.cfg.mount_height is None:
+            return str(self.cfg.robot)
+        return (str(self.cfg.robot), float(self.cfg.mount_height))
 
     def head(self, odom: Vec, target_xyz: Vec) -> np.ndarray:
         """The head camera's transform to the base (4, 4), turned toward ``target_xyz``
@@ -222,12 +231,11 @@ def take_look(ctx: Context, perceiver: Any, frame: Any, ids: tuple[int, ...]) ->
         return LookResult(None, "target_not_in_view", 0.0, obstacles)
     if obstacles is None:
         bad = corrupt_frame(frame, corruption, corruption_rng(ctx.config.seed, ids, name))
-    metric = corruption.preset.depth.metric
+    # A model reads the robot's descriptor; a classical method (here or behind a server)
+    # its URDF: the name, at the configuration's drawn mount height if it has one.
+    robot = ctx.robot if isinstance(perceiver, ModelPerceiver) else ctx.robot_by_name
     try:
-        if isinstance(perceiver, ClassicalPerceiver):  # a robot by name, at its mount
-            pred = perceiver(bad, ctx.cfg.robot, metric, ctx.config, ctx.cfg.mount)
-        else:
-            pred = perceiver(bad, ctx.robot, metric, ctx.config)
+        pred = perceiver(bad, robot, corruption.preset.depth.metric, ctx.config)
     except MomaError as exc:
         if exc.fatal:
             raise
