@@ -33,6 +33,7 @@ DISTINCT = {
     "stats": {"--json": "print JSON instead of a table"},
     "robots": {"--json": "print JSON instead of a table"},
     "evaluate": {"--name": "the name of its one --predictions file"},
+    "robustness": {"--method": "classical methods only: no baseline reads a frame"},
     "serve": {
         "--mc-samples": "a request's default, capped at the server's limit",
         "--method": "the one classical method served instead of a model",

@@ -44,3 +44,18 @@ def test_the_approach_drives_a_classical_method_and_uncertain_looks_as_relook(re
             for r in (a, b)
         ]
         assert untimed[0] == untimed[1]
+
+
+def test_the_robustness_track_scores_a_classical_method_under_corruptions(real_dataset):
+    from momakitchen.eval.robustness.track import run_robustness
+    from momakitchen.eval.robustness.views import RobustnessConfig
+
+    config = RobustnessConfig(corruptions=("clean", "kinect"), max_configs=1)
+    result = run_robustness(real_dataset, methods=["ring"], config=config)
+    assert list(result["models"]) == ["ring"]  # no model loaded when none is asked for
+    (record,) = result["records"]
+    for view in record["views"]["ring"].values():
+        assert view["status"] == "ok" and len(view["outcomes"]) == 1  # tried in physics
+        assert -1.0 <= view["pcc"] <= 1.0
+    with pytest.raises(MomaError, match="unknown method 'circle'"):
+        run_robustness(real_dataset, methods=["circle"], config=config)

@@ -33,6 +33,7 @@ from momakitchen.cli.options import (
     add_selection,
     config_fields,
 )
+from momakitchen.eval.methods import CLASSICAL
 from momakitchen.fileio import atomic_write_bytes, atomic_write_text, dumps_strict, existing_dir
 
 
@@ -58,6 +59,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "docs/METHODS.md; repeatable)",
     )
     add_method_names(rb)
+    rb.add_argument(
+        "--method",
+        action="append",
+        default=[],
+        choices=CLASSICAL,
+        help="a classical base-placement method scored beside the models (repeatable; "
+        "docs/PLACEMENT.md)",
+    )
     rb.add_argument(
         "--corruption",
         action="append",
@@ -126,6 +135,7 @@ def run(args: argparse.Namespace) -> int:
         progress=not args.quiet,
         view_maps=maps,
         predictions=predictions,
+        methods=args.method,
     )
     result["seconds"] = round(time.perf_counter() - t0, 1)
     table = format_robustness_table(result)

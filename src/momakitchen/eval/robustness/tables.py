@@ -96,54 +96,86 @@ def format_robustness_table(result: dict[str, Any]) -> str:
     return "\n".join([*lines, "", *legend])
 
 
-def robustness_figure(view_maps: dict[str, Any], title: str) -> bytes:
-    """One view's map under each corruption, on one 0-1 colour scale (PNG bytes)."""
-    from momakitchen.perception.figures import floor_map, png_bytes, pyplot
+def robustness_figure(
+    view_maps: dict[str, Any], title: str, views: dict[str, dict[str, Any]] | None = None
+) -> bytes:
+    """One view's map under each corruption, on one 0-1 colour scale (PNG bytes, DOC_WIDTH
+    wide, its text 8 pt). ``views`` (corruption -> the view's record of the model, as
+    ``records[i]["views"][model]``) adds to each panel its Top-1 trial's outcome and the
+    map's PCC against the ground truth."""
+    from momakitchen.perception.figures import (
+        DOC_WIDTH,
+        floor_map,
+        marks_legend,
+        png_bytes,
+        pyplot,
+        text_sizes,
+    )
 
     plt = pyplot()
     names = list(view_maps)
-    cols = min(5, len(names))
+    cols = min(4, len(names))
     rows = (len(names) + cols - 1) // cols
-    fig, axes = plt.subplots(
-        rows,
-        cols,
-        figsize=(2.9 * cols + 1.0, 2.7 * rows + 0.5),
-        squeeze=False,
-        constrained_layout=True,
-    )
     preds = [p for p in view_maps.values() if hasattr(p, "floor_xyz")]
     # the floor within 1.2 m of the target, where the robot may stand
     t = preds[0].target_xyz[:2] if preds else np.zeros(2)
     extent = (float(t[0] - 1.2), float(t[0] + 0.3), float(t[1] - 1.2), float(t[1] + 1.2))
+    panel = (DOC_WIDTH - 1.3) / cols
+    aspect = (extent[1] - extent[0]) / (extent[3] - extent[2])
     scatter = None
-    for ax, name in zip(axes.flat, names, strict=False):
-        p = view_maps[name]
-        if hasattr(p, "floor_xyz"):
-            scatter = floor_map(
-                ax, p.floor_xyz, p.affordance, name, p.target_xyz, p.poses[:1], extent=extent
-            )
-        else:
-            ax.set_title(name, fontsize=9)
-            reason = (
-                "target beyond the sensor's range"
-                if p["status"] == "beyond_range"
-                else (p.get("cause", "error").replace("_", " "))
-            )
-            ax.text(0.5, 0.5, reason, ha="center", va="center", transform=ax.transAxes)
-            ax.set_xticks([])
-            ax.set_yticks([])
-    for i, ax in enumerate(axes.flat):
-        if i >= len(names):
-            ax.axis("off")
-            continue
-        if i % cols:  # one axis label per row and column is enough
-            ax.set_ylabel("")
-        if i < len(names) - cols:
+    with plt.rc_context(text_sizes(8)):
+        fig, axes = plt.subplots(
+            rows,
+            cols,
+            figsize=(DOC_WIDTH, rows * (panel * aspect + 0.62) + 1.1),
+            squeeze=False,
+            layout="constrained",
+            dpi=130,
+        )
+        for ax, name in zip(axes.flat, names, strict=False):
+            p = view_maps[name]
+            caption = _panel_caption(name, (views or {}).get(name))
+            if hasattr(p, "floor_xyz"):
+                scatter = floor_map(
+                    ax, p.floor_xyz, p.affordance, caption, p.target_xyz, p.poses[:1], extent=extent
+                )
+            else:
+                ax.set_title(caption)
+                reason = (
+                    "target beyond the sensor's range"
+                    if p["status"] == "beyond_range"
+                    else (p.get("cause", "error").replace("_", " "))
+                )
+                ax.text(0.5, 0.5, reason, ha="center", va="center", transform=ax.transAxes)
+                ax.set_xticks([])
+                ax.set_yticks([])
+        for i, ax in enumerate(axes.flat):
+            if i >= len(names):
+                ax.axis("off")
             ax.set_xlabel("")
-    if scatter is not None:
-        fig.colorbar(scatter, ax=axes, shrink=0.6, label="predicted affordance (0-1)")
-    fig.suptitle(title, fontsize=10)
-    return png_bytes(fig)
+            ax.set_ylabel("")
+        fig.supxlabel("y (m), positive to the left (the robot's base frame)")
+        fig.supylabel("x, forward (m)")
+        if scatter is not None:
+            fig.colorbar(scatter, ax=axes, shrink=0.5, label="predicted affordance (0–1)")
+        spare = list(axes.flat[len(names) :])
+        if spare:  # the legend in the grid's first empty cell
+            marks_legend(spare[0], camera=False, poses=1, loc="upper left", frameon=False)
+        else:
+            marks_legend(fig, camera=False, poses=1, loc="outside upper right")
+        fig.suptitle(title, fontsize=9)
+        return png_bytes(fig)
+
+
+def _panel_caption(name: str, view: dict[str, Any] | None) -> str:
+    """A panel's title: the corruption, and with the view's record its Top-1 outcome and
+    PCC (or why there is no map)."""
+    if view is None:
+        return name
+    if view.get("status") != "ok":
+        return f"{name}\nno map"
+    outcome = "success" if view["outcomes"] and view["outcomes"][0] else "failure"
+    return f"{name}\nTop-1 {outcome}, PCC {view['pcc']:.2f}"
 
 
 def top1_by_view(result: dict[str, Any], model: str, corruption: str) -> dict[tuple, int]:

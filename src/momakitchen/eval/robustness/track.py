@@ -11,8 +11,11 @@ from typing import Any
 import numpy as np
 
 from momakitchen.errors import MomaError
+from momakitchen.eval.methods import CLASSICAL
 from momakitchen.eval.robustness.tables import summarize
 from momakitchen.eval.robustness.views import (
+    REFERENCE,
+    ClassicalMethod,
     RobustnessConfig,
     StoredView,
     episode_frame,
@@ -22,7 +25,7 @@ from momakitchen.eval.robustness.views import (
     track_view,
     view_key,
 )
-from momakitchen.perception.sensors import target_range
+from momakitchen.perception.sensors import get_corruption, target_range
 
 
 def run_robustness(
@@ -32,6 +35,7 @@ def run_robustness(
     progress: bool = False,
     view_maps: dict[str, Any] | None = None,
     predictions: Sequence[tuple[str | Path, str | None]] = (),
+    methods: Sequence[str] = (),
 ) -> dict[str, Any]:
     """The robustness track of trained runs and of methods that ran elsewhere
     (``predictions``: ``(file, name or None)`` pairs, :func:`load_robustness_predictions`)
@@ -70,13 +74,19 @@ def run_robustness(
     manifest, gen = dataset_generation(root)
     preprocessing = Preprocessing(gen.cloud, gen.camera.max_depth)
     runs: dict[str, Any] = {}
-    for run_dir in checkpoints or ([] if predictions else [default_checkpoint()]):
+    for run_dir in checkpoints or ([] if predictions or methods else [default_checkpoint()]):
         run = load_checkpoint(run_dir)
         check_preprocessing(run, preprocessing, f"dataset {str(root)!r}")
         name = run_label(run)
         if name in runs:
             name = f"{name}:{Path(run_dir).name}"
         runs[name] = run
+    for name in methods:  # classical base placement: ring, reachability
+        if name not in CLASSICAL:
+            raise MomaError(f"unknown method {name!r}; classical methods: {', '.join(CLASSICAL)}")
+        if name in runs:
+            raise MomaError(f"method named twice: {name!r}")
+        runs[name] = ClassicalMethod(name)
     for path, label in predictions:
         method = load_robustness_predictions(path, config.corruptions, label)
         if method.name in runs:
@@ -111,7 +121,7 @@ def run_robustness(
             try:
                 for name in config.corruptions:
                     # one input per corruption, for every model
-                    _, inputs = track_view(
+                    view_frame, inputs = track_view(
                         episode, frame, name, cfg.target.anchor, preprocessing, config.seed
                     )
                     gt = None
@@ -128,7 +138,13 @@ def run_robustness(
                         ).astype(np.float64)
                     key = view_key(name, sid, ci, ep)
                     for model, run in runs.items():
-                        view = predict_view(run, inputs, cfg.robot, descriptor, config, key)
+                        if isinstance(run, ClassicalMethod):
+                            metric = name == REFERENCE or get_corruption(name).preset.depth.metric
+                            view = run.predict(
+                                view_frame, inputs, cfg.robot, cfg.mount, config, metric
+                            )
+                        else:
+                            view = predict_view(run, inputs, cfg.robot, descriptor, config, key)
                         pred = view.pop("prediction", None)
                         if view_maps is not None and not records and model == next(iter(runs)):
                             view_maps[name] = pred if pred is not None else view
