@@ -51,8 +51,12 @@ def plot_axes(fig):
 
 
 def assert_axes_labelled(fig, unit="(m)"):
+    """Every plot's axes say what they measure, in ``unit``: its own labels, or the
+    figure's (``supxlabel``, ``supylabel``) for a grid of plots of the same axes."""
+    sup = [getattr(fig, name, None) for name in ("_supxlabel", "_supylabel")]
+    supx, supy = (t.get_text() if t is not None else "" for t in sup)
     for ax in plot_axes(fig):
-        for label in (ax.get_xlabel(), ax.get_ylabel()):
+        for label in (ax.get_xlabel() or supx, ax.get_ylabel() or supy):
             assert unit in label, (ax.get_title(), ax.get_xlabel(), ax.get_ylabel())
 
 
@@ -81,3 +85,46 @@ def captured_figures(monkeypatch):
 
     monkeypatch.setattr(figures, "png_bytes", keep)
     yield kept
+
+
+def fake_prediction(poses: int = 5, target=(2.6, 0.3, 0.9)):
+    """A Prediction of a 3 x 3 m floor ahead of the camera: a blob of affordance before
+    the target, ``poses`` poses along it facing the target."""
+    import numpy as np
+
+    from momakitchen.models.inference import Prediction
+
+    g = np.stack(np.meshgrid(np.arange(0.8, 3.6, 0.04), np.arange(-1.4, 1.4, 0.04)), -1)
+    xy = g.reshape(-1, 2)
+    target = np.asarray(target, float)
+    centre = target[:2] - [0.6, 0.0]
+    affordance = np.exp(-np.sum((xy - centre) ** 2, 1) / 0.03).astype(np.float32)
+    points = centre + np.c_[np.zeros(poses), np.linspace(-0.3, 0.3, poses)]
+    yaws = np.arctan2(target[1] - points[:, 1], target[0] - points[:, 0])
+    return Prediction(
+        floor_xyz=np.c_[xy, np.zeros(len(xy))].astype(np.float32),
+        affordance=affordance,
+        uncertainty=(0.1 * affordance * (1 - affordance)).astype(np.float32),
+        poses=np.c_[points, yaws],
+        pose_scores=np.linspace(0.9, 0.5, poses),
+        pose_uncertainty=np.full(poses, 0.02),
+        target_xyz=target,
+        robot="panda",
+        model="navaff",
+    )
+
+
+def level_camera(height: float = 1.2):
+    """A camera ``height`` above the floor at the base's origin, looking forward 30 deg
+    down (OpenCV axes), and its 320 x 240 intrinsics."""
+    import numpy as np
+
+    from momakitchen.perception.camera import Intrinsics
+
+    level = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
+    a = np.radians(30)
+    down = np.array([[np.cos(a), 0, np.sin(a)], [0, 1, 0], [-np.sin(a), 0, np.cos(a)]])
+    tf = np.eye(4)
+    tf[:3, :3] = down @ level
+    tf[:3, 3] = [0.0, 0.0, height]
+    return tf, Intrinsics(280.0, 280.0, 160.0, 120.0, 320, 240)

@@ -19,55 +19,91 @@ FIGURE_NAME = "example.png"
 
 
 def save_episode_figure(ep: Episode, path: str | os.PathLike) -> None:
-    """RGB, depth, the global cloud seen from above coloured by the alignment channel and
-    the floor cloud coloured by its affordance label."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    """RGB (the target outlined), depth, the global cloud seen from above coloured by the
+    alignment channel and the floor cloud coloured by its affordance label, the target
+    marked in both clouds; sized for a page (DOC_WIDTH inches, text of 8 pt or more)."""
+    from matplotlib.lines import Line2D
     from matplotlib.ticker import FuncFormatter
 
-    fig, ax = plt.subplots(1, 4, figsize=(17, 4.2))
-    if ep.rgb.size:  # imported reference data may have no images
-        ax[0].imshow(ep.rgb)
-        depth = np.where(ep.depth > 0, ep.depth, np.nan)
-        im = ax[1].imshow(depth, cmap="viridis")
-        fig.colorbar(im, ax=ax[1], fraction=0.04, label="depth (m)")
-    ax[0].set_title("RGB")
-    ax[1].set_title("depth")
-    for a in ax[:2]:
-        a.axis("off")
-    order = np.argsort(np.abs(ep.global_align), kind="stable")  # flagged points on top
-    g = ep.global_xyz[order]
-    colours = np.array([[0.85, 0.2, 0.15], [0.75, 0.75, 0.75], [0.1, 0.45, 0.9]])
-    ax[2].scatter(-g[:, 1], g[:, 0], s=1.5, c=colours[ep.global_align[order] + 1], linewidths=0)
-    ax[2].set_title("global cloud (blue target, red obstacle)")
-    sc = ax[3].scatter(
-        -ep.floor_xyz[:, 1],
-        ep.floor_xyz[:, 0],
-        s=2,
-        c=ep.floor_label,
-        cmap="viridis",  # the colour map of every other affordance figure
-        vmin=0,
-        vmax=1,
-        linewidths=0,
-    )
-    fig.colorbar(sc, ax=ax[3], fraction=0.04, label="affordance")
-    ax[3].set_title("floor map")
-    # As in every top-down view of the base frame: forward up, left to the left, the axis
-    # labelled with y itself (the points are drawn at -y).
-    left = FuncFormatter(lambda v, _pos: f"{-v + 0.0:g}")
-    for a in ax[2:]:
-        a.set_aspect("equal")
-        a.xaxis.set_major_formatter(left)
-        a.set_xlabel("y (m), positive to the left")
-        a.set_ylabel("x, forward (m)")
-    fig.suptitle(
-        f"scene {ep.scene_id}, configuration {ep.config_index}, episode "
-        f"{ep.episode_index}, robot {ep.robot}"
-    )
-    fig.tight_layout()
-    fig.savefig(path, dpi=80, metadata={"Software": None})
+    from momakitchen.data.episode import SEMANTIC_CLASSES
+    from momakitchen.perception.figures import DOC_WIDTH, pyplot, text_sizes
+
+    plt = pyplot()
+    target = ep.global_xyz[ep.global_align > 0]
+    centre = target.mean(0) if len(target) else None
+    star: dict[str, Any] = {"marker": "*", "color": "red", "mec": "black", "ms": 13, "ls": ""}
+    with plt.rc_context(text_sizes(8)):
+        fig, axes = plt.subplots(2, 2, figsize=(DOC_WIDTH, 6.2), layout="constrained")
+        ax = axes.ravel()
+        if ep.rgb.size:  # imported reference data may have no images
+            ax[0].imshow(ep.rgb)
+            mask = ep.semantic == SEMANTIC_CLASSES.index("target")
+            if mask.any():
+                ax[0].contour(mask.astype(float), levels=[0.5], colors="red", linewidths=1.5)
+                rows, cols = np.nonzero(mask)
+                ax[0].annotate(
+                    "target",
+                    (float(cols.mean()), float(rows.min())),
+                    xytext=(0, 7),
+                    textcoords="offset points",
+                    ha="center",
+                    color="red",
+                    weight="bold",
+                )
+            depth = np.where(ep.depth > 0, ep.depth, np.nan)
+            im = ax[1].imshow(depth, cmap="viridis")
+            fig.colorbar(im, ax=ax[1], shrink=0.8, label="depth (m)")
+        ax[0].set_title("RGB (the target outlined in red)")
+        ax[1].set_title("depth")
+        for a in ax[:2]:
+            a.axis("off")
+        order = np.argsort(np.abs(ep.global_align), kind="stable")  # flagged points on top
+        g = ep.global_xyz[order]
+        colours = np.array([[0.85, 0.2, 0.15], [0.75, 0.75, 0.75], [0.1, 0.45, 0.9]])
+        ax[2].scatter(-g[:, 1], g[:, 0], s=1.5, c=colours[ep.global_align[order] + 1], lw=0)
+        ax[2].set_title("global cloud, from above")
+        sc = ax[3].scatter(
+            -ep.floor_xyz[:, 1],
+            ep.floor_xyz[:, 0],
+            s=2,
+            c=ep.floor_label,
+            cmap="viridis",  # the colour map of every other affordance figure
+            vmin=0,
+            vmax=1,
+            linewidths=0,
+        )
+        fig.colorbar(sc, ax=ax[3], shrink=0.8, label="affordance (success rate)")
+        ax[3].set_title("floor cloud, labelled")
+        # As in every top-down view of the base frame: forward up, left to the left, the
+        # axis labelled with y itself (the points are drawn at -y).
+        left = FuncFormatter(lambda v, _pos: f"{-v + 0.0:g}")
+        for a in ax[2:]:
+            if centre is not None:
+                a.plot(-centre[1], centre[0], **star)
+            a.set_aspect("equal")
+            a.xaxis.set_major_formatter(left)
+            a.set_xlabel("y (m), positive to the left")
+            a.set_ylabel("x, forward (m)")
+
+        def point(colour: Any, label: str) -> Line2D:
+            return Line2D([], [], marker="o", ls="", color=colour, ms=5, label=label)
+
+        fig.legend(
+            handles=[
+                point(colours[2], "cloud: target"),
+                point(colours[0], "cloud: obstacle"),
+                point(colours[1], "cloud: other"),
+                Line2D([], [], **star, label="the target's centre"),
+            ],
+            loc="outside lower center",
+            ncols=4,
+        )
+        fig.suptitle(
+            f"scene {ep.scene_id}, configuration {ep.config_index}, episode "
+            f"{ep.episode_index}, robot {ep.robot}",
+            fontsize=9,
+        )
+        fig.savefig(path, dpi=110, metadata={"Software": None})
     plt.close(fig)
 
 

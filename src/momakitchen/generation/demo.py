@@ -212,23 +212,12 @@ def report_region(
     margin: float = 0.4,
 ) -> tuple[float, float, float, float]:
     """The part of the floor a top-down map of the report shows, as (x min, x max, y min,
-    y max) in the base frame: where any of ``maps`` exceeds 10 % of ``vmax``, and the
-    points ``keep`` ((K, 2): the target, the chosen poses), with ``margin`` around them,
-    within the visible floor. The rest of the view is floor nobody should stand on."""
-    xy = floor_xyz[:, :2]
-    hot = np.zeros(len(xy), bool)
-    for m in maps:
-        hot |= np.asarray(m) > 0.1 * vmax
-    keep = np.asarray(keep, float).reshape(-1, 2)
-    pts = np.concatenate([xy[hot], keep])
-    lo, hi = pts.min(0) - margin, pts.max(0) + margin
-    if len(xy):  # never beyond the floor that is seen (plus the margin)...
-        lo = np.maximum(lo, xy.min(0) - margin)
-        hi = np.minimum(hi, xy.max(0) + margin)
-    if len(keep):  # ...but always the target and the chosen poses
-        lo = np.minimum(lo, keep.min(0) - margin)
-        hi = np.maximum(hi, keep.max(0) + margin)
-    return float(lo[0]), float(hi[0]), float(lo[1]), float(hi[1])
+    y max) in the base frame: :func:`momakitchen.perception.figures.focus_region`, where
+    any of ``maps`` exceeds 10 % of ``vmax`` and the points ``keep`` ((K, 2): the target,
+    the chosen poses), with ``margin`` around them, within the visible floor."""
+    from momakitchen.perception.figures import focus_region
+
+    return focus_region(floor_xyz, maps, vmax, keep, margin)
 
 
 def _mark_target(ax: Any, mask: np.ndarray) -> None:
@@ -263,7 +252,7 @@ def _legend_marks(ax: Any, region: tuple[float, float, float, float]) -> None:
         Line2D([], [], marker=r"$\rightarrow$", ls="", color="red", ms=12, label="chosen pose"),
         Line2D([], [], marker=r"$\rightarrow$", ls="", color="orange", ms=12, label="Top-2..5"),
     ]
-    ax.legend(handles=handles, loc="lower left", fontsize=7, framealpha=0.85)
+    ax.legend(handles=handles, loc="lower left", fontsize=8, framealpha=0.85)
 
 
 def report_figure(
@@ -281,105 +270,112 @@ def report_figure(
     predicts, where the robot went, what happened, and the ground truth from the grid of
     trials. The predicted and true maps share one colour scale and show the same region
     around the target."""
-    from momakitchen.perception.figures import floor_map, image_overlay, png_bytes, pyplot
+    import textwrap
+
+    from momakitchen.perception.figures import (
+        DOC_WIDTH,
+        floor_map,
+        image_overlay,
+        png_bytes,
+        pyplot,
+        text_sizes,
+    )
 
     plt = pyplot()
-    fig, axes = plt.subplots(2, 3, figsize=(16, 9.6), constrained_layout=True)
-    fig.suptitle(
-        f"Where should the {result['robot']} stop to manipulate the {result['target']}? "
-        f"(scene {result['scene_id']}, model {result['model']})",
-        fontsize=13,
-    )
-    axes[0, 0].imshow(rgb)
-    _mark_target(axes[0, 0], target_mask)
-    axes[0, 0].set_title(f"1. first-person RGB (target: {result['target']})", fontsize=10)
-    axes[0, 0].axis("off")
-    im = axes[0, 1].imshow(np.where(depth > 0, depth, np.nan), cmap="turbo")
-    axes[0, 1].set_title("2. depth (m), back-projected to a point cloud", fontsize=10)
-    axes[0, 1].axis("off")
-    fig.colorbar(im, ax=axes[0, 1], shrink=0.75)
-    # One scale for every affordance panel: the model is trained to predict the success
-    # rate the ground truth holds, so the two maps are read against each other.
-    vmax = max(float(pred.affordance.max()), float(np.max(gt, initial=0.0)), 0.05)
-    image_overlay(
-        axes[0, 2],
-        rgb,
-        pred.floor_xyz,
-        pred.affordance / vmax,
-        intrinsics,
-        camera_to_base,
-        "3. predicted affordance on the floor (circle 1: the stop)",
-        pred.poses,
-    )
-    _mark_target(axes[0, 2], target_mask)
-    region = report_region(
-        pred.floor_xyz,
-        [pred.affordance, gt],
-        vmax,
-        np.concatenate([np.asarray(pred.target_xyz, float)[None, :2], pred.poses[:, :2]]),
-    )
-    sc = floor_map(
-        axes[1, 0],
-        pred.floor_xyz,
-        pred.affordance,
-        "4. predicted map, top-down (arrows: Top-5 poses)",
-        pred.target_xyz,
-        pred.poses,
-        vmax=vmax,
-        extent=region,
-    )
-    floor_map(
-        axes[1, 1],
-        pred.floor_xyz,
-        gt,
-        f"5. ground truth from {result['grid']['trials']} physics trials "
-        f"({result['grid']['successes']} succeeded)\nchosen pose (arrow): {outcome}",
-        pred.target_xyz,
-        pred.poses[:1],
-        vmax=vmax,
-        extent=region,
-    )
-    fig.colorbar(
-        sc, ax=[axes[1, 0], axes[1, 1]], shrink=0.8, label="affordance = success rate (4 and 5)"
-    )
-    _legend_marks(axes[1, 0], region)
-    ax = axes[1, 2]
-    ax.axis("off")
-    x, y, yaw = result["chosen_pose_base_frame"]
-    lines = [
-        "6. result",
-        "",
-        "chosen base pose (robot frame):",
-        f"  x = {x:.2f} m, y = {y:.2f} m, yaw = {np.degrees(yaw):.0f} deg",
-        f"predicted affordance there: {result['predicted_affordance']:.2f} "
-        f"(uncertainty {result['uncertainty']:.3f})",
-        f"ground truth there: {result['ground_truth_at_pose']:.2f}",
-        "trial executed in PyBullet:",
-        f"  {outcome}",
-        "",
-        "How to read this: the model sees only the",
-        "RGB-D view (1, 2; target outlined in red)",
-        "and scores every visible floor point for",
-        "how well the robot could manipulate the",
-        "target from there (3, 4). The robot drives",
-        "to the best point, facing the target, and",
-        "tries. The ground truth (5) comes from really",
-        "trying from every point of a 10 cm grid in",
-        "simulation. 4 and 5 show the floor around",
-        "the target on one colour scale.",
-    ]
-    ax.text(
-        0.0,
-        1.0,
-        "\n".join(lines),
-        va="top",
-        ha="left",
-        fontsize=10,
-        transform=ax.transAxes,
-        bbox={
-            "facecolor": "#e8f5e9" if result["trial"]["success"] else "#ffebee",
-            "edgecolor": "none",
-            "pad": 10,
-        },
-    )
-    return png_bytes(fig)
+    with plt.rc_context(text_sizes(8)):
+        fig, axes = plt.subplots(2, 3, figsize=(DOC_WIDTH, 6.4), layout="constrained", dpi=110)
+        fig.suptitle(
+            f"Where should the {result['robot']} stop to manipulate the {result['target']}?"
+            f"\n(scene {result['scene_id']}, model {result['model']})",
+            fontsize=10,
+        )
+        axes[0, 0].imshow(rgb)
+        _mark_target(axes[0, 0], target_mask)
+        axes[0, 0].set_title(f"1. first-person RGB\n(target: {result['target']})")
+        axes[0, 0].axis("off")
+        im = axes[0, 1].imshow(np.where(depth > 0, depth, np.nan), cmap="turbo")
+        axes[0, 1].set_title("2. depth, back-projected\nto a point cloud")
+        axes[0, 1].axis("off")
+        fig.colorbar(im, ax=axes[0, 1], shrink=0.75, label="depth (m)")
+        # One scale for every affordance panel: the model is trained to predict the success
+        # rate the ground truth holds, so the two maps are read against each other.
+        vmax = max(float(pred.affordance.max()), float(np.max(gt, initial=0.0)), 0.05)
+        image_overlay(
+            axes[0, 2],
+            rgb,
+            pred.floor_xyz,
+            pred.affordance / vmax,
+            intrinsics,
+            camera_to_base,
+            "3. predicted affordance on the\nfloor (circle 1: the stop)",
+            pred.poses,
+        )
+        _mark_target(axes[0, 2], target_mask)
+        region = report_region(
+            pred.floor_xyz,
+            [pred.affordance, gt],
+            vmax,
+            np.concatenate([np.asarray(pred.target_xyz, float)[None, :2], pred.poses[:, :2]]),
+        )
+        sc = floor_map(
+            axes[1, 0],
+            pred.floor_xyz,
+            pred.affordance,
+            "4. predicted map, top-down\n(arrows: Top-5 poses)",
+            pred.target_xyz,
+            pred.poses,
+            vmax=vmax,
+            extent=region,
+        )
+        floor_map(
+            axes[1, 1],
+            pred.floor_xyz,
+            gt,
+            f"5. ground truth, {result['grid']['trials']} physics trials\n"
+            f"({result['grid']['successes']} succeeded); chosen pose: {outcome}",
+            pred.target_xyz,
+            pred.poses[:1],
+            vmax=vmax,
+            extent=region,
+        )
+        fig.colorbar(
+            sc, ax=[axes[1, 0], axes[1, 1]], shrink=0.8, label="affordance = success rate (4, 5)"
+        )
+        _legend_marks(axes[1, 0], region)
+        ax = axes[1, 2]
+        ax.axis("off")
+        x, y, yaw = result["chosen_pose_base_frame"]
+        lines = [
+            "6. result",
+            "",
+            "chosen base pose (robot frame):",
+            f"  x = {x:.2f} m, y = {y:.2f} m, yaw = {np.degrees(yaw):.0f}°",
+            f"predicted affordance there: {result['predicted_affordance']:.2f}",
+            f"  (uncertainty {result['uncertainty']:.3f})",
+            f"ground truth there: {result['ground_truth_at_pose']:.2f}",
+            f"trial executed in PyBullet: {outcome}",
+            "",
+            *textwrap.wrap(
+                "How to read this: the model sees only the RGB-D view (1, 2; target outlined "
+                "in red) and scores every visible floor point for how well the robot could "
+                "manipulate the target from there (3, 4). The robot drives to the best point, "
+                "facing the target, and tries. The ground truth (5) comes from really trying "
+                "from every point of a 10 cm grid in simulation. 4 and 5 show the floor "
+                "around the target on one colour scale.",
+                36,
+            ),
+        ]
+        ax.text(
+            0.0,
+            1.0,
+            "\n".join(lines),
+            va="top",
+            ha="left",
+            transform=ax.transAxes,
+            bbox={
+                "facecolor": "#e8f5e9" if result["trial"]["success"] else "#ffebee",
+                "edgecolor": "none",
+                "pad": 6,
+            },
+        )
+        return png_bytes(fig)

@@ -191,6 +191,7 @@ def episode_figure(episodes: Sequence[tuple[dict[str, Any], Any]]) -> bytes:
             figsize=(DOC_WIDTH, sum(heights) + 1.5),
             squeeze=False,
             layout="constrained",
+            dpi=150,
             gridspec_kw={"height_ratios": heights},
         )
         scatter = None
@@ -302,7 +303,7 @@ def episode_figure(episodes: Sequence[tuple[dict[str, Any], Any]]) -> bytes:
             fig.colorbar(
                 scatter, ax=axes, shrink=0.5, location="right", label="fused affordance (0–1)"
             )
-        return png_bytes(fig, dpi=150)
+        return png_bytes(fig)
 
 
 # Fused cells below this affordance are left out of the figure: the floor the looks saw
