@@ -21,6 +21,11 @@ Example:
       robots: [ur10e, myarm]    # default: the paper's six
       mount_height: [0.6, 1.3]  # every robot's mount, drawn per configuration
 
+``--preset NAME`` starts from a named set of options instead of the defaults (``hard``:
+scenes where geometry is not enough to choose where the base stops; docs/DATASET.md,
+"Presets"); a ``--config`` file's fields go on top of it, and the manifest records the
+preset's name (``config.preset``).
+
 ``--robot NAME`` (repeatable) sets ``scene.robots``. User robots (``--robot-yaml FILE`` or
 MOMAKITCHEN_ROBOT_YAML) are registered in every worker too, and the manifest records their
 files by content hash.
@@ -92,6 +97,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "default); with --synthetic, fields of the synthetic config",
     )
     parser.add_argument(
+        "--preset",
+        default="default",
+        metavar="NAME",
+        help="start from this named preset of generation options (default, hard; "
+        "--config's fields go on top; recorded in the manifest)",
+    )
+    parser.add_argument(
         "--sensor",
         default=None,
         metavar="NAME",
@@ -130,6 +142,8 @@ def run(args: argparse.Namespace) -> int:
             raise MomaError("--sensor sets where the simulator's views stand: not with --synthetic")
         if args.robot:
             raise MomaError("--robot sets the simulator's robots: not with --synthetic")
+        if args.preset != "default":
+            raise MomaError("--preset names the simulator's options: not with --synthetic")
         from momakitchen.data.synthetic_scene import SyntheticSceneConfig, synthetic_scene_records
 
         scene_fn = synthetic_scene_records
@@ -139,12 +153,20 @@ def run(args: argparse.Namespace) -> int:
             else SyntheticSceneConfig()
         )
     else:
-        from momakitchen.data.config import GenerationConfig
+        from momakitchen.codec import read_config_file
+        from momakitchen.data.config import PRESETS, preset_config, unknown_preset
 
+        if args.preset not in PRESETS:
+            raise MomaError(unknown_preset(args.preset))
         # Read the file before loading the simulator: a bad file fails at once.
-        config = (
-            load_config_file(args.config, GenerationConfig) if args.config else GenerationConfig()
-        )
+        if args.config:
+            data = read_config_file(args.config)
+            try:
+                config = preset_config(args.preset, data)
+            except MomaError as exc:
+                raise MomaError(f"{args.config}: {exc}") from None
+        else:
+            config = preset_config(args.preset)
         if args.sensor is not None:
             import dataclasses
 

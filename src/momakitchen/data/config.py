@@ -2,12 +2,18 @@
 
 It is recorded in each dataset's manifest, so readers (``check``, ``stats``, MSR) rebuild
 it from there; it is plain data and loads no simulator.
+
+:data:`PRESETS` names frozen overrides of the defaults (``momakitchen generate --preset``);
+:func:`preset_config` builds one, with a config file's fields on top, and the config
+records the preset's name (``GenerationConfig.preset``).
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
+from types import MappingProxyType
 from typing import Any
 
 from momakitchen import codec
@@ -69,7 +75,12 @@ class ViewConfig:
 
 @dataclass(frozen=True)
 class GenerationConfig:
-    """Everything that determines the generated data of a scene (with its ``scene_id``)."""
+    """Everything that determines the generated data of a scene (with its ``scene_id``).
+
+    ``preset`` names the :data:`PRESETS` entry the values started from ("": the defaults;
+    written only when set, so a default dataset's manifest keeps its bytes). It is a
+    record, not a switch: the sections hold the values (:func:`preset_config` sets both).
+    """
 
     scene: SceneConfig = field(default_factory=SceneConfig)
     trial: TrialConfig = field(default_factory=TrialConfig)
@@ -77,6 +88,11 @@ class GenerationConfig:
     camera: CameraConfig = field(default_factory=CameraConfig)
     views: ViewConfig = field(default_factory=ViewConfig)
     cloud: CloudConfig = field(default_factory=CloudConfig)
+    preset: str = field(default="", metadata=codec.OMIT_IF_DEFAULT)
+
+    def __post_init__(self) -> None:
+        if self.preset and self.preset not in PRESETS:
+            raise MomaError(f"preset: {unknown_preset(self.preset)}")
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready sections (see :func:`momakitchen.codec.to_dict`)."""
@@ -87,6 +103,76 @@ class GenerationConfig:
         """Inverse of :meth:`to_dict`: any subset of sections and fields, the rest default
         (see :func:`momakitchen.codec.from_dict`)."""
         return codec.from_dict(cls, data, where=where)
+
+
+def _frozen(data: Mapping[str, Any]) -> Mapping[str, Any]:
+    return MappingProxyType(
+        {k: _frozen(v) if isinstance(v, Mapping) else v for k, v in data.items()}
+    )
+
+
+# Named generation presets: overrides of the defaults, by section and field (as a config
+# file writes them). Frozen: a dataset's manifest names its preset, and the name must keep
+# meaning the same values (tests/data/test_presets.py pins them).
+PRESETS: Mapping[str, Mapping[str, Any]] = _frozen(
+    {
+        "default": {},
+        # Scenes where geometry is not enough to choose where the base stops (MoMa-Kitchen,
+        # figure 1), chosen by scene properties before any method was scored
+        # (docs/DATASET.md, "Presets"): clutter where a base facing the target would stop,
+        # more articulated targets, weighted towards doors (their panels swing over the
+        # floor in front) and handles low or high, objects deeper on the counter, and
+        # every registered arm (reach 0.63-1.30 m) at mounts drawn over 0.3-1.3 m.
+        "hard": {
+            "scene": {
+                "obstacles": (2, 4),
+                "stance_obstacles": 2,
+                "stance_band": (0.5, 0.8),
+                "rigid_target_prob": 0.25,
+                "hard_part_weight": 3.0,
+                "object_depth": 0.45,
+                "robots": (
+                    "panda",
+                    "flexiv",
+                    "ur5e",
+                    "xarm6",
+                    "realman",
+                    "elephant",
+                    "ur10e",
+                    "gen3",
+                ),
+                "mount_height": (0.3, 1.3),
+            },
+        },
+    }
+)
+
+
+def unknown_preset(name: str) -> str:
+    """The one-line message for a preset name that :data:`PRESETS` lacks."""
+    return f"unknown preset {name!r}; known presets: {', '.join(PRESETS)}"
+
+
+def preset_config(
+    name: str = "default", overrides: Mapping[str, Any] | None = None, *, where: str = "config"
+) -> GenerationConfig:
+    """The generation config of preset ``name`` with ``overrides`` (sections and fields, as
+    a config file holds them; e.g. ``{"views": {"episodes": 2}}``) on top, field by field.
+
+    ``GenerationConfig.preset`` records ``name`` ("" for ``default``, whose datasets are
+    those made without a preset). MomaError for an unknown preset (naming the known ones),
+    an ``overrides`` that sets ``preset`` itself, or a bad field (``where`` names it).
+    """
+    if name not in PRESETS:
+        raise MomaError(unknown_preset(name))
+    data = dict(overrides or {})
+    if "preset" in data:
+        raise MomaError(
+            f"{where}: 'preset' is not a field to set: name the preset (generate --preset NAME)"
+        )
+    merged = codec.merge(PRESETS[name], data)
+    merged["preset"] = "" if name == "default" else name
+    return GenerationConfig.from_dict(merged, where=where)
 
 
 # The config class whose manifests record how clouds were built (see manifest_preprocessing).

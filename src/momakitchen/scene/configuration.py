@@ -3,7 +3,8 @@
 Pure data, fully determined by ``(scene_id, index)`` and the :class:`SceneConfig`. A
 configuration's target is either a rigid object standing on the countertop or the
 functional part (door, drawer, lever) of an articulated furniture unit. Obstacles stand
-inside the sampling semicircle in front of the target, whose radius is the robot's reach.
+inside the sampling semicircle in front of the target, whose radius is the robot's reach;
+some of them may stand where a base would naturally stop (``SceneConfig.stance_obstacles``).
 The robot's arm stands at its own mount height, or at one drawn for the configuration
 (:func:`configuration_mount`) when the config or the robot gives a range.
 """
@@ -51,6 +52,16 @@ from momakitchen.scene.layout import (
 CONFIG_STREAM = 1
 MOUNT_STREAM = 4  # seed stream of sampled mount heights (views use 3)
 
+# Stance obstacles stand within this angle (rad) of straight in front of the target: where
+# a base facing the target would stop, not off to the side.
+STANCE_ARC = np.radians(40.0)
+# A part is "hard" (SceneConfig.hard_part_weight) if it is a door, whose panel swings over
+# the floor in front of it, or if its handle is below LOW_HANDLE (a low drawer, an oven's
+# drawer, a freezer) or above HIGH_HANDLE (above every countertop: a fridge's upper door,
+# a microwave), metres.
+LOW_HANDLE = 0.45
+HIGH_HANDLE = 1.0
+
 
 @dataclass(frozen=True)
 class SceneConfig:
@@ -75,6 +86,25 @@ class SceneConfig:
             draw each configuration's from (:func:`configuration_mount`); None: each robot's
             own (its ``mount_range`` if it has one). Within ``MOUNT_RANGE``. Written to a
             manifest only when set, so datasets made before it existed keep their bytes.
+        stance_obstacles: of a configuration's obstacles, up to this many (the first ones)
+            stand in the stance band instead of anywhere in the semicircle: their centres
+            ``stance_band`` metres from the target's floor point, within ``STANCE_ARC`` of
+            straight in front of it, where a base facing the target would naturally stop
+            (the distance a reach-based rule picks); one that fits nowhere there (a
+            door's sweep may cover the band) stands anywhere. At most ``obstacles[1]``. When
+            positive, the ``min_free_positions`` that every obstacle leaves free are
+            counted among the positions no farther than the band's outer edge: a free
+            position far out on the semicircle does not make up for a blocked stance.
+        stance_band: ``(lo, hi)`` metres from the target's floor point (see
+            ``stance_obstacles``).
+        object_depth: rigid objects stand within this distance (m) of the countertop's
+            front edge; larger puts some deep on the counter, far from the base.
+        hard_part_weight: an articulated target is drawn among the parts in the robot's
+            height band with this weight for a hard part (:func:`hard_part`: a door, or a
+            handle below ``LOW_HANDLE`` or above ``HIGH_HANDLE``) against 1 for the others.
+
+        The last four are written (to ``scene.json``, to a manifest) only when they differ
+        from their defaults, which leave every configuration as it was before they existed.
     """
 
     configs_per_scene: int = 10
@@ -86,6 +116,10 @@ class SceneConfig:
     min_target_bases: int = 20
     robots: tuple[str, ...] = ()
     mount_height: float | tuple[float, float] | None = field(default=None, metadata=OMIT_IF_DEFAULT)
+    stance_obstacles: int = field(default=0, metadata=OMIT_IF_DEFAULT)
+    stance_band: tuple[float, float] = field(default=(0.5, 0.8), metadata=OMIT_IF_DEFAULT)
+    object_depth: float = field(default=0.30, metadata=OMIT_IF_DEFAULT)
+    hard_part_weight: float = field(default=1.0, metadata=OMIT_IF_DEFAULT)
 
     def __post_init__(self) -> None:
         if not 1 <= self.configs_per_scene <= 1000:
@@ -105,6 +139,20 @@ class SceneConfig:
             )
         if not 0.02 <= self.grid_spacing <= 0.5:
             raise MomaError(f"grid_spacing must be in [0.02, 0.5] m, got {self.grid_spacing}")
+        if not 0 <= self.stance_obstacles <= self.obstacles[1]:
+            raise MomaError(
+                f"stance_obstacles must be in [0, obstacles max = {self.obstacles[1]}], "
+                f"got {self.stance_obstacles}"
+            )
+        lo, hi = self.stance_band
+        if not 0.3 <= lo <= hi <= 2.0:
+            raise MomaError(
+                f"stance_band must satisfy 0.3 <= min <= max <= 2 m, got {self.stance_band}"
+            )
+        if not 0.1 <= self.object_depth <= 1.0:
+            raise MomaError(f"object_depth must be in [0.1, 1] m, got {self.object_depth}")
+        if not 0.0 < self.hard_part_weight <= 100.0:
+            raise MomaError(f"hard_part_weight must be in (0, 100], got {self.hard_part_weight}")
         mount = self.mount_height
         if mount is not None:
             problem = (
@@ -286,8 +334,20 @@ def within_height_band(z: float, mount_height: float, reach: float) -> bool:
     return shoulder - 0.8 * reach <= z <= shoulder + 0.6 * reach
 
 
-def _place_objects(layout: Layout, rng: np.random.Generator, count: int) -> list[Placed]:
-    """Stand ``count`` rigid objects on the free countertop, towards its front edge."""
+def hard_part(unit: Placed, articulation: int) -> bool:
+    """Whether a functional part makes a hard target (``SceneConfig.hard_part_weight``): a
+    door, which swings over the floor where the base would stand, or a handle out of the
+    comfortable middle heights (below ``LOW_HANDLE`` or above ``HIGH_HANDLE``)."""
+    z = handle_anchor(unit, articulation)[2]
+    door = unit.model.articulations[articulation].part == "door"
+    return door or not LOW_HANDLE <= z <= HIGH_HANDLE
+
+
+def _place_objects(
+    layout: Layout, rng: np.random.Generator, count: int, depth: float = 0.30
+) -> list[Placed]:
+    """Stand ``count`` rigid objects on the free countertop, within ``depth`` (m) of its
+    front edge."""
     areas = layout.placement_areas()
     rigid = categories_of_kind("rigid")
     placed: list[Placed] = []
@@ -302,7 +362,7 @@ def _place_objects(layout: Layout, rng: np.random.Generator, count: int) -> list
                 continue
             x = rng.uniform(area.x0 + radius, area.x1 - radius)
             # Objects stand towards the front edge, where people put things down.
-            y_lo = max(area.y0 + radius, area.y1 - 0.30)
+            y_lo = max(area.y0 + radius, area.y1 - depth)
             y = rng.uniform(y_lo, max(y_lo, area.y1 - radius - 0.03))
             if any(
                 np.hypot(x - q.x, y - q.y) < radius + 0.5 * np.hypot(*q.model.size[:2]) + 0.02
@@ -402,6 +462,10 @@ def _place_obstacles(
 ) -> tuple[Placed, ...]:
     """1-3 obstacles in the semicircle that leave enough base positions free.
 
+    The first ``cfg.stance_obstacles`` of them stand in the stance band (``cfg.stance_band``
+    from the target, within ``STANCE_ARC`` of straight ahead) where one fits, the others
+    anywhere.
+
     A base position stays free if no obstacle overlaps its footprint nor the floor strip
     from it to the target (where the arm reaches over). Each obstacle takes, among random
     poses that fit, the first that keeps ``needed`` base positions free (or the one that
@@ -415,6 +479,11 @@ def _place_obstacles(
     bases = _candidate_bases(
         anchor, reach, corners_of(layout.footprints()), footprint, cfg.grid_spacing, layout.room
     )
+    if cfg.stance_obstacles:
+        # Obstacles in the stance block the near positions: the free ones that count are
+        # those no farther than the band's outer edge, not the far rim of the semicircle.
+        near = np.hypot(*(bases.mean(axis=1) - anchor[:2]).T) <= cfg.stance_band[1]
+        bases = bases[near]
     corridors = _corridors(bases, anchor)
     kinds = categories_of_kind("obstacle")
     # Where few positions exist at all (a tight corner), keep a good part of them.
@@ -431,8 +500,14 @@ def _place_obstacles(
                 params = get_category(cat).sample(rng, None)
                 sx, sy, _ = get_category(cat).build(params).size
                 n = 48
-                r = rng.uniform(0.5, reach, n)
-                theta = rng.uniform(0.15, np.pi - 0.15, n)
+                # Where a base would naturally stop; anywhere once two instances fit
+                # nowhere there (a door's sweep may cover the band).
+                if i < cfg.stance_obstacles and _instance < 2:
+                    r = rng.uniform(cfg.stance_band[0], cfg.stance_band[1], n)
+                    theta = rng.uniform(np.pi / 2 - STANCE_ARC, np.pi / 2 + STANCE_ARC, n)
+                else:
+                    r = rng.uniform(0.5, reach, n)
+                    theta = rng.uniform(0.15, np.pi - 0.15, n)
                 yaw = np.round(rng.uniform(-np.pi, np.pi, n), 4)
                 x = np.round(anchor[0] + r * np.cos(theta), 4)
                 y = np.round(anchor[1] + r * np.sin(theta), 4)
@@ -477,12 +552,20 @@ def sample_configuration(
     robot = get_robot_spec(names[(layout.scene_id * 7 + index) % len(names)])
     mount = configuration_mount(layout.scene_id, index, robot, cfg)
     mounted_at = robot.mount_height if mount is None else mount
-    objects = _place_objects(layout, rng, int(rng.integers(cfg.objects[0], cfg.objects[1] + 1)))
+    objects = _place_objects(
+        layout, rng, int(rng.integers(cfg.objects[0], cfg.objects[1] + 1)), cfg.object_depth
+    )
     parts = [
         (uid, art)
         for uid, art in articulated_targets(layout)
         if within_height_band(handle_anchor(layout.unit(uid), art)[2], mounted_at, robot.reach)
     ]
+    part_p = None
+    if cfg.hard_part_weight != 1.0 and parts:
+        weights = np.array(
+            [cfg.hard_part_weight if hard_part(layout.unit(u), a) else 1.0 for u, a in parts]
+        )
+        part_p = weights / weights.sum()
     furniture = corners_of(layout.footprints())
     best: tuple[int, Target] | None = None
     for _attempt in range(8):
@@ -492,7 +575,8 @@ def sample_configuration(
             anchor = float3(_r(v) for v in obj.to_world(np.asarray(grasp.position)))
             target = Target(obj.uid, obj.category, None, anchor)
         else:
-            uid, art = parts[int(rng.integers(len(parts)))]
+            pick = rng.integers(len(parts)) if part_p is None else rng.choice(len(parts), p=part_p)
+            uid, art = parts[int(pick)]
             target = Target(
                 uid, layout.unit(uid).category, art, handle_anchor(layout.unit(uid), art)
             )
