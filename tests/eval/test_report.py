@@ -90,7 +90,8 @@ def test_report_tables_and_figures(report):
         assert (req.out / name).stat().st_size > 0
     assert [s["lambda_zero"] for s in result["sweep"]] == [0.1, 0.7, 1.0]  # sorted by lambda
     assert "trained for 1 epoch(s)." in text  # the sweep's schedule
-    assert set(result["msr"]) == {"navaff", "random", "nearest", "oracle"}
+    assert set(result["msr"]) == {"navaff", "random", "nearest", "oracle", "ring", "reachability"}
+    assert "| ring |" in text  # geometry in the table, beside the learned methods
     msr = json.loads((req.out / "msr.json").read_text())
     assert msr["configurations"] == 1
     assert "### navaff against each method" in text and "| oracle |" in text
@@ -127,7 +128,8 @@ def test_report_reuses_metrics_and_msr(report, monkeypatch, tmp_path):
     # MSR kept as one file per run plus one for the baselines, as scripts/results.sh does.
     whole = json.loads((req.out / "msr.json").read_text())
     parts = []
-    for name, methods in (("model", ["navaff"]), ("baselines", ["random", "nearest", "oracle"])):
+    baselines = ["random", "nearest", "oracle", "ring", "reachability"]
+    for name, methods in (("model", ["navaff"]), ("baselines", baselines)):
         part = {**whole, "methods": {m: whole["methods"][m] for m in methods}}
         part["records"] = [
             {**r, "methods": {m: r["methods"][m] for m in methods}} for r in whole["records"]

@@ -98,7 +98,9 @@ def test_robot_check_labels_judges_and_resumes(small, tmp_path, capsys):
     assert "verdict: " in text
     report = json.loads((out / "report.json").read_text())["before"]
     assert report["robot"] == "panda" and report["configurations"] == 2
-    assert report["model"] == "bundled" and set(report["top1"]) == {"bundled", "oracle", "random"}
+    assert report["model"] == "bundled"
+    assert set(report["top1"]) == {"bundled", "oracle", "random", "ring", "reachability"}
+    assert "classical: ring" in text
     check = json.loads((out / "check.json").read_text())
     assert {r["robot"] for r in check["records"]} == {"panda"}  # labelled for it alone
     # Run again: the closed loop is not run again (its result is reused as it is).

@@ -30,6 +30,7 @@ from typing import Any
 from momakitchen.cli.common import non_negative_float, non_negative_int, positive_int, scene_id
 from momakitchen.cli.options import add_checkpoint, add_quiet, add_robot_yaml, add_seed
 from momakitchen.errors import MomaError
+from momakitchen.eval.methods import CLASSICAL
 
 # Fine-tuning for one robot: the bundled model's recipe (the cpu preset), from its
 # weights, two epochs at a quarter of the learning rate (as the real-sensor fine-tuning).
@@ -146,9 +147,14 @@ def _closed_loop(args: argparse.Namespace, data: Path, checkpoint: str, out: Pat
     if old is not None:
         return old
     who = "the model" if checkpoint == args.checkpoint else checkpoint
-    print(f"closed loop on {data} ({who}, the oracle and random; msr, Top-1)", flush=True)
+    print(
+        f"closed loop on {data} ({who}, the oracle, random and the classical methods; msr, Top-1)",
+        flush=True,
+    )
     config = MsrConfig(top_k=1, seed=args.seed, split="all")
-    result = run_msr(data, [_run_dir(checkpoint)], ["oracle", "random"], config, not args.quiet)
+    # The classical methods show where geometry alone stands for this robot.
+    methods = ["oracle", "random", *CLASSICAL]
+    result = run_msr(data, [_run_dir(checkpoint)], methods, config, not args.quiet)
     with open(out.parent / "log.txt", "a") as f:
         f.write(format_msr_table(result) + "\n")
     result["check"] = key

@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from momakitchen.errors import MomaError
+from momakitchen.eval.methods import CLASSICAL
 
 # The verdicts, in the order a check can end.
 SERVES, UNDECIDED, DOES_NOT_SERVE = "serves", "undecided", "does-not-serve"
@@ -107,9 +108,11 @@ def check_summary(
     result: dict[str, Any], model: str, robot: str, tolerance: float, seed: int = 0
 ) -> dict[str, Any]:
     """The check of ``model`` against the oracle and random in one ``msr`` result (which
-    ran the model and the ``oracle`` and ``random`` baselines): rates, the gap and its
+    ran the model and the ``oracle`` and ``random`` baselines, and the classical methods
+    where it ran them: their rates too): rates, the gap and its
     interval, the share of the random-to-oracle gap the model closes, and the verdict."""
-    outcomes = {m: top1_outcomes(result, m) for m in (model, "oracle", "random")}
+    classical = [m for m in CLASSICAL if m in result["methods"]]  # older results: none
+    outcomes = {m: top1_outcomes(result, m) for m in (model, "oracle", "random", *classical)}
     if not any(outcomes["oracle"]):
         raise MomaError(
             f"the oracle solves none of the {len(outcomes['oracle'])} configurations: "
@@ -138,11 +141,12 @@ def format_check(summary: dict[str, Any], label: str = "") -> str:
     s, pct = summary, lambda x: f"{100 * x:.1f} %"
     low, high = s["gap_interval"]
     closed = "" if s["gap_closed"] is None else f"; closes {pct(s['gap_closed'])} of random's gap"
+    classical = ", ".join(f"{m} {pct(s['top1'][m])}" for m in CLASSICAL if m in s["top1"])
     lines = [
         f"{label or s['model']} on {s['robot']}: {s['configurations']} configurations "
         f"({s['feasible']} where some grid trial succeeds), Top-1 in closed loop",
         f"  model {pct(s['top1'][s['model']])}, oracle {pct(s['top1']['oracle'])}, "
-        f"random {pct(s['top1']['random'])}",
+        f"random {pct(s['top1']['random'])}" + (f"; classical: {classical}" if classical else ""),
         f"  gap to the oracle {100 * s['gap']:.1f} points (95 % interval {100 * low:.1f} to "
         f"{100 * high:.1f}){closed}",
     ]

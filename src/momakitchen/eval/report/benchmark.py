@@ -201,7 +201,7 @@ def run_benchmark(req: BenchmarkRequest, log: Callable[[str], None] = print) -> 
     from momakitchen.data import EpisodeDataset
     from momakitchen.data.manifest import load_manifest, split_checksum
     from momakitchen.eval.evaluate import evaluate_predictions
-    from momakitchen.eval.methods import BASELINES
+    from momakitchen.eval.methods import BASELINES, CLASSICAL
     from momakitchen.eval.msr import MsrConfig, check_same_views, merge_msr, run_msr
     from momakitchen.eval.predictions import dataset_episodes, load_predictions, method_name
     from momakitchen.eval.robustness.tables import robustness_markdown
@@ -221,9 +221,9 @@ def run_benchmark(req: BenchmarkRequest, log: Callable[[str], None] = print) -> 
     stems = [method_name(p) for p in req.predictions]
     named = dict(zip(stems, req.predictions, strict=True))
     methods = [*models, *stems]
-    if len(set(methods)) != len(methods) or set(methods) & set(BASELINES):
+    if len(set(methods)) != len(methods) or set(methods) & {*BASELINES, *CLASSICAL}:
         raise MomaError(
-            f"the compared methods need distinct names, none of {list(BASELINES)}: got "
+            f"the compared methods need distinct names, none of {[*BASELINES, *CLASSICAL]}: got "
             f"{methods} (a --predictions file is named by its stem: rename the file)"
         )
     if req.ablations and "navaff" not in models:
@@ -269,11 +269,11 @@ def run_benchmark(req: BenchmarkRequest, log: Callable[[str], None] = print) -> 
         atomic_write_text(out / "metrics" / f"{name}.json", text)
         metrics[path] = json.loads(text)
     if msr is None:
-        log("MSR: models and baselines in closed loop")
+        log("MSR: models, baselines and the classical methods in closed loop")
         msr = run_msr(
             data,
             [str(r) for r in req.runs],
-            list(BASELINES),
+            [*BASELINES, *CLASSICAL],
             MsrConfig(max_configs=req.max_configs),
             progress=req.progress,
             predictions=[(p, name) for name, p in named.items()],
