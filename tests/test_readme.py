@@ -47,7 +47,7 @@ def test_setup_installs_the_cpu_build_and_says_what_the_pin_alone_does():
     block = re.search(r"```bash\n(.*?)```", setup, re.S).group(1)
     first = block.splitlines()[0]
     assert first.startswith(f"pip install torch==2.13.0 {CPU_INDEX} && ")
-    assert 'pip install -e ".[dev]"' in first
+    assert 'pip install -e ".[dev,robot]"' in first
     # The pin alone: the CUDA build from PyPI, the CPU build only from a local wheel.
     assert "CUDA" in setup and "nvidia-" in setup and "triton" in setup
     assert "installs the package (with the CPU build" not in README
