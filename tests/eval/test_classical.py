@@ -59,3 +59,33 @@ def test_the_robustness_track_scores_a_classical_method_under_corruptions(real_d
         assert -1.0 <= view["pcc"] <= 1.0
     with pytest.raises(MomaError, match="unknown method 'circle'"):
         run_robustness(real_dataset, methods=["circle"], config=config)
+
+
+def test_a_classical_look_fuses_only_its_positive_cells(monkeypatch):
+    """A zero of a classical map says "not a stance": a look whose map is zero everywhere
+    gives the fusion no goal, rather than an arbitrary zero cell."""
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    import momakitchen.placement.methods as methods
+    from momakitchen.deploy.fusion import MapFusion
+    from momakitchen.eval.approach.episode import ClassicalPerceiver
+    from momakitchen.models.inference import Prediction
+
+    def fake_place(name, *args, **kwargs):
+        xyz = np.array([[1.0, 0.0, 0.0], [1.5, 0.0, 0.0], [2.0, 0.0, 0.0]])
+        aff = np.array(values)
+        zeros = np.zeros(3)
+        return Prediction(xyz, aff, zeros, xyz[:1], aff[:1], zeros[:1], np.zeros(3), "p", name)
+
+    monkeypatch.setattr(methods, "place", fake_place)
+    frame = SimpleNamespace(depth=None, intrinsics=None, camera_to_base=None, target_mask=None)
+    frame.obstacle_masks = ()
+    values = [0.0, 0.4, 0.0]
+    pred = ClassicalPerceiver("ring")(frame, "panda", True, ApproachConfig())
+    assert pred.floor_xyz.tolist() == [[1.5, 0.0, 0.0]] and pred.affordance.tolist() == [0.4]
+    values = [0.0, 0.0, 0.0]
+    fusion = MapFusion()
+    fusion.add(ClassicalPerceiver("ring")(frame, "panda", True, ApproachConfig()), (0, 0, 0))
+    assert fusion.looks == 1 and fusion.goal() is None

@@ -80,8 +80,9 @@ class ModelPerceiver:
 
 class ClassicalPerceiver:
     """A classical base-placement method (:func:`momakitchen.placement.place`) as a look:
-    the same frame a model gets, the robot by name and mount height. Its map has no
-    spread, so under ``uncertain`` it looks again as ``relook`` does."""
+    the same frame a model gets, the robot by name and mount height; its map's positive
+    cells only. Its map has no spread, so under ``uncertain`` it looks again as ``relook``
+    does."""
 
     has_spread = False
 
@@ -94,7 +95,7 @@ class ClassicalPerceiver:
         from momakitchen.placement.methods import place
 
         name, mount = (robot, None) if isinstance(robot, str) else robot
-        return place(
+        pred = place(
             self.name,
             frame.depth,
             frame.intrinsics,
@@ -106,6 +107,15 @@ class ClassicalPerceiver:
             pick_radius=config.pick_radius,
             metric_depth=metric,
             mount_height=mount,
+        )
+        # A classical map's zero says "not a stance": only its positive cells are fused,
+        # so a look that finds none gives no goal rather than an arbitrary zero cell.
+        keep = np.asarray(pred.affordance) > 0
+        return replace(
+            pred,
+            floor_xyz=pred.floor_xyz[keep],
+            affordance=pred.affordance[keep],
+            uncertainty=pred.uncertainty[keep],
         )
 
 
