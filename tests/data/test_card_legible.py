@@ -5,8 +5,8 @@ legend."""
 from __future__ import annotations
 
 from dataset_helpers import make_dataset
-from figure_helpers import assert_axes_labelled, assert_legible, legend_labels
 
+from figure_helpers import assert_axes_labelled, assert_legible, legend_labels
 from momakitchen.data.card import save_episode_figure
 from momakitchen.data.shard import SceneShard, list_shards
 

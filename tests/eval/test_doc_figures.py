@@ -6,6 +6,7 @@ PCC."""
 from __future__ import annotations
 
 import numpy as np
+
 from figure_helpers import (
     assert_axes_labelled,
     assert_legible,

@@ -4,6 +4,7 @@ more there, the maps' axes in metres, the marks in a legend."""
 from __future__ import annotations
 
 import numpy as np
+
 from figure_helpers import (
     assert_axes_labelled,
     assert_legible,

@@ -4,6 +4,7 @@ page shows it, the Top-k poses numbered legibly and every mark in a legend."""
 from __future__ import annotations
 
 import numpy as np
+
 from figure_helpers import (
     assert_axes_labelled,
     assert_legible,
@@ -13,7 +14,6 @@ from figure_helpers import (
     level_camera,
     shown_points,
 )
-
 from momakitchen.perception.figures import prediction_figure
 
 

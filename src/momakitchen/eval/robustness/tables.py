@@ -127,7 +127,7 @@ def robustness_figure(
         fig, axes = plt.subplots(
             rows,
             cols,
-            figsize=(DOC_WIDTH, rows * (panel * aspect + 0.62) + 1.1),
+            figsize=(DOC_WIDTH, rows * (0.8 * panel * aspect + 0.6) + 0.9),
             squeeze=False,
             layout="constrained",
             dpi=130,
@@ -160,7 +160,8 @@ def robustness_figure(
             fig.colorbar(scatter, ax=axes, shrink=0.5, label="predicted affordance (0–1)")
         spare = list(axes.flat[len(names) :])
         if spare:  # the legend in the grid's first empty cell
-            marks_legend(spare[0], camera=False, poses=1, loc="upper left", frameon=False)
+            legend = marks_legend(spare[0], camera=False, poses=1, loc="center", frameon=False)
+            legend.set_in_layout(False)  # the grid's columns stay as wide as each other
         else:
             marks_legend(fig, camera=False, poses=1, loc="outside upper right")
         fig.suptitle(title, fontsize=9)
