@@ -77,7 +77,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     add_max_configs(p)
     p.add_argument(
-        "--examples", type=positive_int, default=4, help="rows of the qualitative figure"
+        "--examples",
+        type=positive_int,
+        default=6,
+        help="rows of the qualitative figure (6: every robot)",
     )
     p.add_argument("--out", required=True, help="output directory")
     add_quiet(p)

@@ -151,7 +151,8 @@ def run(args: argparse.Namespace) -> int:
             f"({first['target']}, {first['robot']}), view {first['episode_index']}: "
             f"{next(iter(result['models']))}'s map under each corruption"
         )
-        atomic_write_bytes(out / "robustness.png", robustness_figure(maps, title))
+        views = first["views"][next(iter(result["models"]))]
+        atomic_write_bytes(out / "robustness.png", robustness_figure(maps, title, views))
     print(table)
     print(f"{result['seconds']:.0f} s -> {out_json}, {out}")
     return 0

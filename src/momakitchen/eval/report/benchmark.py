@@ -124,7 +124,7 @@ class BenchmarkRequest:
     seeds: tuple[Path, ...] = ()
     robustness: tuple[Path, ...] = ()
     max_configs: int = 0
-    examples: int = 4
+    examples: int = 6
     progress: bool = True
 
     def __post_init__(self) -> None:
