@@ -269,6 +269,9 @@ def test_runs_of_other_methods_merge_into_one_result_and_csv(real_dataset, tmp_p
     result = json.loads(merged.read_text())
     runs = [json.loads(p.read_text()) for p in (a, b)]
     assert result["records"] == runs[0]["records"] + runs[1]["records"]
+    compact = tmp_path / "c.json"
+    assert main([*argv[:4], "--json", str(compact), "--compact"]) == 0
+    assert all("path" not in r for r in json.loads(compact.read_text())["records"])
     lines = csv.read_text().splitlines()
     assert lines[0].startswith("start,method,policy,episodes,success,spl")
     assert {line.split(",")[1] for line in lines[1:]} == {"oracle", "nearest"}

@@ -158,6 +158,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="also write the summary rows as CSV (one per row of the table)",
     )
     ap.add_argument(
+        "--compact",
+        action="store_true",
+        help="--json without the episodes' paths, unindented (for archiving)",
+    )
+    ap.add_argument(
         "--merge",
         nargs="+",
         default=[],
@@ -302,7 +307,12 @@ def _write_outputs(
     from momakitchen.eval.approach.report import format_table, report_markdown, summary_csv
 
     out.parent.mkdir(parents=True, exist_ok=True)
-    atomic_write_text(out, json.dumps(result, indent=1, allow_nan=False) + "\n")
+    if args.compact:
+        kept = [{k: v for k, v in r.items() if k != "path"} for r in result["records"]]
+        text = json.dumps({**result, "records": kept}, allow_nan=False)
+    else:
+        text = json.dumps(result, indent=1, allow_nan=False)
+    atomic_write_text(out, text + "\n")
     print(format_table(result["results"]))
     if args.markdown:
         atomic_write_text(Path(args.markdown), report_markdown(result))
