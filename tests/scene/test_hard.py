@@ -44,13 +44,13 @@ def test_default_scenes_keep_their_bytes(scene_id):
 
 
 def _stance(c):
-    """The obstacles drawn in the stance band: the first two (an obstacle that fits nowhere
-    is left out, so its number names it)."""
-    return [ob for ob in c.obstacles if int(ob.uid[1:]) < 2]
+    """The obstacle drawn in the stance band: the first (an obstacle that fits nowhere is
+    left out, so its number names it)."""
+    return [ob for ob in c.obstacles if ob.uid == "o0"]
 
 
 def _stance_config(**kw):
-    return SceneConfig(configs_per_scene=6, obstacles=(2, 3), stance_obstacles=2, **kw)
+    return SceneConfig(configs_per_scene=6, obstacles=(1, 3), stance_obstacles=1, **kw)
 
 
 def test_stance_obstacles_stand_where_a_base_would_stop():
@@ -59,7 +59,7 @@ def test_stance_obstacles_stand_where_a_base_would_stop():
     in_band = []
     counts = []
     for scene_id in (800000, 800001, 800002):
-        plain = sample_scene(scene_id, SceneConfig(configs_per_scene=6, obstacles=(2, 3)))
+        plain = sample_scene(scene_id, SceneConfig(configs_per_scene=6))
         scene = sample_scene(scene_id, cfg)
         for c, p in zip(scene.configurations, plain.configurations, strict=True):
             counts.append(len(c.obstacles))
@@ -70,16 +70,17 @@ def test_stance_obstacles_stand_where_a_base_would_stop():
                 in_band.append(lo - 1e-3 <= r <= hi + 1e-3 and angle <= STANCE_ARC + 1e-3)
             # The layout, the objects and the robot are drawn as without them.
             assert (c.objects, c.robot) == (p.objects, p.robot)
-    # Most stand in the band; those that fit nowhere there (a door's sweep) stand elsewhere.
-    assert len(in_band) >= 30 and np.mean(in_band) >= 0.7
-    assert max(counts) <= 3 and np.mean(np.array(counts) >= 2) >= 0.9
+    # Most stand in the band; those that fit nowhere there (a door's sweep), or that would
+    # leave no room within reach, stand elsewhere.
+    assert len(in_band) >= 15 and np.mean(in_band) >= 0.7
+    assert max(counts) <= 3 and min(counts) >= 1
 
 
 def test_the_band_is_a_field():
     cfg = _stance_config(stance_band=(0.9, 1.0))
     r = [
         np.hypot(ob.x - c.target.anchor[0], ob.y - c.target.anchor[1])
-        for scene_id in (800003, 800004)
+        for scene_id in (800003, 800004, 800005)
         for c in sample_scene(scene_id, cfg).configurations
         for ob in _stance(c)
     ]
@@ -130,7 +131,7 @@ def test_new_fields_round_trip_and_are_checked():
     cfg = _stance_config(object_depth=0.45, hard_part_weight=3.0, stance_band=(0.55, 0.85))
     data = codec.to_dict(cfg)
     assert {k: data[k] for k in NEW_FIELDS} == {
-        "stance_obstacles": 2,
+        "stance_obstacles": 1,
         "stance_band": [0.55, 0.85],
         "object_depth": 0.45,
         "hard_part_weight": 3.0,

@@ -125,8 +125,8 @@ PRESETS: Mapping[str, Mapping[str, Any]] = _frozen(
         # every registered arm (reach 0.63-1.30 m) at mounts drawn over 0.3-1.3 m.
         "hard": {
             "scene": {
-                "obstacles": (2, 4),
-                "stance_obstacles": 2,
+                "obstacles": (1, 3),
+                "stance_obstacles": 1,
                 "stance_band": (0.5, 0.8),
                 "rigid_target_prob": 0.25,
                 "hard_part_weight": 3.0,

@@ -92,9 +92,11 @@ class SceneConfig:
             straight in front of it, where a base facing the target would naturally stop
             (the distance a reach-based rule picks); one that fits nowhere there (a
             door's sweep may cover the band) stands anywhere. At most ``obstacles[1]``. When
-            positive, the ``min_free_positions`` that every obstacle leaves free are
-            counted among the positions no farther than the band's outer edge: a free
-            position far out on the semicircle does not make up for a blocked stance.
+            positive, the ``min_free_positions`` (at least one) that the obstacles leave
+            free are counted among the positions from which the target lies within the
+            arm's reach of its shoulder (a free position out of reach does not make up
+            for a blocked stance), and arrangements that cannot leave them free are
+            redrawn with every obstacle anywhere.
         stance_band: ``(lo, hi)`` metres from the target's floor point (see
             ``stance_obstacles``).
         object_depth: rigid objects stand within this distance (m) of the countertop's
@@ -459,12 +461,15 @@ def _place_obstacles(
     reach: float,
     footprint: tuple[float, float],
     keep_clear: np.ndarray | None = None,
+    arm: tuple[float, float] | None = None,
 ) -> tuple[Placed, ...]:
     """1-3 obstacles in the semicircle that leave enough base positions free.
 
     The first ``cfg.stance_obstacles`` of them stand in the stance band (``cfg.stance_band``
     from the target, within ``STANCE_ARC`` of straight ahead) where one fits, the others
-    anywhere.
+    anywhere; then the positions that count are those within reach (``arm``: the arm's
+    axis ahead of the base's centre and the shoulder's height, m), and the second half of
+    the arrangements draw every obstacle anywhere.
 
     A base position stays free if no obstacle overlaps its footprint nor the floor strip
     from it to the target (where the arm reaches over). Each obstacle takes, among random
@@ -479,15 +484,19 @@ def _place_obstacles(
     bases = _candidate_bases(
         anchor, reach, corners_of(layout.footprints()), footprint, cfg.grid_spacing, layout.room
     )
-    if cfg.stance_obstacles:
-        # Obstacles in the stance block the near positions: the free ones that count are
-        # those no farther than the band's outer edge, not the far rim of the semicircle.
-        near = np.hypot(*(bases.mean(axis=1) - anchor[:2]).T) <= cfg.stance_band[1]
-        bases = bases[near]
+    stance = cfg.stance_obstacles
+    if stance and arm is not None:
+        # Obstacles in the stance block the positions within reach: the free ones that
+        # count are those, not the far rim of the semicircle.
+        ahead, shoulder = arm
+        d = np.hypot(*(bases.mean(axis=1) - anchor[:2]).T)
+        bases = bases[np.hypot(d - ahead, anchor[2] - shoulder) <= reach]
     corridors = _corridors(bases, anchor)
     kinds = categories_of_kind("obstacle")
     # Where few positions exist at all (a tight corner), keep a good part of them.
     needed = min(cfg.min_free_positions, int(0.5 * len(bases)))
+    if stance:
+        needed = min(cfg.min_free_positions, max(1, needed), len(bases))
     best: tuple[int, tuple[Placed, ...]] = (-1, ())
     for _attempt in range(10):
         count = int(rng.integers(cfg.obstacles[0], cfg.obstacles[1] + 1))
@@ -502,7 +511,7 @@ def _place_obstacles(
                 n = 48
                 # Where a base would naturally stop; anywhere once two instances fit
                 # nowhere there (a door's sweep may cover the band).
-                if i < cfg.stance_obstacles and _instance < 2:
+                if i < stance and _instance < 2 and _attempt < 5:
                     r = rng.uniform(cfg.stance_band[0], cfg.stance_band[1], n)
                     theta = rng.uniform(np.pi / 2 - STANCE_ARC, np.pi / 2 + STANCE_ARC, n)
                 else:
@@ -603,7 +612,14 @@ def sample_configuration(
         else None
     )
     obstacles = _place_obstacles(
-        layout, rng, cfg, np.asarray(target.anchor), robot.reach, robot.footprint, sweep
+        layout,
+        rng,
+        cfg,
+        np.asarray(target.anchor),
+        robot.reach,
+        robot.footprint,
+        sweep,
+        (robot.mount_offset_x, mounted_at + SHOULDER_ABOVE_MOUNT),
     )
     return Configuration(
         layout.scene_id, index, robot.name, tuple(objects), target, obstacles, mount
