@@ -236,6 +236,8 @@ def test_benchmark_gives_each_predictions_file_a_row(real_dataset, tmp_path):
     assert [row.split(" | ")[0].strip("| ") for row in table] == [
         "labels",
         "flat",
+        "ring",
+        "reachability",
         "random",
         "nearest",
         "oracle",

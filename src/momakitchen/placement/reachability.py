@@ -299,7 +299,7 @@ def _digest(robot: str, cfg: SamplingConfig) -> str:
 def _sampled(robot: str, cfg: SamplingConfig, key: str) -> SampledGrid:
     """The robot's grid: from memory, the disk cache, or sampled now (and stored)."""
     from momakitchen.assets.cache import cache_dir
-    from momakitchen.fileio import atomic_write_bytes
+    from momakitchen.fileio import atomic_write_bytes, dumps_strict
     from momakitchen.placement.sampling import sample_grid
 
     if key in _SAMPLED:
@@ -320,7 +320,7 @@ def _sampled(robot: str, cfg: SamplingConfig, key: str) -> SampledGrid:
             reachable=grid.reachable,
             axis_xy=grid.axis_xy,
             z_first=np.float64(grid.z_first),
-            meta=np.array(json.dumps(meta)),
+            meta=np.array(dumps_strict(meta)),
         )
         path.parent.mkdir(parents=True, exist_ok=True)
         atomic_write_bytes(path, buf.getvalue())
