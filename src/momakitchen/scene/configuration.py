@@ -55,12 +55,13 @@ MOUNT_STREAM = 4  # seed stream of sampled mount heights (views use 3)
 # Stance obstacles stand within this angle (rad) of straight in front of the target: where
 # a base facing the target would stop, not off to the side.
 STANCE_ARC = np.radians(40.0)
-# A part is "hard" (SceneConfig.hard_part_weight) if it is a door, whose panel swings over
-# the floor in front of it, or if its handle is below LOW_HANDLE (a low drawer, an oven's
-# drawer, a freezer) or above HIGH_HANDLE (above every countertop: a fridge's upper door,
-# a microwave), metres.
+# A part is "hard" (SceneConfig.hard_part_weight) if it is the door of a unit standing on
+# the floor, whose panel swings over the floor in front of it (a counter-top appliance's
+# door swings over the counter), or if its handle is below LOW_HANDLE (a low drawer, an
+# oven's drawer, a freezer) or above HIGH_HANDLE (a high shelf: a fridge's upper door;
+# every counter-top appliance's handle is lower), metres.
 LOW_HANDLE = 0.45
-HIGH_HANDLE = 1.0
+HIGH_HANDLE = 1.2
 
 
 @dataclass(frozen=True)
@@ -102,8 +103,9 @@ class SceneConfig:
         object_depth: rigid objects stand within this distance (m) of the countertop's
             front edge; larger puts some deep on the counter, far from the base.
         hard_part_weight: an articulated target is drawn among the parts in the robot's
-            height band with this weight for a hard part (:func:`hard_part`: a door, or a
-            handle below ``LOW_HANDLE`` or above ``HIGH_HANDLE``) against 1 for the others.
+            height band with this weight for a hard part (:func:`hard_part`: a door that
+            swings over the floor, or a handle below ``LOW_HANDLE`` or above
+            ``HIGH_HANDLE``) against 1 for the others.
 
         The last four are written (to ``scene.json``, to a manifest) only when they differ
         from their defaults, which leave every configuration as it was before they existed.
@@ -337,12 +339,14 @@ def within_height_band(z: float, mount_height: float, reach: float) -> bool:
 
 
 def hard_part(unit: Placed, articulation: int) -> bool:
-    """Whether a functional part makes a hard target (``SceneConfig.hard_part_weight``): a
-    door, which swings over the floor where the base would stand, or a handle out of the
-    comfortable middle heights (below ``LOW_HANDLE`` or above ``HIGH_HANDLE``)."""
+    """Whether a functional part makes a hard target (``SceneConfig.hard_part_weight``): the
+    door of a unit standing on the floor, which swings over the floor where the base would
+    stand, or a handle out of the middle heights (below ``LOW_HANDLE``, above
+    ``HIGH_HANDLE``)."""
     z = handle_anchor(unit, articulation)[2]
     door = unit.model.articulations[articulation].part == "door"
-    return door or not LOW_HANDLE <= z <= HIGH_HANDLE
+    floor_door = door and get_category(unit.category).kind == "furniture"
+    return floor_door or not LOW_HANDLE <= z <= HIGH_HANDLE
 
 
 def _place_objects(
