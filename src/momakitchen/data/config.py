@@ -117,12 +117,12 @@ def _frozen(data: Mapping[str, Any]) -> Mapping[str, Any]:
 PRESETS: Mapping[str, Mapping[str, Any]] = _frozen(
     {
         "default": {},
-        # Scenes where geometry is not enough to choose where the base stops (MoMa-Kitchen,
-        # figure 1), chosen by scene properties before any method was scored
-        # (docs/DATASET.md, "Presets"): clutter where a base facing the target would stop,
-        # more articulated targets, weighted towards doors (their panels swing over the
-        # floor in front) and handles low or high, objects deeper on the counter, and
-        # every registered arm (reach 0.63-1.30 m) at mounts drawn over 0.3-1.3 m.
+        # The cases of MoMa-Kitchen's figure 1, where geometry is a weak guide to where the
+        # base stops, as scene properties (docs/DATASET.md, "Presets", with the measured
+        # figures): an obstacle where a base facing the target would stop, more
+        # articulated targets, weighted towards doors that swing over the floor and
+        # handles low or high, objects deeper on the counter, and every registered arm
+        # (reach 0.63-1.30 m) at mounts drawn over 0.3-1.3 m.
         "hard": {
             "scene": {
                 "obstacles": (1, 3),
