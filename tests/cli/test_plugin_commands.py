@@ -95,7 +95,7 @@ def test_every_command_runs_a_pip_installed_plugin(two_scenes, tmp_path, capsys)
     results = (tmp_path / "bench" / "RESULTS.md").read_text()
     table = results.split("## Methods")[1].split("\n\n")[1].splitlines()
     rows = [line.split(" | ")[0].strip("| ") for line in table[2:]]
-    assert rows == ["tinyaff", "labels", "random", "nearest", "oracle"]
+    assert rows == ["tinyaff", "labels", "ring", "reachability", "random", "nearest", "oracle"]
     bench_json = json.loads((tmp_path / "bench" / "benchmark.json").read_text())
     assert bench_json["msr"]["labels"] == bench_json["msr"]["oracle"]
     assert [v["model"] for v in bench_json["predictions"].values()] == ["labels"]
