@@ -128,39 +128,20 @@ class _ClassicalMethod:
     """A classical base-placement method (:func:`momakitchen.placement.place`) as an MSR
     method: it sees the judged view's frame (depth, masks, camera pose) and the robot at
     its mount, as a model's prediction would, and its map is read at the episode's floor
-    points (the same render's floor: the nearest of its points within ``MATCH`` m, else
-    0)."""
-
-    MATCH = 0.05
+    points (the same render's floor: :func:`~momakitchen.placement.methods.map_at`)."""
 
     def __init__(self, name: str) -> None:
         self.name = name
         self.floor_context: int | None = None
 
     def episode_scores(self, episode: Any, cfg: Any) -> np.ndarray:
-        from scipy.spatial import cKDTree
-
         from momakitchen.data.episode import stored_frame
-        from momakitchen.placement.methods import place
+        from momakitchen.placement.methods import map_at, place_frame
 
         names = ("depth", "rgb", "semantic", "intrinsics", "camera_to_base")
         frame = stored_frame({n: getattr(episode, n) for n in names})
-        pred = place(
-            self.name,
-            frame.depth,
-            frame.intrinsics,
-            frame.camera_to_base,
-            frame.target_mask,
-            cfg.robot,
-            obstacle_masks=list(frame.obstacle_masks),
-            top_k=1,
-            mount_height=cfg.mount,
-        )
-        floor = np.asarray(episode.floor_xyz, np.float64)[:, :2]
-        if not len(pred.floor_xyz):
-            return np.zeros(len(floor))
-        dist, idx = cKDTree(np.asarray(pred.floor_xyz)[:, :2]).query(floor)
-        return np.where(dist <= self.MATCH, np.asarray(pred.affordance)[idx], 0.0)
+        pred = place_frame(self.name, frame, cfg.robot, mount_height=cfg.mount)
+        return map_at(pred, episode.floor_xyz[:, :2])
 
 
 def run_configuration(

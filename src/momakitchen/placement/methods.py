@@ -162,3 +162,45 @@ def place(
         pose_scores=pred.pose_scores[keep],
         pose_uncertainty=pred.pose_uncertainty[keep],
     )
+
+
+def place_frame(
+    method: str,
+    frame: Any,
+    robot: str | Sequence[float] | Mapping[str, float],
+    *,
+    mount_height: float | None = None,
+    metric_depth: bool = True,
+    top_k: int = 1,
+    pick_radius: float = 0.0,
+) -> Prediction:
+    """:func:`place` on a :class:`~momakitchen.perception.sensors.Frame` (its depth,
+    intrinsics, camera pose, target and obstacle masks), as the tracks give one."""
+    return place(
+        method,
+        frame.depth,
+        frame.intrinsics,
+        frame.camera_to_base,
+        frame.target_mask,
+        robot,
+        obstacle_masks=list(frame.obstacle_masks),
+        top_k=top_k,
+        pick_radius=pick_radius,
+        metric_depth=metric_depth,
+        mount_height=mount_height,
+    )
+
+
+def map_at(prediction: Prediction, floor_xy: np.ndarray, match: float = 0.05) -> np.ndarray:
+    """A method's map read at other floor points of the same frame (a track's own floor
+    points): the value of the nearest of its points within ``match`` m, else 0.
+
+    Shapes: ``floor_xy`` (M, 2) base-frame xy; returns (M,).
+    """
+    from scipy.spatial import cKDTree
+
+    floor_xy = np.asarray(floor_xy, np.float64).reshape(-1, 2)
+    if not len(prediction.floor_xyz):
+        return np.zeros(len(floor_xy))
+    dist, idx = cKDTree(np.asarray(prediction.floor_xyz)[:, :2]).query(floor_xy)
+    return np.where(dist <= match, np.asarray(prediction.affordance)[idx], 0.0)

@@ -92,21 +92,16 @@ class ClassicalPerceiver:
     def __call__(
         self, frame: Any, robot: str | tuple[str, float], metric: bool, config: ApproachConfig
     ) -> Any:
-        from momakitchen.placement.methods import place
+        from momakitchen.placement.methods import place_frame
 
         name, mount = (robot, None) if isinstance(robot, str) else robot
-        pred = place(
+        pred = place_frame(
             self.name,
-            frame.depth,
-            frame.intrinsics,
-            frame.camera_to_base,
-            frame.target_mask,
+            frame,
             name,
-            obstacle_masks=list(frame.obstacle_masks),
-            top_k=1,
-            pick_radius=config.pick_radius,
-            metric_depth=metric,
             mount_height=mount,
+            metric_depth=metric,
+            pick_radius=config.pick_radius,
         )
         # A classical map's zero says "not a stance": only its positive cells are fused,
         # so a look that finds none gives no goal rather than an arbitrary zero cell.

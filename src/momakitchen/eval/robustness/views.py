@@ -316,10 +316,8 @@ class ClassicalMethod:
     """A classical base-placement method (:func:`momakitchen.placement.place`) as a
     robustness-track method: it sees the view's frame (the corrupted one; for ``clean``
     the render as stored) and the robot at its mount, and its map is read at the view
-    input's floor points (the nearest of its own within ``MATCH`` m, else 0), so that its
+    input's floor points (:func:`~momakitchen.placement.methods.map_at`), so that its
     poses, PCC and SIM are taken where a model's are."""
-
-    MATCH = 0.05
 
     def __init__(self, name: str) -> None:
         self.name = name
@@ -336,33 +334,17 @@ class ClassicalMethod:
         """``{"status": "ok", "prediction": Prediction}``, or the view's status when it
         has no input, or the method's error; ``metric`` False for depth known up to scale
         (a monocular corruption)."""
-        from scipy.spatial import cKDTree
-
         from momakitchen.models.inference import map_prediction
-        from momakitchen.placement.methods import place
+        from momakitchen.placement.methods import map_at, place_frame
 
         if isinstance(inputs, dict):
             return dict(inputs)
         try:
-            own = place(
-                self.name,
-                frame.depth,
-                frame.intrinsics,
-                frame.camera_to_base,
-                frame.target_mask,
-                robot,
-                obstacle_masks=list(frame.obstacle_masks),
-                top_k=1,
-                metric_depth=metric,
-                mount_height=mount,
-            )
+            own = place_frame(self.name, frame, robot, mount_height=mount, metric_depth=metric)
         except MomaError as exc:
             return _error(exc)
         floor = np.asarray(inputs.floor_xyz, np.float64)
-        scores = np.zeros(len(floor))
-        if len(own.floor_xyz):
-            dist, idx = cKDTree(np.asarray(own.floor_xyz)[:, :2]).query(floor[:, :2])
-            scores = np.where(dist <= self.MATCH, np.asarray(own.affordance)[idx], 0.0)
+        scores = map_at(own, floor[:, :2])
         pred = map_prediction(
             floor,
             scores,
