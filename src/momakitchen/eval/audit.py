@@ -295,40 +295,71 @@ def format_audit_table(summary: dict[str, Any], config: AuditConfig) -> str:
 
 
 def audit_figure(summary: dict[str, Any], config: AuditConfig) -> bytes:
-    """PNG: per robot and per target, the infeasible share, oracle Top-1 over feasible
-    configurations, stability at the smallest offset and view coverage; dashed lines
-    mark the figures the ground truth must reach."""
-    from momakitchen.perception.figures import png_bytes, pyplot
+    """PNG, as wide as a page shows it: per robot and per target (configurations in
+    brackets), the infeasible share, oracle Top-1 over feasible configurations, stability
+    at the smallest offset and view coverage, in %; dashed lines in each bar's colour mark
+    the figure the ground truth must reach."""
+    from itertools import pairwise
+
+    from matplotlib.lines import Line2D
+
+    from momakitchen.perception.figures import DOC_WIDTH, png_bytes, pyplot, text_sizes
 
     plt = pyplot()
     small = _offset_keys(config)[0]
+    shift = small.removesuffix("cm") + " cm" if small.endswith("cm") else small
     bars = (
-        ("infeasible", lambda f: f["infeasible"], 0.10),
-        ("oracle Top-1 (feasible)", lambda f: f["msr"]["oracle"]["top1_feasible"], 0.90),
-        (f"stable at ±{small}", lambda f: f["stability"][small], 0.90),
-        ("view coverage", lambda f: f["coverage"], 0.95),
+        ("infeasible configurations", "≤", lambda f: f["infeasible"], 0.10),
+        ("oracle Top-1 (feasible)", "≥", lambda f: f["msr"]["oracle"]["top1_feasible"], 0.90),
+        (f"positions stable at ±{shift}", "≥", lambda f: f["stability"][small], 0.90),
+        ("view coverage", "≥", lambda f: f["coverage"], 0.95),
     )
-    fig, axes = plt.subplots(2, 1, figsize=(12, 7.5), constrained_layout=True)
-    for ax, group in zip(axes, ("per_robot", "per_target"), strict=True):
-        names = ["all", *summary[group]]
-        rows = [summary["overall"], *summary[group].values()]
-        x = np.arange(len(names))
-        width = 0.8 / len(bars)
-        for j, (label, get, goal) in enumerate(bars):
-            values = [get(f) if get(f) is not None else np.nan for f in rows]
-            bar = ax.bar(x + (j - 1.5) * width, values, width, label=label)
-            ax.hlines(
-                goal,
-                x[0] - 0.45,
-                x[-1] + 0.45,
-                colors=bar.patches[0].get_facecolor(),
-                linestyles="dashed",
-                linewidth=0.8,
-            )
-        labels = [f"{n}\n({f['configurations']})" for n, f in zip(names, rows, strict=True)]
-        ax.set_xticks(x, labels, fontsize=8, rotation=25, ha="right")
-        ax.set_ylim(0, 1.05)
-        ax.set_ylabel("fraction")
-        ax.set_title(f"label audit {group.replace('_', ' ')} (configurations); dashed: goals")
-    axes[0].legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=8)
-    return png_bytes(fig)
+    groups = (("per_robot", "robot"), ("per_target", "target"))
+    with plt.rc_context(text_sizes()):
+        fig, axes = plt.subplots(2, 1, figsize=(DOC_WIDTH, 7.6), layout="constrained")
+        handles: list[Any] = []
+        for ax, (group, noun) in zip(axes, groups, strict=True):
+            names = ["all", *summary[group]]
+            rows = [summary["overall"], *summary[group].values()]
+            x = np.arange(len(names))
+            width = 0.8 / len(bars)
+            handles = []
+            for j, (label, sign, get, goal) in enumerate(bars):
+                values = [100 * get(f) if get(f) is not None else np.nan for f in rows]
+                offset = (j - (len(bars) - 1) / 2) * width
+                bar = ax.bar(
+                    x + offset, values, width, label=f"{label} (goal {sign} {100 * goal:.0f} %)"
+                )
+                handles.append(bar)
+                ax.hlines(
+                    100 * goal,
+                    x[0] - 0.45,
+                    x[-1] + 0.45,
+                    colors=bar.patches[0].get_facecolor(),
+                    linestyles="dashed",
+                    linewidth=1.0,
+                )
+            labels = [f"{n}\n({f['configurations']})" for n, f in zip(names, rows, strict=True)]
+            ax.set_xticks(x, labels)
+            ax.set_xlim(x[0] - 0.5, x[-1] + 0.5)
+            ax.set_ylim(0, 105)
+            ax.set_ylabel("share (%)")
+            ax.set_xlabel(f"{noun} (configurations)")
+            ax.set_title(f"label audit per {noun}")
+        goal_line = Line2D([], [], color="0.3", linestyle="dashed", linewidth=1.0)
+        fig.legend(
+            [*handles, goal_line],
+            [*(h.get_label() for h in handles), "goal (dashed, in its bar's colour)"],
+            loc="outside upper center",
+            ncols=2,
+        )
+        # Names that do not fit side by side stand upright, one line each.
+        fig.canvas.draw()
+        for ax in axes:
+            ticks = [t for t in ax.get_xticklabels() if t.get_text()]
+            boxes = [t.get_window_extent() for t in ticks]
+            if any(a.x1 + 2 > b.x0 for a, b in pairwise(boxes)):
+                for t in ticks:
+                    t.set_text(t.get_text().replace("\n", " "))
+                ax.set_xticks(ax.get_xticks(), [t.get_text() for t in ticks], rotation=90)
+        return png_bytes(fig)
