@@ -20,9 +20,12 @@
 # and 12 epochs, on test scene 20003, one view per robot). A copy over 300 kB is reduced to
 # 256 colours.
 #
+# audit_*.png (`momakitchen audit` on 10 development and 20 held-out scenes, 30 minutes
+# each) are drawn again from the tables docs/LABELS.md archives under each picture, whole
+# percent as printed there, without re-running the audits.
+#
 # Not re-made here: the pictures of archived studies at full scale, each made by the
-# command its document gives (audit_*.png: `momakitchen audit` on 20 held-out scenes,
-# docs/LABELS.md; results_lambda_sweep*.png, results_navaff_loss.png,
+# command its document gives (results_lambda_sweep*.png, results_navaff_loss.png,
 # results_qualitative.png: runs of docs/results/HISTORY.md).
 set -euo pipefail
 
@@ -153,6 +156,53 @@ for suffix, picture in (("", "300"), ("-12ep", "12ep")):
     runs = [Path("results/runs") / f"{m}{suffix}" for m in models]
     figure = qualitative_figure(data, runs, examples=6)
     (img / f"results_qualitative_{picture}.png").write_bytes(figure)
+PY
+
+stamp "label audits (from docs/LABELS.md)"
+python - docs/LABELS.md "$IMG" <<'PY'
+import re
+import sys
+from pathlib import Path
+
+from momakitchen.eval.audit import AuditConfig, audit_figure
+from momakitchen.robots.spec import DEFAULT_ROBOTS
+
+doc, img = Path(sys.argv[1]).read_text().splitlines(), Path(sys.argv[2])
+
+
+def share(cell: str) -> float | None:
+    return None if cell in ("–", "") else float(cell.removesuffix("%").strip()) / 100
+
+
+# Each audit picture, and the table of its audit that follows it.
+drawn = []
+for i, line in enumerate(doc):
+    picture = re.fullmatch(r"!\[[^\]]*\]\(img/(audit_\w+\.png)\)", line.strip())
+    if not picture:
+        continue
+    start = next(j for j in range(i, len(doc)) if doc[j].startswith("| group |"))
+    head = [c.strip() for c in doc[start].strip("|").split("|")]
+    summary: dict = {"per_robot": {}, "per_target": {}}
+    for row in doc[start + 2 :]:
+        if not row.startswith("|"):
+            break
+        cells = dict(zip(head, (c.strip() for c in row.strip("|").split("|")), strict=True))
+        name = cells["group"].strip("*")
+        top1_feasible = cells["oracle Top-1 (all / feasible)"].split("/")[1].strip()
+        figures = {
+            "configurations": int(cells["configs"]),
+            "infeasible": share(cells["infeasible"]),
+            "stability": {"3cm": share(cells["stable ±3cm"])},
+            "msr": {"oracle": {"top1_feasible": share(top1_feasible)}},
+            "coverage": share(cells["view coverage"]),
+        }
+        if name == "all":
+            summary["overall"] = figures
+        else:
+            summary["per_robot" if name in DEFAULT_ROBOTS else "per_target"][name] = figures
+    (img / picture.group(1)).write_bytes(audit_figure(summary, AuditConfig()))
+    drawn.append(picture.group(1))
+assert len(drawn) == 4, f"docs/LABELS.md: audit pictures with their tables: {drawn}"
 PY
 
 if [[ $QUICK == 1 ]]; then
