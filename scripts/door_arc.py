@@ -10,12 +10,14 @@ from __future__ import annotations
 
 import argparse
 import math
+import textwrap
 from pathlib import Path
 
 import numpy as np
 from matplotlib.figure import Figure
 
 from momakitchen.bullet import p
+from momakitchen.perception.figures import DOC_WIDTH
 from momakitchen.robots import get_robot_spec
 from momakitchen.scene.configuration import sample_scene
 from momakitchen.scene.geometry import semicircle_grid
@@ -76,19 +78,21 @@ def main() -> None:
         result = runner.run(*base)
     revolute = target.joint_type == "revolute"
     picks = [frames[round(i)] for i in np.linspace(0, len(frames) - 1, 4)]
-    fig = Figure(figsize=(16, 3.9))
-    for ax, (opened, rgb) in zip(fig.subplots(1, 4), picks, strict=True):
+    # Page width (DOC_WIDTH), two by two, so that its text is 9 pt where the docs show it.
+    fig = Figure(figsize=(DOC_WIDTH, 0.78 * DOC_WIDTH))
+    for ax, (opened, rgb) in zip(fig.subplots(2, 2).ravel(), picks, strict=True):
         ax.imshow(rgb)
         ax.set_axis_off()
         amount = f"{math.degrees(opened):.0f} deg" if revolute else f"{opened * 100:.0f} cm"
-        ax.set_title(f"opened {amount}")
-    fig.suptitle(
+        ax.set_title(f"opened {amount}", fontsize=9)
+    title = (
         f"scene {args.scene_id}, configuration {args.config}: {cfg.robot} opens the "
         f"{cfg.target.category} {target.part} from ({base[0]:.1f}, {base[1]:.1f}); "
         f"{'success' if result.success else 'failure'} (closed loop on the measured joint)"
     )
+    fig.suptitle(textwrap.fill(title, 90), fontsize=9)
     fig.tight_layout()
-    fig.savefig(args.out, dpi=90)
+    fig.savefig(args.out, dpi=120)
     print(f"{args.out}: {len(frames)} moves, opened {math.degrees(result.moved):.1f} deg")
 
 
