@@ -1,5 +1,5 @@
 """Shared fixtures: every test writes generated URDFs to its own cache directory; a tiny
-trained run."""
+trained run; one real generated view."""
 
 from __future__ import annotations
 
@@ -39,3 +39,24 @@ def tiny_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("run") / "tiny"
     train(cfg, data, None, out)
     return out
+
+
+@pytest.fixture(scope="session")
+def real_view(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A one-scene dataset from the simulator-backed producer: 1 configuration x 2 views
+    (scene 3; the deployment and placement tests read its frames)."""
+    from momakitchen.data.config import GenerationConfig, ViewConfig
+    from momakitchen.data.generator import GenerateRequest, generate_dataset
+    from momakitchen.generation.producer import scene_records
+    from momakitchen.scene.configuration import SceneConfig
+
+    root = tmp_path_factory.mktemp("view") / "ds"
+    cfg = GenerationConfig(scene=SceneConfig(configs_per_scene=1), views=ViewConfig(episodes=2))
+    generate_dataset(
+        GenerateRequest(out=root, num_scenes=1, first_scene_id=3),
+        scene_records,
+        cfg,
+        progress=False,
+        write_card=False,
+    )
+    return root
