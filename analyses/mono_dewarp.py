@@ -70,8 +70,9 @@ def main() -> None:
     from dataclasses import replace
 
     from momakitchen.data.config import Preprocessing
+    from momakitchen.data.episode import episode_frame
     from momakitchen.data.reader import dataset_generation, judged_configurations
-    from momakitchen.eval.robustness.views import corrupted_view, episode_frame, judged_views
+    from momakitchen.eval.robustness.views import corrupted_view, judged_views
     from momakitchen.perception.live import frame_inputs
 
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])

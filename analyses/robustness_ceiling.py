@@ -28,13 +28,14 @@ import numpy as np
 
 def main(argv: list[str] | None = None) -> int:
     from momakitchen.data.config import Preprocessing
+    from momakitchen.data.episode import episode_frame
     from momakitchen.data.reader import (
         dataset_generation,
         judged_configurations,
         judged_view,
         rebuilt_configurations,
     )
-    from momakitchen.eval.robustness.views import episode_frame, view_inputs
+    from momakitchen.eval.robustness.views import view_inputs
     from momakitchen.metrics import episode_metrics
     from momakitchen.sim.labels import floor_affordance
 

@@ -24,8 +24,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "analyses"))
 
 import momakitchen
 from momakitchen.data import manifest as mf
+from momakitchen.data.episode import episode_frame
 from momakitchen.data.shard import SceneShard
-from momakitchen.eval.robustness.views import episode_frame
 from momakitchen.models.inference import predict_map
 from momakitchen.robots.descriptor import robot_descriptor
 from momakitchen.robots.spec import get_robot_spec

@@ -15,9 +15,9 @@ from script_cli import run_main
 
 import momakitchen
 from momakitchen import MomaError
+from momakitchen.data.episode import episode_frame
 from momakitchen.data.shard import SceneShard, list_shards
 from momakitchen.deploy.predict import write_outputs
-from momakitchen.eval.robustness.views import episode_frame
 from momakitchen.perception.sensors import (
     CalibrationError,
     Corruption,

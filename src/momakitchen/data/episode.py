@@ -129,3 +129,10 @@ def stored_frame(arrays: Mapping[str, np.ndarray]) -> Any:
         intrinsics=Intrinsics(fx, fy, cx, cy, int(sem.shape[1]), int(sem.shape[0])),
         camera_to_base=np.asarray(arrays["camera_to_base"], np.float64),
     )
+
+
+def episode_frame(episode: Episode) -> Any:
+    """A stored :class:`Episode`'s render as a
+    :class:`~momakitchen.perception.sensors.Frame` (:func:`stored_frame`)."""
+    names = ("depth", "rgb", "semantic", "intrinsics", "camera_to_base")
+    return stored_frame({n: getattr(episode, n) for n in names})

@@ -135,12 +135,10 @@ class _ClassicalMethod:
         self.floor_context: int | None = None
 
     def episode_scores(self, episode: Any, cfg: Any) -> np.ndarray:
-        from momakitchen.data.episode import stored_frame
+        from momakitchen.data.episode import episode_frame
         from momakitchen.placement.methods import map_at, place_frame
 
-        names = ("depth", "rgb", "semantic", "intrinsics", "camera_to_base")
-        frame = stored_frame({n: getattr(episode, n) for n in names})
-        pred = place_frame(self.name, frame, cfg.robot, mount_height=cfg.mount)
+        pred = place_frame(self.name, episode_frame(episode), cfg.robot, mount_height=cfg.mount)
         return map_at(pred, episode.floor_xyz[:, :2])
 
 

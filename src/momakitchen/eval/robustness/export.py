@@ -9,10 +9,10 @@ from pathlib import Path
 
 import numpy as np
 
+from momakitchen.data.episode import episode_frame
 from momakitchen.eval.robustness.views import (
     RobustnessConfig,
     StoredView,
-    episode_frame,
     judged_views,
     track_view,
     view_key,

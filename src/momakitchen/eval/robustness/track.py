@@ -10,6 +10,7 @@ from typing import Any
 
 import numpy as np
 
+from momakitchen.data.episode import episode_frame
 from momakitchen.errors import MomaError
 from momakitchen.eval.methods import CLASSICAL
 from momakitchen.eval.robustness.tables import summarize
@@ -18,7 +19,6 @@ from momakitchen.eval.robustness.views import (
     ClassicalMethod,
     RobustnessConfig,
     StoredView,
-    episode_frame,
     judged_views,
     load_robustness_predictions,
     predict_view,

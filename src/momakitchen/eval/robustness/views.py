@@ -71,15 +71,6 @@ class RobustnessConfig:
             raise MomaError(f"split must be one of {SPLIT_CHOICES}, got {self.split!r}")
 
 
-def episode_frame(episode: Any) -> Any:
-    """A stored :class:`~momakitchen.data.episode.Episode`'s render as a
-    :class:`~momakitchen.perception.sensors.Frame`."""
-    from momakitchen.data.episode import stored_frame
-
-    names = ("depth", "rgb", "semantic", "intrinsics", "camera_to_base")
-    return stored_frame({n: getattr(episode, n) for n in names})
-
-
 @dataclass(frozen=True)
 class StoredView:
     """A view as ``msr`` and ``evaluate`` give it to a model: the episode's stored clouds
