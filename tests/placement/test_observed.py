@@ -68,3 +68,19 @@ def test_the_targets_surface_gives_the_approach():
     side_on, above = grasp_approaches(_frame([[0.0, 0.0]], [], blob))
     assert side_on is None and above is not None
     np.testing.assert_allclose(above, [0, 0, -1])
+
+
+def test_isolated_points_above_the_floor_are_no_obstacle(monkeypatch):
+    import momakitchen.placement.observed as observed
+
+    monkeypatch.setattr(observed, "OBSTACLE_NEIGHBOURS", 3)
+    # a chair leg: a column of points 2 cm apart; a stray point (far floor noise, a
+    # flying pixel) on its own
+    leg = [[2.0, 0.0, z] for z in np.arange(0.04, 0.4, 0.02)]
+    stray = [[1.0, 1.0, 0.06]]
+    kept = observed.supported(np.array(leg + stray))
+    # the leg stays (its two ends, with fewer neighbours, may go)
+    assert len(kept) >= len(leg) - 2 and (kept[:, :2] == [2.0, 0.0]).all()
+    assert not (kept[:, :2] == [1.0, 1.0]).all(axis=1).any()
+    # two stray points together are still too few
+    assert len(observed.supported(np.array([[0.0, 0.0, 0.1], [0.0, 0.03, 0.1]]))) == 0

@@ -232,3 +232,23 @@ def test_a_huge_yaml_is_refused_before_it_is_parsed(tiny_robot_files):
     # a file just under the limit is read as ever
     yaml_path.write_text(yaml_path.read_text()[:1000].split("home")[0] + "#" * 1_040_000 + "\n")
     assert load_config(yaml_path).name == "tiny_user"
+
+
+@pytest.mark.parametrize(
+    ("limit", "message"),
+    [
+        ('lower="1.5" upper="-1.5"', "limits inverted (lower 1.5 > upper -1.5)"),
+        ('lower="nan" upper="1.5"', "lower='nan', not a number"),
+        ('lower="-1" upper="one"', "upper='one', not a number"),
+    ],
+)
+def test_a_urdf_whose_joint_limits_make_no_sense_is_refused(tiny_robot_files, limit, message):
+    urdf, yaml_path = tiny_robot_files
+    text = urdf.read_text()
+    first = re.search(r'lower="[^"]*" upper="[^"]*"', text)
+    assert first is not None
+    urdf.write_text(text[: first.start()] + limit + text[first.end() :])
+    with pytest.raises(MomaError, match=re.escape(message)) as info:
+        register_user_robot(yaml_path)
+    assert str(urdf) in str(info.value) and "\n" not in str(info.value)
+    assert "tiny_user" not in ROBOTS

@@ -26,6 +26,14 @@ FOOTPRINT_MARGIN = 0.02
 # Obstacle points are merged on this grid (m) before the footprint test: a wall's column
 # of points blocks the floor as one.
 OBSTACLE_GRID = 0.02
+# A point above the floor is an obstacle only with this many others within
+# OBSTACLE_RADIUS (m): a radius outlier filter, as a costmap's point cloud is filtered
+# before marking. A real surface seen through 2 cm voxels has many neighbours at any
+# range; a stereo sensor's far floor noise and flying pixels at depth edges stand alone.
+# Chosen on development scenes (docs/PLACEMENT.md, "Design"): 4 and 8 did equally well
+# there, 0 (no filter) worse; the smaller keeps more of a thin obstacle.
+OBSTACLE_NEIGHBOURS = 4
+OBSTACLE_RADIUS = 0.05
 # The target's points are a plane (a door, a drawer front) when they lie this close to it
 # (m, standard deviation) and spread this far along both of its directions.
 PLANE_THICKNESS = 0.01
@@ -83,12 +91,21 @@ def observe(frame: FrameArrays, metric_depth: bool = True) -> ObservedFrame:
     camera = (clouds.correction.matrix @ frame.camera_to_base)[:3, 3]
     return ObservedFrame(
         floor_xyz=clouds.floor_xyz.astype(np.float64),
-        points=xyz[xyz[:, 2] > OBSTACLE_MIN_Z],
+        points=supported(xyz[xyz[:, 2] > OBSTACLE_MIN_Z]),
         target_points=xyz[clouds.global_align > 0],
         target_xyz=np.asarray(clouds.target_xyz, np.float64),
         camera_xyz=np.asarray(camera, np.float64),
         correction=clouds.correction,
     )
+
+
+def supported(points: np.ndarray) -> np.ndarray:
+    """The points with at least :data:`OBSTACLE_NEIGHBOURS` others within
+    :data:`OBSTACLE_RADIUS`. Shapes: (M, 3) -> (K, 3), K <= M, in input order."""
+    if OBSTACLE_NEIGHBOURS <= 0 or len(points) == 0:
+        return points
+    counts = cKDTree(points).query_ball_point(points, OBSTACLE_RADIUS, return_length=True)
+    return points[counts > OBSTACLE_NEIGHBOURS]
 
 
 def free_floor(frame: ObservedFrame, footprint: tuple[float, float], ceiling: float) -> np.ndarray:

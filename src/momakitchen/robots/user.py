@@ -297,6 +297,20 @@ def _parent_joints(joints: list[Any], where: str) -> dict[str, Any]:
     return parents
 
 
+def _limit(limit: Any, key: str, where: str, joint: Any) -> float:
+    """A joint's ``<limit>`` bound (0 when absent, as URDF defines it), checked finite."""
+    text = limit.get(key, "0")
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not math.isfinite(value):
+        raise MomaError(
+            f"URDF file {where!r}: joint {joint.get('name')!r} has {key}={text!r}, not a number"
+        )
+    return value
+
+
 def _model(cfg: UserRobotConfig) -> tuple[RobotModel, int]:
     """Robot model of a user config and its arm DoF; checks the URDF's structure."""
     root = parse_urdf(cfg.urdf)
@@ -321,8 +335,17 @@ def _model(cfg: UserRobotConfig) -> tuple[RobotModel, int]:
         link = link_of(children[link], "parent")
     movable = ("revolute", "continuous", "prismatic")
     for j in joints:
-        if j.get("type") in ("revolute", "prismatic") and j.find("limit") is None:
+        if j.get("type") not in ("revolute", "prismatic"):
+            continue
+        limit = j.find("limit")
+        if limit is None:
             raise MomaError(f"URDF file {where!r}: joint {j.get('name')!r} has no <limit>")
+        lower, upper = _limit(limit, "lower", where, j), _limit(limit, "upper", where, j)
+        if lower > upper:
+            raise MomaError(
+                f"URDF file {where!r}: joint {j.get('name')!r} has its limits inverted "
+                f"(lower {lower} > upper {upper})"
+            )
     fingers = cfg.finger_joints
     if cfg.end_effector == "suction" and fingers:
         raise MomaError(
