@@ -124,3 +124,18 @@ def test_no_writer_in_src_bypasses_strict_json():
     assert not loose, "JSON written without allow_nan=False (use fileio.dumps_strict): " + str(
         loose
     )
+
+
+def test_a_json_object_reads_the_same_gzipped_and_a_broken_one_names_its_file(tmp_path):
+    import gzip
+
+    from momakitchen.fileio import read_json_object
+
+    obj = {"records": [{"success": 1}], "x": 0.5}
+    plain, packed = tmp_path / "a.json", tmp_path / "a.json.gz"
+    plain.write_text(json.dumps(obj))
+    packed.write_bytes(gzip.compress(plain.read_bytes()))
+    assert read_json_object(plain) == read_json_object(packed) == obj
+    packed.write_bytes(gzip.compress(plain.read_bytes())[:20])  # cut short
+    with pytest.raises(MomaError, match=r"a\.json\.gz: cannot read JSON"):
+        read_json_object(packed)

@@ -5,6 +5,7 @@ strict JSON text (never NaN or infinity)."""
 from __future__ import annotations
 
 import errno
+import gzip
 import io
 import json
 import math
@@ -106,12 +107,16 @@ def existing_file(path: str | os.PathLike, what: str) -> Path:
 
 
 def read_json_object(path: str | os.PathLike) -> dict[str, Any]:
-    """The JSON object in ``path``; MomaError naming the file if it cannot be read, is not
-    JSON or holds something other than an object."""
+    """The JSON object in ``path`` (gzipped or not: archives keep large results as
+    ``.json.gz``); MomaError naming the file if it cannot be read, is not JSON or holds
+    something other than an object."""
     path = Path(path)
     try:
-        data = json.loads(path.read_text())
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raw = path.read_bytes()
+        if raw[:2] == b"\x1f\x8b":
+            raw = gzip.decompress(raw)
+        data = json.loads(raw.decode())
+    except (OSError, EOFError, UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise MomaError(f"{path}: cannot read JSON ({exc})") from None
     if not isinstance(data, dict):
         raise MomaError(f"{path}: expected a JSON object")
