@@ -317,13 +317,13 @@ def audit_figure(summary: dict[str, Any], config: AuditConfig) -> bytes:
     groups = (("per_robot", "robot"), ("per_target", "target"))
     with plt.rc_context(text_sizes()):
         fig, axes = plt.subplots(2, 1, figsize=(DOC_WIDTH, 7.6), layout="constrained")
-        handles: list[Any] = []
         for ax, (group, noun) in zip(axes, groups, strict=True):
             names = ["all", *summary[group]]
             rows = [summary["overall"], *summary[group].values()]
             x = np.arange(len(names))
             width = 0.8 / len(bars)
-            handles = []
+            # The legend shows the last panel's bars (every panel has the same colours).
+            handles: list[Any] = []
             for j, (label, sign, get, goal) in enumerate(bars):
                 values = [100 * get(f) if get(f) is not None else np.nan for f in rows]
                 offset = (j - (len(bars) - 1) / 2) * width

@@ -102,7 +102,7 @@ def observe(frame: FrameArrays, metric_depth: bool = True) -> ObservedFrame:
 def supported(points: np.ndarray) -> np.ndarray:
     """The points with at least :data:`OBSTACLE_NEIGHBOURS` others within
     :data:`OBSTACLE_RADIUS`. Shapes: (M, 3) -> (K, 3), K <= M, in input order."""
-    if OBSTACLE_NEIGHBOURS <= 0 or len(points) == 0:
+    if len(points) == 0:
         return points
     counts = cKDTree(points).query_ball_point(points, OBSTACLE_RADIUS, return_length=True)
     return points[counts > OBSTACLE_NEIGHBOURS]
