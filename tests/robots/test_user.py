@@ -252,3 +252,33 @@ def test_a_urdf_whose_joint_limits_make_no_sense_is_refused(tiny_robot_files, li
         register_user_robot(yaml_path)
     assert str(urdf) in str(info.value) and "\n" not in str(info.value)
     assert "tiny_user" not in ROBOTS
+
+
+@pytest.mark.parametrize(
+    "edit",
+    [
+        # every arm joint locked at 0: the tool stands straight up over the pillar
+        lambda t: re.sub(
+            r'lower="-?[\d.]+" upper="[\d.]+" effort="(50|30|10)"',
+            r'lower="0" upper="0" effort="\1"',
+            t,
+        ),
+        # an arm that moves, on a 1.95 m riser: its tool never comes down to 2 m
+        lambda t: t.replace(
+            '<origin xyz="0 0 0.1"/><axis xyz="0 0 1"/>',
+            '<origin xyz="0 0 1.95"/><axis xyz="0 0 1"/>',
+        ),
+    ],
+)
+def test_a_tool_that_reaches_nothing_from_the_floor_is_refused(tiny_robot_files, edit):
+    urdf, yaml_path = tiny_robot_files
+    urdf.write_text(edit(urdf.read_text()))
+    with pytest.raises(MomaError, match="its tool reaches nothing from the floor") as info:
+        register_user_robot(yaml_path)
+    message = str(info.value)
+    assert str(yaml_path) in message and "\n" not in message
+    assert (
+        "'tool0' beyond the base's front edge (0.275 m" in message
+        and "mount height of 0.8 m" in message
+    )
+    assert "tiny_user" not in ROBOTS

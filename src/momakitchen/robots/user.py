@@ -38,6 +38,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import yaml
 
 from momakitchen.errors import MomaError
@@ -55,6 +56,9 @@ from momakitchen.robots.spec import (
 from momakitchen.robots.urdf import BASE_LINK, TCP_LINK, link_of, parse_urdf
 
 ENV_VAR = "MOMAKITCHEN_ROBOT_YAML"
+# Heights above the floor (m) between which the kitchens place what a robot manipulates,
+# from low drawers and bins to the wall cabinets' shelves: a tool must reach into them.
+TARGET_HEIGHTS = (0.1, 2.0)
 # A robot's YAML is a few hundred bytes; parsing a huge one (a list of millions of items)
 # would take minutes, so a larger file is refused unparsed.
 MAX_YAML_BYTES = 1024 * 1024
@@ -421,8 +425,9 @@ def register_user_robot(path: str | os.PathLike) -> RobotSpec:
     # robot by name.
     spec = register_robot(make_spec(cfg.reach if cfg.reach is not None else 1.0))
     try:
-        if cfg.reach is None:
-            spec = register_robot(make_spec(round(_measure_reach(cfg.name), 3)), replace=True)
+        reach = _check_body(cfg, measure_reach=cfg.reach is None)
+        if reach is not None:
+            spec = register_robot(make_spec(round(reach, 3)), replace=True)
     except BaseException:
         ROBOTS.unregister(cfg.name)
         raise
@@ -473,17 +478,62 @@ def recorded_robot_problem(rec: UserRobotFile, what: str = "") -> str | None:
     return None
 
 
-def _measure_reach(name: str) -> float:
+def _check_body(cfg: UserRobotConfig, measure_reach: bool) -> float | None:
+    """Load the registered robot ``cfg.name`` once: refuse it when its tool reaches
+    nothing from the floor (:func:`floor_reach_problem`), and return its measured reach
+    (the farthest TCP distance from the shoulder) when ``measure_reach``, else None."""
     from momakitchen.bullet import p
     from momakitchen.robots.reach import measure_workspace
     from momakitchen.robots.robot import Robot
 
     client = p.connect(p.DIRECT)
     try:
-        robot = Robot(client, name)
-        return measure_workspace(robot, 1500)[1]
+        robot = Robot(client, cfg.name)
+        problem = floor_reach_problem(robot, cfg)
+        if problem:
+            raise MomaError(f"{cfg.source}: {problem}")
+        return measure_workspace(robot, 1500)[1] if measure_reach else None
     finally:
         p.disconnect(client)
+
+
+def floor_reach_problem(robot, cfg: UserRobotConfig, samples: int = 2000) -> str | None:
+    """Why the tool of ``robot`` (loaded from ``cfg``, base at the origin) reaches nothing
+    from the floor, or None.
+
+    Random joint vectors within the limits (seeded) place the TCP; the robot serves where
+    some TCP position lies beyond the base's front edge (``footprint[0] / 2`` from its
+    centre, in any direction: the base turns) at a height of :data:`TARGET_HEIGHTS` for
+    some mount height of its range. Reach alone cannot tell: an arm whose joints are
+    locked, or whose tool points into the pillar, has a reach but moves nothing.
+    """
+    from momakitchen.bullet import p
+
+    rng = np.random.default_rng(0)
+    saved = robot.joint_positions()
+    tcp = np.empty((samples, 3))
+    for i, q in enumerate(rng.uniform(robot.lower, robot.upper, size=(samples, robot.dof))):
+        robot._reset_arm(q)
+        state = p.getLinkState(
+            robot.body, robot.tcp_link, computeForwardKinematics=True, physicsClientId=robot.client
+        )
+        tcp[i] = state[4]
+    robot._reset_arm(saved)
+    lo, hi = cfg.mount_range or (cfg.mount_height, cfg.mount_height)
+    band_lo, band_hi = TARGET_HEIGHTS
+    edge = cfg.footprint[0] / 2
+    outside = np.hypot(tcp[:, 0], tcp[:, 1]) > edge
+    # the TCP's height with the arm at the lowest and at the highest mount of the range
+    low, high = tcp[:, 2] + (lo - cfg.mount_height), tcp[:, 2] + (hi - cfg.mount_height)
+    if np.any(outside & (high >= band_lo) & (low <= band_hi)):
+        return None
+    heights = f"{lo:g} m" if lo == hi else f"{lo:g}-{hi:g} m"
+    return (
+        f"robot {cfg.name!r}: its tool reaches nothing from the floor: of {samples} sampled "
+        f"joint vectors within the limits, none puts {cfg.end_effector_link!r} beyond the "
+        f"base's front edge ({edge:g} m from its centre) at a target height ({band_lo:g}-"
+        f"{band_hi:g} m) with the arm at a mount height of {heights}"
+    )
 
 
 def load_env_robots() -> list[RobotSpec]:
