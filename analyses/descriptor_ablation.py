@@ -6,8 +6,9 @@ scored with the descriptor it stores, and again with chosen columns replaced.
 
 Per variant (``stored`` first) prints the mean PCC of the map with the label and the
 ground-truth label at the map's best point (the Top-1 pick, read off the labelled grid), and
-writes ``OUT/<variant>.npz``, a predictions file of every test episode for ``momakitchen msr
---predictions`` (the picks then executed in physics). A model that ignored a column would
+writes ``OUT/<variant>.npz``, a predictions file of every episode of the split (``--split``;
+``all`` for a ``robot-check`` dataset) for ``momakitchen msr --predictions`` (the picks then
+executed in physics). A model that ignored a column would
 score the same either way.
 """
 
@@ -54,12 +55,15 @@ def main() -> None:
     ap.add_argument("--checkpoint", default="bundled", help="run directory or 'bundled'")
     ap.add_argument("--variant", action="append", default=[], help="COLUMN=VALUE[,...]")
     ap.add_argument("--out", type=Path, required=True, help="folder for the predictions files")
+    ap.add_argument(
+        "--split", choices=("train", "test", "all"), default="test", help="views of (test)"
+    )
     args = ap.parse_args()
     torch.set_num_threads(1)
     run = load_checkpoint(args.checkpoint)
     names = DESCRIPTOR_LAYOUTS[run.config.model_config.descriptor_version]
     variants = {"stored": {}} | {v: parse_variant(v, names) for v in args.variant}
-    data = EpisodeDataset(args.data, "test")
+    data = EpisodeDataset(args.data, args.split)
     keys = [k for k, _ in dataset_episodes(data)]
     maps: dict[str, dict[str, np.ndarray]] = {v: {} for v in variants}
     scores: dict[str, list[tuple[float, float]]] = {v: [] for v in variants}
@@ -75,7 +79,7 @@ def main() -> None:
                 maps[variant][keys[first + j]] = np.clip(p, 0.0, 1.0).astype(np.float32)
                 scores[variant].append((episode_metrics(p, g)["pcc"], float(g[np.argmax(p)])))
     args.out.mkdir(parents=True, exist_ok=True)
-    print(f"{len(keys)} test views of {args.data}; the model reads {', '.join(names)}")
+    print(f"{len(keys)} {args.split} views of {args.data}; the model reads {', '.join(names)}")
     print("| descriptor | PCC | label at the best point | predictions file |")
     print("| --- | ---: | ---: | --- |")
     for variant in variants:
