@@ -27,6 +27,33 @@ def test_msr_scores_the_classical_methods_on_the_judged_views(real_dataset):
         run_msr(real_dataset, methods=["circle"])
 
 
+def test_msr_counts_a_view_the_classical_method_cannot_read_as_its_failure(
+    real_dataset, monkeypatch
+):
+    # A view with too little floor to fit a plane is the method's failure there, recorded
+    # with its cause; the run goes on. A fatal error (a broken method) still stops it.
+    import momakitchen.placement.methods as methods
+
+    def no_floor(*_, **__):
+        raise MomaError("no floor plane found: 481 supporting points", cause="no_floor")
+
+    monkeypatch.setattr(methods, "place_frame", no_floor)
+    result = run_msr(real_dataset, methods=["ring", "oracle"], config=MsrConfig(max_configs=1))
+    ring = result["records"][0]["methods"]["ring"]
+    assert ring == {"points": [], "outcomes": [], "stages": [], "cause": "no_floor"}
+    assert result["methods"]["ring"]["top1"] == 0.0
+    assert result["records"][0]["methods"]["oracle"]["points"]
+
+    def broken(*_, **__):
+        error = MomaError("the method is broken")
+        error.fatal = True
+        raise error
+
+    monkeypatch.setattr(methods, "place_frame", broken)
+    with pytest.raises(MomaError, match="the method is broken"):
+        run_msr(real_dataset, methods=["ring"], config=MsrConfig(max_configs=1))
+
+
 def test_the_approach_drives_a_classical_method_and_uncertain_looks_as_relook(real_dataset):
     cfg = ApproachConfig(policies=("relook", "uncertain"), max_configs=1)
     result = run_approach(real_dataset, baselines=["ring"], config=cfg)

@@ -200,7 +200,20 @@ def run_configuration(
                     scores, radius = -dist, 0.0
                     accept = _base_free(runner, world_xy)
                 elif isinstance(models[name], _ClassicalMethod):
-                    scores, is_map = models[name].episode_scores(episode, cfg), True
+                    try:
+                        scores, is_map = models[name].episode_scores(episode, cfg), True
+                    except MomaError as exc:
+                        if exc.fatal:
+                            raise
+                        # A view the method cannot read (no floor plane to fit, say) is
+                        # its failure on this configuration, not the run's end.
+                        record["methods"][name] = {
+                            "points": [],
+                            "outcomes": [],
+                            "stages": [],
+                            "cause": exc.cause,
+                        }
+                        continue
                 else:
                     arrays = {f: getattr(episode, f) for f in CLOUD_FIELDS}
                     scores, std = models[name](episode_sample(arrays, sid, ci, ep, cfg.robot))
