@@ -8,8 +8,7 @@ Per variant (``stored`` first) prints the mean PCC of the map with the label and
 ground-truth label at the map's best point (the Top-1 pick, read off the labelled grid), and
 writes ``OUT/<variant>.npz``, a predictions file of every episode of the split (``--split``;
 ``all`` for a ``robot-check`` dataset) for ``momakitchen msr --predictions`` (the picks then
-executed in physics). A model that ignored a column would
-score the same either way.
+executed in physics). A model that ignored a column would score the same either way.
 """
 
 from __future__ import annotations

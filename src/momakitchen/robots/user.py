@@ -36,7 +36,7 @@ import os
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import yaml
@@ -54,6 +54,9 @@ from momakitchen.robots.spec import (
     register_robot,
 )
 from momakitchen.robots.urdf import BASE_LINK, TCP_LINK, link_of, parse_urdf
+
+if TYPE_CHECKING:
+    from momakitchen.robots.body import RobotBody
 
 ENV_VAR = "MOMAKITCHEN_ROBOT_YAML"
 # Heights above the floor (m) between which the kitchens place what a robot manipulates,
@@ -497,15 +500,16 @@ def _check_body(cfg: UserRobotConfig, measure_reach: bool) -> float | None:
         p.disconnect(client)
 
 
-def floor_reach_problem(robot, cfg: UserRobotConfig, samples: int = 2000) -> str | None:
+def floor_reach_problem(robot: RobotBody, cfg: UserRobotConfig, samples: int = 2000) -> str | None:
     """Why the tool of ``robot`` (loaded from ``cfg``, base at the origin) reaches nothing
     from the floor, or None.
 
-    Random joint vectors within the limits (seeded) place the TCP; the robot serves where
-    some TCP position lies beyond the base's front edge (``footprint[0] / 2`` from its
-    centre, in any direction: the base turns) at a height of :data:`TARGET_HEIGHTS` for
-    some mount height of its range. Reach alone cannot tell: an arm whose joints are
-    locked, or whose tool points into the pillar, has a reach but moves nothing.
+    Random joint vectors within the limits (seeded) place the TCP; the tool reaches
+    something where some TCP position lies beyond the base's front edge (``footprint[0] /
+    2`` from its centre, in any direction: the base turns) at a height of
+    :data:`TARGET_HEIGHTS` for some mount height of its range. Reach alone cannot tell: an
+    arm whose joints are locked, or whose tool points into the pillar, has a reach but
+    moves nothing.
     """
     from momakitchen.bullet import p
 
