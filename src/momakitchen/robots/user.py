@@ -511,18 +511,8 @@ def floor_reach_problem(robot: RobotBody, cfg: UserRobotConfig, samples: int = 2
     arm whose joints are locked, or whose tool points into the pillar, has a reach but
     moves nothing.
     """
-    from momakitchen.bullet import p
-
-    rng = np.random.default_rng(0)
-    saved = robot.joint_positions()
-    tcp = np.empty((samples, 3))
-    for i, q in enumerate(rng.uniform(robot.lower, robot.upper, size=(samples, robot.dof))):
-        robot._reset_arm(q)
-        state = p.getLinkState(
-            robot.body, robot.tcp_link, computeForwardKinematics=True, physicsClientId=robot.client
-        )
-        tcp[i] = state[4]
-    robot._reset_arm(saved)
+    qs = np.random.default_rng(0).uniform(robot.lower, robot.upper, size=(samples, robot.dof))
+    tcp = np.array([robot.tcp_pose(q)[0] for q in qs])
     lo, hi = cfg.mount_range or (cfg.mount_height, cfg.mount_height)
     band_lo, band_hi = TARGET_HEIGHTS
     edge = cfg.footprint[0] / 2
