@@ -66,14 +66,16 @@ def main() -> None:
     keys = [k for k, _ in dataset_episodes(data)]
     maps: dict[str, dict[str, np.ndarray]] = {v: {} for v in variants}
     scores: dict[str, list[tuple[float, float]]] = {v: [] for v in variants}
-    for batch, _, labels in predicted_maps(run, data):
+    for batch, stored, labels in predicted_maps(run, data):
         first = len(maps["stored"])
         for variant, columns in variants.items():
-            robot = batch["robot"].clone()
-            for i, value in columns.items():
-                robot[:, i] = value
-            other = {**batch, "robot": robot}
-            preds = episode_maps(other, predict_batch(run.model, other))[0]
+            preds = stored
+            if columns:
+                robot = batch["robot"].clone()
+                for i, value in columns.items():
+                    robot[:, i] = value
+                other = {**batch, "robot": robot}
+                preds = episode_maps(other, predict_batch(run.model, other))[0]
             for j, (p, g) in enumerate(zip(preds, labels, strict=True)):
                 maps[variant][keys[first + j]] = np.clip(p, 0.0, 1.0).astype(np.float32)
                 scores[variant].append((episode_metrics(p, g)["pcc"], float(g[np.argmax(p)])))
