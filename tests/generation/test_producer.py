@@ -166,3 +166,27 @@ def test_view_distance_bounds():
 
     with pytest.raises(MomaError, match=r"views\.max_distance must be 0"):
         ViewConfig(max_distance=0.5)
+    with pytest.raises(MomaError, match=r"views\.distance must be \(0, 0\) \(off\) or"):
+        ViewConfig(distance=(0.2, 6.0))
+    with pytest.raises(MomaError, match=r"views\.max_angle must be in \[0, 90\]"):
+        ViewConfig(distance=(1.0, 6.0), max_angle=120.0)
+    # off by default, and then left out of a dataset's manifest (its bytes stay)
+    assert "distance" not in GenerationConfig().to_dict()["views"]
+
+
+def test_views_by_distance_stand_as_far_and_as_turned_as_asked():
+    """``views.distance``: the k-th view's distance stratified over the range, increasing
+    with k, its direction within ``max_angle`` of the target's front."""
+    from momakitchen.data.config import ViewConfig
+    from momakitchen.generation.producer import _view_candidates
+
+    views = ViewConfig(episodes=10, distance=(0.75, 6.0), max_angle=45.0)
+    rng = np.random.default_rng(0)
+    anchor = np.zeros(3)
+    for k in range(10):
+        for _ in range(20):
+            lateral, forward = _view_candidates(rng, anchor, k, 10, views)
+            dist = np.hypot(lateral, forward)
+            assert 0.75 + 0.525 * k - 1e-9 <= dist <= 0.75 + 0.525 * (k + 1) + 1e-9
+            assert forward > 0 and abs(lateral) <= forward + 1e-9  # within 45 degrees
+            assert np.sign(lateral) in (0.0, 1.0 if k % 2 == 0 else -1.0)

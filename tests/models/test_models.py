@@ -18,8 +18,13 @@ EXPECTED = {
     "navaff-no-global",
 }
 # The registered models, plus NavAff with its options: the target set
-# (ModelConfig.target_points) and the robot-conditioned head (ModelConfig.robot_head).
-OPTIONS = {"target": {"target_points": 6}, "robot_head": {"robot_head": True}}
+# (ModelConfig.target_points), the robot-conditioned head (ModelConfig.robot_head) and the
+# robot's reachability as a floor input (ModelConfig.reach_input).
+OPTIONS = {
+    "target": {"target_points": 6},
+    "robot_head": {"robot_head": True},
+    "reach": {"reach_input": True},
+}
 VARIANTS = [*sorted(EXPECTED), *(f"navaff+{o}" for o in OPTIONS)]
 
 

@@ -282,3 +282,127 @@ def test_a_tool_that_reaches_nothing_from_the_floor_is_refused(tiny_robot_files,
         and "mount height of 0.8 m" in message
     )
     assert "tiny_user" not in ROBOTS
+
+
+def _edit_urdf(urdf, old: str, new: str) -> None:
+    """Replace the first ``old`` of the URDF file by ``new`` (``old`` must be there)."""
+    text = urdf.read_text()
+    assert old in text
+    urdf.write_text(text.replace(old, new, 1))
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        # a name the URDF lacks: the error lists the names it has, the nearest first
+        (
+            {"end_effector_link": "tool_0"},
+            "no link 'tool_0' (end_effector_link in {yaml}); its links: ['tool0', 'base', "
+            "'l1', 'l2', 'l3', 'l4', 'fl', 'fr']",
+        ),
+        (
+            {"finger_joints": ["fl_joint", "right_joint"]},
+            "finger_joints ['right_joint'] not in {urdf!r}; its prismatic joints: "
+            "['fr_joint', 'fl_joint']",
+        ),
+        # a listed finger that is fixed, or an arm joint, in the URDF
+        (
+            {"finger_joints": ["tool_joint", "fr_joint"]},
+            "finger joint 'tool_joint' is 'fixed' in {urdf!r}; finger joints must be prismatic",
+        ),
+        (
+            {"finger_joints": ["j4", "fr_joint"]},
+            "finger joint 'j4' is 'revolute' in {urdf!r}",
+        ),
+        # the TCP rides on a listed finger
+        (
+            {"end_effector_link": "fl", "finger_joints": ["fl_joint", "fr_joint"]},
+            "finger joint 'fl_joint' lies on the arm chain from root link 'base' to "
+            "end_effector_link 'fl' in {urdf!r}",
+        ),
+        ({"finger_joints": ["fr_joint", "fr_joint"]}, "finger_joints lists 'fr_joint' twice"),
+        # the TCP at the root: no arm between them
+        (
+            {"end_effector_link": "base"},
+            "no movable joint on the chain from root link 'base' to end_effector_link 'base' "
+            "in {urdf!r}",
+        ),
+        # home outside the URDF's limits of j2, [-2, 2]
+        (
+            {"home": [0, 2.5, 0, 0]},
+            "home value 2.5 for joint 'j2' is outside its limits [-2, 2] in {urdf!r}",
+        ),
+    ],
+)
+def test_a_yaml_that_disagrees_with_its_urdf_is_refused(tiny_robot_files, extra, message):
+    urdf, yaml_path = tiny_robot_files
+    data = yaml.safe_load(yaml_path.read_text())
+    data.update(extra)
+    yaml_path.write_text(yaml.safe_dump(data))
+    expected = message.format(yaml=yaml_path, urdf=str(urdf))
+    with _within(5), pytest.raises(MomaError, match=re.escape(expected)) as info:
+        register_user_robot(yaml_path)
+    assert str(yaml_path) in str(info.value) and "\n" not in str(info.value)
+    assert "tiny_user" not in ROBOTS
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "message"),
+    [
+        # PyBullet crashes on two joints of one name: refused before it sees them
+        ('name="j3"', 'name="j2"', "joint name 'j2' is used twice; joint names must be unique"),
+        ('name="tool_joint"', 'name="tcp_joint"', "joint name 'tcp_joint' is reserved"),
+        ('name="tool_joint"', 'name="mount_joint"', "joint name 'mount_joint' is reserved"),
+        (
+            '<link name="tool0"/>',
+            '<link name="tool0"/><link name="l1"/>',
+            "link name 'l1' is used twice; link names must be unique",
+        ),
+        # a finger that cannot open: closed at 0, open at its upper limit
+        (
+            '<limit lower="0" upper="0.04" effort="20"',
+            '<limit lower="-0.04" upper="0" effort="20"',
+            "finger joint 'fl_joint' has limits [-0.04, 0] in {urdf!r}; a finger closes at 0 "
+            "and opens to its upper limit, so needs lower <= 0 < upper",
+        ),
+        # limits of an arm joint that are not finite
+        ('lower="-3" upper="3"', 'lower="-inf" upper="3"', "joint 'j1' has lower='-inf'"),
+    ],
+)
+def test_a_urdf_with_names_or_limits_the_robot_cannot_use_is_refused(
+    tiny_robot_files, old, new, message
+):
+    urdf, yaml_path = tiny_robot_files
+    _edit_urdf(urdf, old, new)
+    with _within(5), pytest.raises(MomaError, match=re.escape(message.format(urdf=str(urdf)))):
+        register_user_robot(yaml_path)
+    assert "tiny_user" not in ROBOTS
+
+
+@pytest.mark.parametrize(
+    ("extra", "edit", "message"),
+    [
+        ({"end_effector_link": "tool_0"}, None, "no link 'tool_0'"),
+        ({"finger_joints": ["tool_joint", "fr_joint"]}, None, "finger joint 'tool_joint'"),
+        ({"home": [0, 2.5, 0, 0]}, None, "home value 2.5 for joint 'j2'"),
+        ({}, ('name="j3"', 'name="j2"'), "joint name 'j2' is used twice"),
+        ({}, ('lower="-2" upper="2"', 'lower="2" upper="-2"'), "limits inverted"),
+    ],
+)
+def test_bad_robot_files_are_one_line_exit_2_on_the_command_line(
+    tiny_robot_files, capsys, extra, edit, message
+):
+    from momakitchen.cli.main import main
+
+    urdf, yaml_path = tiny_robot_files
+    data = yaml.safe_load(yaml_path.read_text())
+    data.update(extra)
+    yaml_path.write_text(yaml.safe_dump(data))
+    if edit:
+        _edit_urdf(urdf, *edit)
+    with _within(5):
+        assert main(["robots", "--robot-yaml", str(yaml_path)]) == 2
+    captured = capsys.readouterr()
+    assert captured.err.count("\n") == 1 and message in captured.err
+    assert str(yaml_path) in captured.err or str(urdf) in captured.err
+    assert "tiny_user" not in ROBOTS and not captured.out

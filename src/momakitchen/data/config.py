@@ -43,6 +43,13 @@ class ViewConfig:
             views fail this, later attempts stand farther back (0: no check).
         max_distance: the camera stands at most this far from the target (m; a depth
             sensor's working range, see ``momakitchen robustness --list``; 0: no limit).
+        distance: with an upper bound above 0, views are placed by their distance from
+            the target (stratified over this range, increasing over episodes) and their
+            direction (uniform within ``max_angle`` degrees of the target's front,
+            alternating sides), as a driven robot's starts are, instead of by ``forward``
+            and ``lateral``: in a room 3.6-5 m deep, only a view from the side stands
+            more than about 4 m away. (0, 0): off.
+        max_angle: see ``distance``.
     """
 
     episodes: int = 10
@@ -53,8 +60,18 @@ class ViewConfig:
     target_row: float = 0.15
     coverage_radius: float = COVERAGE_RADIUS
     max_distance: float = 0.0
+    distance: tuple[float, float] = field(default=(0.0, 0.0), metadata=codec.OMIT_IF_DEFAULT)
+    max_angle: float = field(default=45.0, metadata=codec.OMIT_IF_DEFAULT)
 
     def __post_init__(self) -> None:
+        lo, hi = self.distance
+        if (lo, hi) != (0.0, 0.0) and not 0.5 <= lo <= hi <= 10:
+            raise MomaError(
+                f"views.distance must be (0, 0) (off) or satisfy 0.5 <= min <= max <= 10 m, "
+                f"got {self.distance}"
+            )
+        if not (math.isfinite(self.max_angle) and 0.0 <= self.max_angle <= 90.0):
+            raise MomaError(f"views.max_angle must be in [0, 90] degrees, got {self.max_angle!r}")
         if self.max_distance != 0.0 and not 1.0 <= self.max_distance <= 20.0:
             raise MomaError(
                 f"views.max_distance must be 0 (no limit) or in [1, 20] m, got {self.max_distance}"

@@ -12,6 +12,7 @@ affordance labels.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -92,10 +93,16 @@ def _view_candidates(
     rng: np.random.Generator, anchor: np.ndarray, k: int, n: int, views: ViewConfig
 ) -> tuple[float, float]:
     """(lateral, forward) offsets for view ``k`` of ``n``: alternating sides, forward
-    distance stratified so that it increases with ``k``."""
+    distance (or, with ``views.distance``, the distance) stratified so that it increases
+    with ``k``."""
+    side = 1.0 if k % 2 == 0 else -1.0
+    if views.distance[1] > 0:
+        lo, hi = views.distance
+        dist = lo + (hi - lo) * (k + rng.uniform()) / n
+        angle = math.radians(rng.uniform(0.0, views.max_angle))
+        return side * dist * math.sin(angle), dist * math.cos(angle)
     lo, hi = views.forward
     forward = lo + (hi - lo) * (k + rng.uniform()) / n
-    side = 1.0 if k % 2 == 0 else -1.0
     lateral = side * rng.uniform(*views.lateral)
     return lateral, forward
 
@@ -164,10 +171,18 @@ def sample_views(
         farther = False
         for attempt in range(views.max_tries):
             lateral, forward = _view_candidates(rng, anchor, k, views.episodes, views)
-            if farther:  # the last view missed the successes: stand farther back
-                forward = rng.uniform(forward, views.forward[1])
-            # Later attempts come closer: the room may be shallower than the nominal range.
-            forward *= 1.0 - 0.5 * attempt / views.max_tries
+            closer = 1.0 - 0.5 * attempt / views.max_tries
+            if views.distance[1] > 0:
+                # By distance: farther back along the same direction; later attempts come
+                # closer along it (the room may not hold the nominal distance there).
+                scale = rng.uniform(1.0, views.distance[1] / np.hypot(lateral, forward))
+                scale = (scale if farther else 1.0) * closer
+                lateral, forward = lateral * scale, forward * scale
+            else:
+                if farther:  # the last view missed the successes: stand farther back
+                    forward = rng.uniform(forward, views.forward[1])
+                # Later attempts come closer: the room may be shallower than the nominal range.
+                forward *= closer
             if views.max_distance:  # within the sensor's working range of the target
                 reach2 = views.max_distance**2 - lateral**2 - (height - anchor[2]) ** 2
                 if reach2 < 0.5**2:

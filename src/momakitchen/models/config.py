@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 from momakitchen import codec
@@ -53,6 +53,10 @@ class ModelConfig:
             it, full-length runs can settle on a shortcut (floor position, target offset
             and robot alone) and leave the global cloud unused (docs/RESULTS.md); 0: none
             (the ``cpu`` preset: 0.5).
+        reach_input: NavAff only: every floor point also reads the robot's reachability
+            of the target from there (:mod:`momakitchen.models.reach_input`, from the
+            robot's URDF and mount), so that a robot is known by what its arm reaches and
+            not only by its descriptor's numbers (False: runs made before it).
         descriptor_version: the robot descriptor layout the model reads
             (``momakitchen.robots.spec.DESCRIPTOR_LAYOUTS``): of a newer descriptor it
             takes the first columns. Recorded as the checkpoint's ``descriptor_version``
@@ -79,6 +83,7 @@ class ModelConfig:
     robot_head: bool = False
     relative_dropout: float = 0.0
     descriptor_version: int = DESCRIPTOR_VERSION
+    reach_input: bool = field(default=False, metadata=codec.OMIT_IF_DEFAULT)
 
     def __post_init__(self) -> None:
         def bad(name: str, rule: str) -> MomaError:
@@ -125,6 +130,8 @@ class ModelConfig:
             raise bad("robot_head", "must be true or false")
         if not 0.0 <= self.relative_dropout < 1.0:
             raise bad("relative_dropout", "must be in [0, 1)")
+        if not isinstance(self.reach_input, bool):
+            raise bad("reach_input", "must be true or false")
         if self.descriptor_version not in DESCRIPTOR_LAYOUTS:
             raise bad("descriptor_version", f"must be one of {sorted(DESCRIPTOR_LAYOUTS)}")
 

@@ -18,6 +18,11 @@ sampled points in its own frame (a PointNet over the offsets, max-pooled): the t
 shape as seen from there, e.g. on which side of a door its hinge is and how far its
 swing reaches, which the centroid alone does not say.
 
+With ``reach_input``, every floor point also reads the robot's reachability of the target
+from there (:mod:`momakitchen.models.reach_input`): what the arm on this base, at this
+mount, can do from that point, computed from its URDF, where the descriptor's few numbers
+do not carry from one body to another.
+
 Ablations switch parts off: ``use_robot`` (robot tokens), ``use_alignment`` (the alignment
 channel and the target-relative floor features), ``use_global`` (the global cloud).
 """
@@ -44,6 +49,7 @@ from momakitchen.models.pointnet2 import (
     interpolation_geometry,
     masked_max,
 )
+from momakitchen.models.reach_input import REACH_CHANNELS, batch_floor_reach
 from momakitchen.robots.spec import DESCRIPTOR_DIM
 
 
@@ -246,7 +252,12 @@ class NavAffBackbone(Backbone):
         self.pos_freqs = cfg.pos_freqs
         self.relative = use_global and use_alignment
         self.relative_dropout = cfg.relative_dropout
+        # The reachability is of the target: it needs the alignment channel to find it.
+        self.reach_input = cfg.reach_input and self.relative
         pos_ch = floor_channels(cfg.pos_freqs, self.relative)
+        # Where the reachability channels start in the floor features (the last ones).
+        self.reach_offset = pos_ch
+        pos_ch += REACH_CHANNELS if self.reach_input else 0
         self.floor_sa1 = SetAbstractionMSG(
             cfg.floor_npoints,
             (0.1, 0.2),
@@ -275,6 +286,24 @@ class NavAffBackbone(Backbone):
         self.fp2 = FeaturePropagation(f1_ch + dim, [ch(256), ch(256)])
         self.fp1 = FeaturePropagation(pos_ch + self.fp2.out_channels, [ch(128), ch(128)])
         self.out_channels = self.fp1.out_channels
+
+    def widen_for_reach(self, state: dict[str, torch.Tensor], prefix: str) -> None:
+        """``state`` (weights of this backbone without ``reach_input``, keys under
+        ``prefix``) given zero input columns for the reachability channels, in place: the
+        widened model predicts what the original did until training gives them a use."""
+        if not self.reach_input:
+            return
+        at = {f"{prefix}fp1.mlp.0.weight": (self.fp1.mlp[0].weight, self.reach_offset)}
+        for i, mlp in enumerate(self.floor_sa1.mlps):
+            at[f"{prefix}floor_sa1.mlps.{i}.first.weight"] = (
+                mlp.first.weight,
+                3 + self.reach_offset,
+            )
+        for key, (param, at_col) in at.items():
+            w = state.get(key)
+            if w is not None and w.ndim == 2 and w.shape[1] == param.shape[1] - REACH_CHANNELS:
+                pad = w.new_zeros(w.shape[0], REACH_CHANNELS)
+                state[key] = torch.cat([w[:, :at_col], pad, w[:, at_col:]], dim=1)
 
     def plan(self, batch: dict[str, Any]) -> Plan:
         """Global encoder (``global.sa1``..``global.sa3``), floor set abstractions
@@ -333,6 +362,12 @@ class NavAffBackbone(Backbone):
                 torch.cat([p[..., :absolute], p[..., absolute:] * keep.to(p.dtype)], -1)
                 for p in (fpos, cpos)
             )
+        if self.reach_input:  # never hidden: it shows no obstacle, the global cloud must
+            assert target is not None
+            names, robot = batch.get("robot_name", []), batch["robot"]
+            reach = batch_floor_reach(names, robot, target, fxyz)
+            creach = reach if cxyz is fxyz else batch_floor_reach(names, robot, target, cxyz)
+            fpos, cpos = torch.cat([fpos, reach], -1), torch.cat([cpos, creach], -1)
         x1, f1, m1 = self.floor_sa1(cxyz, cpos, cmask, plan["floor.sa1"])
         if self.target_points:
             tgt = plan["target"]

@@ -30,6 +30,7 @@ record it, and generation's worker processes register the same files and check t
 
 from __future__ import annotations
 
+import difflib
 import hashlib
 import math
 import os
@@ -65,6 +66,11 @@ TARGET_HEIGHTS = (0.1, 2.0)
 # A robot's YAML is a few hundred bytes; parsing a huge one (a list of millions of items)
 # would take minutes, so a larger file is refused unparsed.
 MAX_YAML_BYTES = 1024 * 1024
+# Joints that build_urdf adds around a user's URDF: the arm's mount and the TCP frame
+# (PyBullet crashes on a URDF with two joints of one name).
+RESERVED_JOINTS = ("mount_joint", "tcp_joint")
+# How many of a URDF's names an error lists when the YAML names one it does not have.
+_LISTED = 8
 
 _REQUIRED: dict[str, type] = {
     "name": str,
@@ -318,20 +324,93 @@ def _limit(limit: Any, key: str, where: str, joint: Any) -> float:
     return value
 
 
+def _listing(names: list[str], near: str, what: str) -> str:
+    """``"its WHAT: [...]"``: up to :data:`_LISTED` of ``names``, those most like ``near``
+    (a name that is not among them) first, for an error about ``near``."""
+    if not names:
+        return f"its {what}: none"
+    close = difflib.get_close_matches(near, names, n=_LISTED, cutoff=0.6)
+    shown = (close + [n for n in names if n not in close])[:_LISTED]
+    more = f" (and {len(names) - len(shown)} more)" if len(names) > len(shown) else ""
+    return f"its {what}: {shown}{more}"
+
+
+def _unique_names(kind: str, names: list[str], reserved: Iterable[str], where: str) -> None:
+    """MomaError naming a ``kind`` ("link" or "joint") name of the URDF that is reserved
+    (one build_urdf adds) or used twice: PyBullet refuses a URDF with two links of one
+    name and crashes on one with two joints of one name."""
+    seen: set[str] = set()
+    for name in names:
+        if name in reserved:
+            raise MomaError(f"URDF file {where!r}: {kind} name {name!r} is reserved")
+        if name in seen:
+            raise MomaError(
+                f"URDF file {where!r}: {kind} name {name!r} is used twice; {kind} names "
+                "must be unique"
+            )
+        seen.add(name)
+
+
+def _finger_problem(
+    name: str, joint: Any, chain: set[str], cfg: UserRobotConfig, root: str
+) -> str | None:
+    """Why URDF joint ``joint`` (named ``name``) cannot be a finger of ``cfg``'s gripper,
+    or None: a finger is a prismatic joint off the arm chain (``chain``: the joints from
+    the root link ``root`` to the TCP) that closes at 0 and opens to its upper limit."""
+    where = str(cfg.urdf)
+    kind = joint.get("type")
+    if kind != "prismatic":
+        return (
+            f"finger joint {name!r} is {kind!r} in {where!r}; finger joints must be "
+            "prismatic (the fingers slide)"
+        )
+    if name in chain:
+        return (
+            f"finger joint {name!r} lies on the arm chain from root link {root!r} to "
+            f"end_effector_link {cfg.end_effector_link!r} in {where!r}; fingers must "
+            "branch off it (the TCP would move with the finger)"
+        )
+    limit = joint.find("limit")  # present and finite: checked with every joint's limits
+    assert limit is not None
+    lower, upper = float(limit.get("lower", "0")), float(limit.get("upper", "0"))
+    if not lower <= 0 < upper:
+        return (
+            f"finger joint {name!r} has limits [{lower:g}, {upper:g}] in {where!r}; a finger "
+            "closes at 0 and opens to its upper limit, so needs lower <= 0 < upper"
+        )
+    return None
+
+
+def _home_problem(cfg: UserRobotConfig, arm: list[Any]) -> str | None:
+    """Why ``cfg.home`` lies outside the URDF limits of its arm joints (``arm``, root to
+    TCP; as many as home has values), or None. Continuous joints take any angle."""
+    for value, joint in zip(cfg.home, arm, strict=True):
+        limit = joint.find("limit")
+        if joint.get("type") == "continuous" or limit is None:
+            continue
+        lower, upper = float(limit.get("lower", "0")), float(limit.get("upper", "0"))
+        if not lower - 1e-9 <= value <= upper + 1e-9:
+            return (
+                f"home value {value:g} for joint {joint.get('name')!r} is outside its limits "
+                f"[{lower:g}, {upper:g}] in {str(cfg.urdf)!r}"
+            )
+    return None
+
+
 def _model(cfg: UserRobotConfig) -> tuple[RobotModel, int]:
     """Robot model of a user config and its arm DoF; checks the URDF's structure."""
     root = parse_urdf(cfg.urdf)
     where = str(cfg.urdf)
     links = [link.get("name", "") for link in root.findall("link")]
-    for reserved in (BASE_LINK, TCP_LINK):
-        if reserved in links:
-            raise MomaError(f"URDF file {where!r}: link name {reserved!r} is reserved")
+    _unique_names("link", links, (BASE_LINK, TCP_LINK), where)
     if cfg.end_effector_link not in links:
         raise MomaError(
             f"URDF file {where!r}: no link {cfg.end_effector_link!r} "
-            f"(end_effector_link in {cfg.source})"
+            f"(end_effector_link in {cfg.source}); "
+            + _listing(links, cfg.end_effector_link, "links")
         )
     joints = root.findall("joint")
+    _unique_names("joint", [j.get("name", "") for j in joints], RESERVED_JOINTS, where)
     children = _parent_joints(joints, where)
     roots = [name for name in links if name not in children]
     if len(roots) != 1:
@@ -371,13 +450,35 @@ def _model(cfg: UserRobotConfig) -> tuple[RobotModel, int]:
                 f"{cfg.source}: a parallel_gripper needs finger_joints (no "
                 f"prismatic joints outside the arm chain in {where!r})"
             )
-    names = {j.get("name") for j in joints}
-    missing = [f for f in fingers if f not in names]
+    twice = sorted({f for f in fingers if fingers.count(f) > 1})
+    if twice:
+        raise MomaError(f"{cfg.source}: finger_joints lists {twice[0]!r} twice")
+    by_name = {j.get("name", ""): j for j in joints}
+    missing = [f for f in fingers if f not in by_name]
     if missing:
-        raise MomaError(f"{cfg.source}: finger_joints {missing} not in {where!r}")
-    dof = sum(1 for j in path if j.get("type") in movable and j.get("name") not in fingers)
+        prismatic = [n for n, j in by_name.items() if j.get("type") == "prismatic"]
+        raise MomaError(
+            f"{cfg.source}: finger_joints {missing} not in {where!r}; "
+            + _listing(prismatic, missing[0], "prismatic joints")
+        )
+    chain = {j.get("name", "") for j in path}
+    for finger in fingers:
+        problem = _finger_problem(finger, by_name[finger], chain, cfg, roots[0])
+        if problem:
+            raise MomaError(f"{cfg.source}: {problem}")
+    arm = [j for j in reversed(path) if j.get("type") in movable]
+    dof = len(arm)
+    if not arm:
+        raise MomaError(
+            f"{cfg.source}: no movable joint on the chain from root link {roots[0]!r} to "
+            f"end_effector_link {cfg.end_effector_link!r} in {where!r}; the TCP must sit "
+            "below the arm's joints"
+        )
     if cfg.home and len(cfg.home) != dof:
         raise MomaError(f"{cfg.source}: home needs {dof} values (arm joints), got {len(cfg.home)}")
+    problem = _home_problem(cfg, arm) if cfg.home else None
+    if problem:
+        raise MomaError(f"{cfg.source}: {problem}")
     model = RobotModel(
         ShippedArm(urdf=cfg.urdf, root_link=roots[0], flange_link=cfg.end_effector_link),
         UserTool(

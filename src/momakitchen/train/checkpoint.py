@@ -319,16 +319,35 @@ def widen_descriptor_inputs(
     return out
 
 
-def load_weights(path: Path, model: torch.nn.Module, descriptor_from: int | None = None) -> None:
+def widen_reach_inputs(state: dict[str, torch.Tensor], model: torch.nn.Module) -> None:
+    """``state`` (the weights of a model that did not read the robot's reachability)
+    made to fit ``model``, which does, in place: each backbone with ``widen_for_reach``
+    gives the reachability channels zero input columns."""
+    for prefix, module in model.named_modules():
+        widen = getattr(module, "widen_for_reach", None)
+        if callable(widen):
+            widen(state, f"{prefix}." if prefix else "")
+
+
+def load_weights(
+    path: Path,
+    model: torch.nn.Module,
+    descriptor_from: int | None = None,
+    reach_from_none: bool = False,
+) -> None:
     """Load ``model``'s weights from a safetensors file; MomaError naming the file when it
     is missing, unreadable, or holds tensors other than the model's (names or shapes: a
     ``config.json`` describing another model than the weights). ``descriptor_from``: the
     weights are those of a model that read that many descriptor columns, widened to the
-    model's (:func:`widen_descriptor_inputs`)."""
+    model's (:func:`widen_descriptor_inputs`). ``reach_from_none``: the weights are
+    those of a model that did not read the robot's reachability
+    (:func:`widen_reach_inputs`)."""
     path = Path(path)
     state = _safetensors(path, "checkpoint weights")
     if descriptor_from is not None:
         state = widen_descriptor_inputs(state, model, descriptor_from)
+    if reach_from_none:
+        widen_reach_inputs(state, model)
     expected = model.state_dict()
     problems = [f"tensor {k!r} is missing" for k in expected if k not in state]
     problems += [f"unexpected tensor {k!r}" for k in state if k not in expected]

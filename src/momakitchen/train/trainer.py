@@ -309,17 +309,25 @@ def validate(
     }
 
 
-def _initial_run(config: TrainConfig) -> tuple[Path, int]:
-    """The run directory whose weights start a fine-tuning (``config.init``) and how many
-    descriptor columns its model read; MomaError when it is missing or holds another model
-    or another size (or a newer descriptor)."""
+def _initial_run(config: TrainConfig) -> tuple[Path, int, bool]:
+    """The run directory whose weights start a fine-tuning (``config.init``), how many
+    descriptor columns its model read and whether it lacked the reachability input that
+    this run's reads; MomaError when it is missing or holds another model or another size
+    (or a newer descriptor, or reads the reachability where this run does not)."""
     from momakitchen.train.checkpoint import default_checkpoint, read_run_config
 
     src = default_checkpoint() if config.init == "bundled" else Path(config.init)
     other, _ = read_run_config(src)
-    # A run of an older descriptor starts a newer one (its weights widened, load_weights).
+    # A run of an older descriptor starts a newer one (its weights widened, load_weights);
+    # so does a run without the reachability input one with it.
     version = config.model_config.descriptor_version
-    sizes = replace(other.model_config, descriptor_version=version)
+    reach = config.model_config.reach_input
+    widen_reach = reach and not other.model_config.reach_input
+    sizes = replace(
+        other.model_config,
+        descriptor_version=version,
+        reach_input=other.model_config.reach_input or widen_reach,
+    )
     if other.model != config.model or sizes != config.model_config:
         raise MomaError(
             f"TrainConfig.init {config.init!r} holds a {other.model!r} model of other sizes "
@@ -330,7 +338,7 @@ def _initial_run(config: TrainConfig) -> tuple[Path, int]:
             f"TrainConfig.init {config.init!r} reads robot descriptor version "
             f"{other.model_config.descriptor_version}, newer than this run's {version}"
         )
-    return src, other.model_config.descriptor_dim
+    return src, other.model_config.descriptor_dim, widen_reach
 
 
 def train(
@@ -410,7 +418,9 @@ def _train(
         if note:
             print(f"momakitchen train: warning: {note}", file=sys.stderr)
     elif init is not None:
-        load_weights(init[0] / WEIGHTS_FILE, model, descriptor_from=init[1])
+        load_weights(
+            init[0] / WEIGHTS_FILE, model, descriptor_from=init[1], reach_from_none=init[2]
+        )
     if world > 1 or not resuming:
         torch.manual_seed(config.seed * 7919 + 1 + rank + 131 * progress["epoch"])
 

@@ -1,0 +1,98 @@
+"""The robot's reachability of the target from every floor point, as a model input.
+
+A model with ``ModelConfig.reach_input`` reads, beside each floor point's position, what
+the robot's own arm can do from there: the inverse-reachability map of the placement
+stage (:class:`~momakitchen.placement.reachability.ReachabilityMap`, sampled from the
+robot's URDF and YAML, the same definition ``--method reachability`` places bases by)
+queried at the target's centroid, for a base standing on the point and facing the target.
+A user's robot and a built-in get their input from one definition, their URDF and mount:
+nothing about a robot is a number the model learnt for that robot's name.
+
+Channels (:data:`REACH_CHANNELS`), per floor point:
+
+0. how far inside the arm's reachable region the target lies with a horizontal
+   approach, in units of :data:`REACH_SCALE` and clipped to [-1, 1] (negative: outside);
+1. the same for a top-down approach;
+2. the reachability index there (the share of approach directions the arm reaches, at
+   least ``MIN_SCORE`` where it reaches the target at all, 0 where it does not).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+import torch
+
+from momakitchen.errors import MomaError
+from momakitchen.placement.reachability import MIN_SCORE, ReachabilityMap
+
+REACH_CHANNELS = 3
+# The signed distance (m) at which a channel saturates: a few centimetres decide between
+# reaching and not, half a metre inside is as good as a quarter.
+REACH_SCALE = 0.25
+# Mounts are looked up to the centimetre: the map's cells are 5 cm, and a map per
+# millimetre of a continuous mount range would fill memory for nothing.
+MOUNT_STEP = 0.01
+_DOWN = np.array([0.0, 0.0, -1.0])
+
+
+def floor_reach(
+    robot: str, mount_height: float, target_xyz: np.ndarray, floor_xyz: np.ndarray
+) -> np.ndarray:
+    """The reachability channels of one episode (module docstring).
+
+    Shapes:
+        - ``target_xyz``: (3,) the target in the robot base frame of the view (z = 0 on
+          the floor); ``floor_xyz``: (N, 3) floor points in that frame
+        - output: (N, REACH_CHANNELS) float32
+    """
+    mount = round(round(float(mount_height) / MOUNT_STEP) * MOUNT_STEP, 6)
+    rmap = ReachabilityMap.for_robot(robot, mount)
+    xy = np.asarray(floor_xyz, np.float64).reshape(-1, 3)[:, :2]
+    target = np.asarray(target_xyz, np.float64).reshape(3)
+    horizontal = rmap.tcp_coordinates(xy, target, None)
+    side = rmap.signed_distance(*horizontal)
+    down = rmap.signed_distance(*rmap.tcp_coordinates(xy, target, _DOWN))
+    rho, z = horizontal[:2]
+    index = np.clip(rmap.reachability_index(rho, z), MIN_SCORE, 1.0)
+    out = np.stack(
+        [
+            np.clip(side / REACH_SCALE, -1.0, 1.0),
+            np.clip(down / REACH_SCALE, -1.0, 1.0),
+            np.where(np.maximum(side, down) > 0, index, 0.0),
+        ],
+        axis=-1,
+    )
+    return out.astype(np.float32)
+
+
+def batch_floor_reach(
+    robots: Sequence[str], robot: torch.Tensor, target: torch.Tensor, floor_xyz: torch.Tensor
+) -> torch.Tensor:
+    """:func:`floor_reach` for a batch: each episode's robot by name (``robot_name``, a
+    registered robot) at the mount its descriptor holds (column 1).
+
+    Shapes:
+        - ``robots``: B names; ``robot``: (B, D) descriptors; ``target``: (B, 3);
+          ``floor_xyz``: (B, N, 3)
+        - output: (B, N, REACH_CHANNELS), ``floor_xyz``'s dtype and device
+    """
+    if len(robots) != floor_xyz.shape[0]:
+        raise MomaError(
+            f"a model that reads the robot's reachability needs each episode's robot name "
+            f"(batch['robot_name'], {floor_xyz.shape[0]} of them), got {list(robots)!r}"
+        )
+    mounts = robot[:, 1].detach().cpu().double().numpy()
+    targets = target.detach().cpu().double().numpy()
+    points = floor_xyz.detach().cpu().double().numpy()
+    out = np.zeros((*points.shape[:2], REACH_CHANNELS), np.float32)
+    for i, name in enumerate(robots):
+        if not name:
+            raise MomaError(
+                "a model that reads the robot's reachability needs each episode's robot "
+                "name (batch['robot_name']); episode "
+                f"{i} has none"
+            )
+        out[i] = floor_reach(str(name), float(mounts[i]), targets[i], points[i])
+    return torch.from_numpy(out).to(device=floor_xyz.device, dtype=floor_xyz.dtype)

@@ -1,0 +1,85 @@
+"""The robot's reachability as a floor input (ModelConfig.reach_input)."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+import torch
+
+from momakitchen.data.batch import collate_episodes
+from momakitchen.data.synthetic import SyntheticConfig, SyntheticEpisodes
+from momakitchen.errors import MomaError
+from momakitchen.models import ModelConfig, build_model
+from momakitchen.models.reach_input import REACH_CHANNELS, floor_reach
+from momakitchen.placement.reachability import ReachabilityMap
+from momakitchen.train.checkpoint import load_weights, save_weights
+
+
+def test_floor_reach_is_the_placement_stages_map_of_the_robot_at_its_mount():
+    target = np.array([0.0, 0.0, 0.9])
+    # in front of the target, facing it: 0.4 m away, 3 m away, and beside it
+    floor = np.array([[-0.4, 0.0, 0.0], [-3.0, 0.0, 0.0], [0.0, 0.5, 0.0]])
+    out = floor_reach("panda", 1.03, target, floor)
+    assert out.shape == (3, REACH_CHANNELS) and out.dtype == np.float32
+    assert out[0, 0] > 0 and out[0, 2] > 0  # reached, with a dexterity index
+    assert out[1, 0] == -1.0 and out[1, 1] == -1.0 and out[1, 2] == 0.0  # far out of reach
+    rmap = ReachabilityMap.for_robot("panda", 1.03)
+    expected = rmap.reachable_from(floor[:, :2], target) | rmap.reachable_from(
+        floor[:, :2], target, [0.0, 0.0, -1.0]
+    )
+    np.testing.assert_array_equal(out[:, 2] > 0, expected)
+
+
+def test_floor_reach_follows_the_mount_height():
+    target = np.array([0.0, 0.0, 0.2])  # low: a high mount reaches it from fewer points
+    xs = np.linspace(-1.5, -0.1, 29)
+    floor = np.column_stack([xs, np.zeros_like(xs), np.zeros_like(xs)])
+    low = floor_reach("panda", 0.4, target, floor)[:, 0]
+    high = floor_reach("panda", 1.3, target, floor)[:, 0]
+    assert (low > 0).sum() > (high > 0).sum()
+
+
+@pytest.fixture(scope="module")
+def batch():
+    ds = SyntheticEpisodes(SyntheticConfig(num_episodes=3, num_global=300, num_floor=120, seed=5))
+    return collate_episodes([ds[i] for i in range(3)])
+
+
+def test_a_model_without_the_input_starts_one_with_it_unchanged(tmp_path, batch):
+    """Widened weights (zero columns for the new channels) predict what they did."""
+    from momakitchen.models.config import TINY_MODEL
+
+    torch.manual_seed(0)
+    old = build_model("navaff", TINY_MODEL).eval()
+    with torch.no_grad():  # a fresh head predicts a constant: make it read its features
+        for p in old.head.parameters():
+            p.normal_(0.0, 0.5)
+    save_weights(tmp_path / "w.safetensors", old)
+    new = build_model("navaff", dataclasses.replace(TINY_MODEL, reach_input=True)).eval()
+    with pytest.raises(MomaError, match="do not fit"):
+        load_weights(tmp_path / "w.safetensors", new)
+    load_weights(tmp_path / "w.safetensors", new, reach_from_none=True)
+    with torch.no_grad():
+        torch.testing.assert_close(new(batch)["pred"], old(batch)["pred"])
+        # ... and the channels reach the output once their weights are not zero
+        first = new.backbone.floor_sa1.mlps[0].first.weight
+        first[:, -REACH_CHANNELS:] = 1.0
+        assert not torch.allclose(new(batch)["pred"], old(batch)["pred"])
+
+
+def test_the_input_needs_each_episodes_robot(batch):
+    from momakitchen.models.config import TINY_MODEL
+
+    model = build_model("navaff", dataclasses.replace(TINY_MODEL, reach_input=True)).eval()
+    with pytest.raises(MomaError, match="robot name"):
+        model({**batch, "robot_name": ["", "", ""]})
+    with pytest.raises(MomaError, match="unknown robot 'nosuch'"):
+        model({**batch, "robot_name": ["nosuch"] * 3})
+
+
+def test_the_option_is_validated_and_left_out_of_older_configs():
+    with pytest.raises(MomaError, match=r"reach_input must be true or false, got 'yes'"):
+        ModelConfig(reach_input="yes")  # type: ignore[arg-type]
+    assert "reach_input" not in ModelConfig().to_dict()  # older runs' configs keep their bytes
+    assert ModelConfig.from_dict({}).reach_input is False
+    assert ModelConfig.from_dict({"reach_input": True}).to_dict()["reach_input"] is True
