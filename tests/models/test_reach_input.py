@@ -83,3 +83,26 @@ def test_the_option_is_validated_and_left_out_of_older_configs():
     assert "reach_input" not in ModelConfig().to_dict()  # older runs' configs keep their bytes
     assert ModelConfig.from_dict({}).reach_input is False
     assert ModelConfig.from_dict({"reach_input": True}).to_dict()["reach_input"] is True
+
+
+def test_hidden_descriptor_columns_are_not_read_but_the_mount_still_places_the_arm(batch):
+    from momakitchen.models.config import TINY_MODEL
+
+    hide = ("reach_m", "mount_height_m")
+    cfg = dataclasses.replace(TINY_MODEL, reach_input=True, hidden_descriptor=hide)
+    torch.manual_seed(0)
+    model = build_model("navaff", cfg).eval()
+    with torch.no_grad():
+        for p in model.head.parameters():
+            p.normal_(0.0, 0.5)
+        for mlp in model.backbone.floor_sa1.mlps:
+            mlp.first.weight[:, -REACH_CHANNELS:] = 1.0
+        base = model(batch)["pred"]
+        other_reach = batch["robot"].clone()
+        other_reach[:, 0] += 0.3
+        torch.testing.assert_close(model({**batch, "robot": other_reach})["pred"], base)
+        other_mount = batch["robot"].clone()
+        other_mount[:, 1] = 0.4  # the arm sits lower: it reaches the target elsewhere
+        assert not torch.allclose(model({**batch, "robot": other_mount})["pred"], base)
+    with pytest.raises(MomaError, match=r"hidden_descriptor must name distinct columns"):
+        ModelConfig(hidden_descriptor=("reach",))

@@ -171,18 +171,19 @@ def sample_views(
         farther = False
         for attempt in range(views.max_tries):
             lateral, forward = _view_candidates(rng, anchor, k, views.episodes, views)
-            closer = 1.0 - 0.5 * attempt / views.max_tries
             if views.distance[1] > 0:
-                # By distance: farther back along the same direction; later attempts come
-                # closer along it (the room may not hold the nominal distance there).
+                # By distance: farther back along the same direction. Later attempts come
+                # closer (the room may not hold the distance), slowly at first: each also
+                # turns another way, and a room too shallow ahead may be wide enough aside.
                 scale = rng.uniform(1.0, views.distance[1] / np.hypot(lateral, forward))
-                scale = (scale if farther else 1.0) * closer
+                scale = scale if farther else 1.0
+                scale *= 1.0 - 0.5 * (attempt / views.max_tries) ** 2
                 lateral, forward = lateral * scale, forward * scale
             else:
                 if farther:  # the last view missed the successes: stand farther back
                     forward = rng.uniform(forward, views.forward[1])
                 # Later attempts come closer: the room may be shallower than the nominal range.
-                forward *= closer
+                forward *= 1.0 - 0.5 * attempt / views.max_tries
             if views.max_distance:  # within the sensor's working range of the target
                 reach2 = views.max_distance**2 - lateral**2 - (height - anchor[2]) ** 2
                 if reach2 < 0.5**2:

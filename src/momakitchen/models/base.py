@@ -145,7 +145,21 @@ class AffordanceModel(nn.Module):
             peak_temperature=config.peak_temperature,
         )
 
+    def visible(self, batch: dict[str, Any]) -> dict[str, Any]:
+        """``batch`` with the descriptor columns the model does not read
+        (``ModelConfig.hidden_descriptor``) zeroed; itself when it reads them all. The
+        mount height stays known as ``robot_mount`` (B,): the reachability input is the
+        arm's at its mount."""
+        keep = self.config.descriptor_keep
+        if all(keep):
+            return batch
+        robot = batch["robot"]
+        mask = torch.ones(robot.shape[-1], dtype=robot.dtype, device=robot.device)
+        mask[: len(keep)] = torch.tensor(keep, dtype=robot.dtype)
+        return {**batch, "robot": robot * mask, "robot_mount": robot[:, 1]}
+
     def forward(self, batch: dict[str, Any]) -> dict[str, torch.Tensor]:
+        batch = self.visible(batch)
         feats = self.backbone(batch)
         pred = self.head(feats, batch["robot"]) * batch["floor_mask"].to(feats.dtype)
         out = {"pred": pred}
@@ -161,6 +175,7 @@ class AffordanceModel(nn.Module):
         if batch["floor_xyz"].shape[0] != 1:
             raise ValueError("sample_predictions takes a batch of one episode")
         was_training = self.training
+        batch = self.visible(batch)
         try:
             self.eval()
             ctx = self.backbone.encode(batch)

@@ -57,6 +57,9 @@ class ModelConfig:
             of the target from there (:mod:`momakitchen.models.reach_input`, from the
             robot's URDF and mount), so that a robot is known by what its arm reaches and
             not only by its descriptor's numbers (False: runs made before it).
+        hidden_descriptor: names of robot descriptor columns the model does not read
+            (zeroed before it sees them), e.g. the reach and mount numbers of a model
+            that knows the arm by its reachability (``reach_input``); (): it reads all.
         descriptor_version: the robot descriptor layout the model reads
             (``momakitchen.robots.spec.DESCRIPTOR_LAYOUTS``): of a newer descriptor it
             takes the first columns. Recorded as the checkpoint's ``descriptor_version``
@@ -84,6 +87,7 @@ class ModelConfig:
     relative_dropout: float = 0.0
     descriptor_version: int = DESCRIPTOR_VERSION
     reach_input: bool = field(default=False, metadata=codec.OMIT_IF_DEFAULT)
+    hidden_descriptor: tuple[str, ...] = field(default=(), metadata=codec.OMIT_IF_DEFAULT)
 
     def __post_init__(self) -> None:
         def bad(name: str, rule: str) -> MomaError:
@@ -132,8 +136,19 @@ class ModelConfig:
             raise bad("relative_dropout", "must be in [0, 1)")
         if not isinstance(self.reach_input, bool):
             raise bad("reach_input", "must be true or false")
+        names = DESCRIPTOR_LAYOUTS.get(self.descriptor_version, ())
+        hidden = tuple(self.hidden_descriptor)
+        if any(h not in names for h in hidden) or len(set(hidden)) != len(hidden):
+            raise bad("hidden_descriptor", f"must name distinct columns of {names}")
+        object.__setattr__(self, "hidden_descriptor", hidden)
         if self.descriptor_version not in DESCRIPTOR_LAYOUTS:
             raise bad("descriptor_version", f"must be one of {sorted(DESCRIPTOR_LAYOUTS)}")
+
+    @property
+    def descriptor_keep(self) -> tuple[float, ...]:
+        """Per descriptor column the model reads: 1.0, or 0.0 where it is hidden."""
+        names = DESCRIPTOR_LAYOUTS[self.descriptor_version]
+        return tuple(0.0 if n in self.hidden_descriptor else 1.0 for n in names)
 
     @property
     def descriptor_dim(self) -> int:

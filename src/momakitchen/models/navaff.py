@@ -364,9 +364,10 @@ class NavAffBackbone(Backbone):
             )
         if self.reach_input:  # never hidden: it shows no obstacle, the global cloud must
             assert target is not None
-            names, robot = batch.get("robot_name", []), batch["robot"]
-            reach = batch_floor_reach(names, robot, target, fxyz)
-            creach = reach if cxyz is fxyz else batch_floor_reach(names, robot, target, cxyz)
+            names = batch.get("robot_name", [])
+            mount = batch.get("robot_mount", batch["robot"][:, 1])
+            reach = batch_floor_reach(names, mount, target, fxyz)
+            creach = reach if cxyz is fxyz else batch_floor_reach(names, mount, target, cxyz)
             fpos, cpos = torch.cat([fpos, reach], -1), torch.cat([cpos, creach], -1)
         x1, f1, m1 = self.floor_sa1(cxyz, cpos, cmask, plan["floor.sa1"])
         if self.target_points:

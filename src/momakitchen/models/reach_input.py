@@ -68,13 +68,13 @@ def floor_reach(
 
 
 def batch_floor_reach(
-    robots: Sequence[str], robot: torch.Tensor, target: torch.Tensor, floor_xyz: torch.Tensor
+    robots: Sequence[str], mount: torch.Tensor, target: torch.Tensor, floor_xyz: torch.Tensor
 ) -> torch.Tensor:
     """:func:`floor_reach` for a batch: each episode's robot by name (``robot_name``, a
-    registered robot) at the mount its descriptor holds (column 1).
+    registered robot) at its mount height (its descriptor's ``mount_height_m``).
 
     Shapes:
-        - ``robots``: B names; ``robot``: (B, D) descriptors; ``target``: (B, 3);
+        - ``robots``: B names; ``mount``: (B,) metres; ``target``: (B, 3);
           ``floor_xyz``: (B, N, 3)
         - output: (B, N, REACH_CHANNELS), ``floor_xyz``'s dtype and device
     """
@@ -83,7 +83,7 @@ def batch_floor_reach(
             f"a model that reads the robot's reachability needs each episode's robot name "
             f"(batch['robot_name'], {floor_xyz.shape[0]} of them), got {list(robots)!r}"
         )
-    mounts = robot[:, 1].detach().cpu().double().numpy()
+    mounts = mount.detach().cpu().double().numpy()
     targets = target.detach().cpu().double().numpy()
     points = floor_xyz.detach().cpu().double().numpy()
     out = np.zeros((*points.shape[:2], REACH_CHANNELS), np.float32)
