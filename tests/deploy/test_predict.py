@@ -166,6 +166,15 @@ def test_robot_input_takes_a_finger_force_and_version_1_vectors():
         assert got[5:] == pytest.approx((1.03 + 0.25, 0.0))
     _, grip = robot_input([0.8, 1.0, 1.0, 0.0, 1.2])
     assert grip[4] == np.float32(1.2)
+    # A registered robot at another mount keeps its name (a model may read its URDF).
+    name, high = robot_input(("ur5e", 1.3))
+    assert (
+        name == "ur5e"
+        and high[1] == np.float32(1.3)
+        and high[0] == np.float32(get_robot_spec("ur5e").reach)
+    )
+    with pytest.raises(MomaError, match="mount"):
+        robot_input(("ur5e", 3.0))
     with pytest.raises(MomaError, match=r"robot finger_force must be in \[10, 200\] N, got 500"):
         robot_input({"reach": 0.8, "mount_height": 1.0, "finger_force": 500})
     with pytest.raises(MomaError, match=r"robot shoulder_rise must be in \[0, 1\] m, got 2"):

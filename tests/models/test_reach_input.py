@@ -73,7 +73,7 @@ def test_the_input_needs_each_episodes_robot(batch):
     model = build_model("navaff", dataclasses.replace(TINY_MODEL, reach_input=True)).eval()
     with pytest.raises(MomaError, match="robot name"):
         model({**batch, "robot_name": ["", "", ""]})
-    with pytest.raises(MomaError, match="unknown robot 'nosuch'"):
+    with pytest.raises(MomaError, match=r"robot 'nosuch' is not registered .*has no URDF"):
         model({**batch, "robot_name": ["nosuch"] * 3})
 
 

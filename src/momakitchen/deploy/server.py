@@ -279,11 +279,8 @@ class ModelServer:
             pred = place(self.method, **args)
         else:
             mount = kwargs.pop("mount_height", None)
-            if mount is not None:  # the model reads the robot's numbers at that mount
-                from momakitchen.robots.descriptor import robot_descriptor
-                from momakitchen.robots.spec import get_robot_spec
-
-                kwargs["robot"] = robot_descriptor(get_robot_spec(kwargs["robot"]), mount)
+            if mount is not None:  # the robot, by name, at that mount
+                kwargs["robot"] = (kwargs["robot"], mount)
             pred = predict(**{**self.defaults, **kwargs}, checkpoint=self.run)
         return pred.to_dict(floor_points=floor), time.perf_counter() - t0
 

@@ -26,6 +26,7 @@ import torch
 
 from momakitchen.errors import MomaError
 from momakitchen.placement.reachability import MIN_SCORE, ReachabilityMap
+from momakitchen.robots.spec import get_robot_spec
 
 REACH_CHANNELS = 3
 # The signed distance (m) at which a channel saturates: a few centimetres decide between
@@ -94,5 +95,13 @@ def batch_floor_reach(
                 "name (batch['robot_name']); episode "
                 f"{i} has none"
             )
+        try:
+            get_robot_spec(str(name))
+        except MomaError:
+            raise MomaError(
+                f"this model reads the robot's reachability from its URDF: robot {name!r} "
+                "is not registered (give a registered robot's name, or register yours with "
+                "--robot-yaml; a robot given by its numbers has no URDF)"
+            ) from None
         out[i] = floor_reach(str(name), float(mounts[i]), targets[i], points[i])
     return torch.from_numpy(out).to(device=floor_xyz.device, dtype=floor_xyz.dtype)

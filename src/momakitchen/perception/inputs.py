@@ -138,13 +138,16 @@ def load_extrinsics(tf: np.ndarray | str | os.PathLike) -> np.ndarray:
     return m
 
 
-def robot_input(robot: str | Sequence[float] | Mapping[str, float]) -> tuple[str, np.ndarray]:
+def robot_input(
+    robot: str | tuple[str, float] | Sequence[float] | Mapping[str, float],
+) -> tuple[str, np.ndarray]:
     """A robot name from the registry, or a descriptor: ``{"reach", "mount_height"}`` (plus
     optional ``"dof"`` (6), ``"suction"`` (False), ``"finger_force"`` (N per finger, 40),
     ``"shoulder_rise"`` (m above the mount, 0.25) and ``"shoulder_offset"`` (m off the first
     joint's axis, 0)) or the descriptor vector (of the current layout, or of an older one,
-    whose missing columns then take those defaults). Returns the name ("custom" for a
-    descriptor) and the descriptor, shape ``(DESCRIPTOR_DIM,)``."""
+    whose missing columns then take those defaults), or ``(name, mount_height)``: a
+    registered robot at another mount (m). Returns the name ("custom" for a descriptor)
+    and the descriptor, shape ``(DESCRIPTOR_DIM,)``."""
     from momakitchen.robots.descriptor import robot_descriptor
     from momakitchen.robots.grip import FORCE_RANGE
     from momakitchen.robots.spec import (
@@ -159,6 +162,12 @@ def robot_input(robot: str | Sequence[float] | Mapping[str, float]) -> tuple[str
 
     if isinstance(robot, str):
         return robot, np.asarray(robot_descriptor(get_robot_spec(robot)), np.float32)
+    if isinstance(robot, tuple) and len(robot) == 2 and isinstance(robot[0], str):
+        from momakitchen.robots.urdf import mounted
+
+        spec = get_robot_spec(robot[0])
+        mount = float(mounted(spec, float(robot[1])).mount_height)  # checks the range
+        return robot[0], np.asarray(robot_descriptor(spec, mount), np.float32)
     if isinstance(robot, Mapping):
         missing = {"reach", "mount_height"} - set(robot)
         if missing:
