@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import numpy as np
@@ -288,3 +289,12 @@ def test_a_target_beyond_the_training_views_gives_a_warning(episode, tiny_run):
         assert bool(pred.warnings) == warned
         assert pred.to_dict(floor_points=False)["target_distance_m"] == pytest.approx(x, abs=1e-3)
     assert "move closer" in pred.warnings[0]
+    # A run trained on farther views (as its config.json records) warns only beyond them.
+    far = dataclasses.replace(run, view_distance=6.0)
+    clouds = FrameClouds(
+        **arrays,
+        floor_xyz=ep.floor_xyz,
+        target_xyz=np.array([5.5, 0.0, 1.0]),
+        correction=correction,
+    )
+    assert not predict_map(far, clouds, ep.robot, desc, mc_samples=0).warnings

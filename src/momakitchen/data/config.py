@@ -63,6 +63,13 @@ class ViewConfig:
     distance: tuple[float, float] = field(default=(0.0, 0.0), metadata=codec.OMIT_IF_DEFAULT)
     max_angle: float = field(default=45.0, metadata=codec.OMIT_IF_DEFAULT)
 
+    @property
+    def farthest(self) -> float:
+        """The farthest a view stands from its target (m), on the floor."""
+        if self.distance[1] > 0:
+            return float(self.distance[1])
+        return math.hypot(self.forward[1], self.lateral[1])
+
     def __post_init__(self) -> None:
         lo, hi = self.distance
         if (lo, hi) != (0.0, 0.0) and not 0.5 <= lo <= hi <= 10:
@@ -243,3 +250,16 @@ def manifest_preprocessing(manifest: dict[str, Any]) -> Preprocessing | None:
         raise MomaError(f"manifest config.camera must be a mapping, got {camera!r}")
     max_depth = codec.from_dict(CameraConfig, camera, where="config.camera").max_depth
     return Preprocessing(cloud, max_depth)
+
+
+def manifest_view_distance(manifest: dict[str, Any]) -> float | None:
+    """How far (m) from its target the farthest view of a dataset stands at most, from its
+    manifest's ``views`` (:attr:`ViewConfig.farthest`); None if the dataset's producer
+    records no generation config (e.g. synthetic records)."""
+    if manifest.get("config_class") != GENERATION_CONFIG_CLASS:
+        return None
+    config = manifest.get("config")
+    views = config.get("views", {}) if isinstance(config, dict) else None
+    if not isinstance(views, dict):
+        raise MomaError(f"manifest config.views must be a mapping, got {views!r}")
+    return codec.from_dict(ViewConfig, views, where="config.views").farthest

@@ -33,7 +33,8 @@ MC_SAMPLES = 8  # MC-dropout forward passes behind each uncertainty estimate
 # 10 cm helped short runs on held-out train scenes but not the full-length models on the
 # test scenes (docs/RESULTS.md), so it is an option, not the default.
 PICK_RADIUS = 0.0
-# The farthest target of the training views (ViewConfig: 3.8 m ahead, 1.5 m aside).
+# The farthest target of the default training views (ViewConfig: 3.8 m ahead, 1.5 m
+# aside), for runs that do not record theirs (LoadedRun.view_distance).
 TRAINED_DISTANCE = math.hypot(3.8, 1.5)
 
 
@@ -304,10 +305,11 @@ def predict_map(
         )
     distance = float(np.hypot(target[0], target[1]))
     warnings = []
-    if distance > TRAINED_DISTANCE:
+    trained = getattr(run, "view_distance", None) or TRAINED_DISTANCE
+    if distance > trained:
         warnings.append(
             f"the target is {distance:.2f} m away, farther than the model's training views "
-            f"(up to {TRAINED_DISTANCE:.1f} m): move closer for a reliable map"
+            f"(up to {trained:.1f} m): move closer for a reliable map"
         )
 
     return map_prediction(

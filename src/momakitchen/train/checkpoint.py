@@ -36,7 +36,7 @@ from safetensors.torch import save as st_save
 from torch.utils.data import ConcatDataset, Subset
 
 from momakitchen import codec
-from momakitchen.data.config import Preprocessing, manifest_preprocessing
+from momakitchen.data.config import Preprocessing, manifest_preprocessing, manifest_view_distance
 from momakitchen.data.manifest import split_checksum
 from momakitchen.errors import MomaError
 from momakitchen.fileio import atomic_write_bytes, atomic_write_text, dumps_strict, existing_dir
@@ -85,9 +85,12 @@ def write_run_config(
     config: TrainConfig,
     preprocessing: Preprocessing | None = None,
     shards: str | None = None,
+    view_distance: float | None = None,
 ) -> None:
     """Write ``config.json`` (``preprocessing``: that of the training data; None: the
-    defaults; ``shards``: the training shards' checksum, :func:`dataset_shards`)."""
+    defaults; ``shards``: the training shards' checksum, :func:`dataset_shards`;
+    ``view_distance``: how far from the target its farthest training views stand, m,
+    :func:`dataset_view_distance`)."""
     info: dict[str, Any] = {
         "format": FORMAT,
         "format_version": FORMAT_VERSION,
@@ -100,6 +103,8 @@ def write_run_config(
     }
     if shards is not None:
         info["train_data"] = [{"from_step": 0, "shards_sha256": shards}]
+    if view_distance is not None:
+        info["view_distance"] = round(float(view_distance), 3)
     _write_info(run_dir, info)
 
 
@@ -220,6 +225,20 @@ def dataset_preprocessing(dataset: Any) -> Preprocessing | None:
         return manifest_preprocessing(manifest)
     except MomaError as exc:
         raise MomaError(f"{root}: {exc}") from None
+
+
+def dataset_view_distance(dataset: Any) -> float | None:
+    """How far from the target (m) the farthest views of the datasets behind ``dataset``
+    stand (as :func:`dataset_preprocessing` finds them), from their manifests; None
+    without a manifest that says (synthetic or in-memory data)."""
+    if isinstance(dataset, Subset):
+        return dataset_view_distance(dataset.dataset)
+    if isinstance(dataset, ConcatDataset):
+        found = [dataset_view_distance(d) for d in dataset.datasets]
+        known = [f for f in found if f is not None]
+        return max(known) if known else None
+    manifest = getattr(dataset, "manifest", None)
+    return manifest_view_distance(manifest) if isinstance(manifest, dict) else None
 
 
 def check_preprocessing(run: LoadedRun, data: Preprocessing | None, what: str = "dataset") -> None:
@@ -452,6 +471,9 @@ class LoadedRun:
     config: TrainConfig
     run_dir: Path
     preprocessing: Preprocessing = field(default_factory=Preprocessing)
+    # How far from the target its farthest training views stood (m; None: not recorded,
+    # runs trained before it was, on the default views).
+    view_distance: float | None = None
 
 
 def load_checkpoint(run_dir: str | os.PathLike, model: str | None = None) -> LoadedRun:
@@ -470,4 +492,6 @@ def load_checkpoint(run_dir: str | os.PathLike, model: str | None = None) -> Loa
     net = build_model(config.model, config.model_config)
     load_weights(run_dir / WEIGHTS_FILE, net)
     net.eval()
-    return LoadedRun(net, config, run_dir, preprocessing)
+    view = info.get("view_distance")
+    view_distance = float(view) if isinstance(view, (int, float)) and view > 0 else None
+    return LoadedRun(net, config, run_dir, preprocessing, view_distance)

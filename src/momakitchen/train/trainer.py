@@ -41,6 +41,7 @@ from momakitchen.train.checkpoint import (
     WEIGHTS_FILE,
     dataset_preprocessing,
     dataset_shards,
+    dataset_view_distance,
     has_checkpoint,
     load_trainer_state,
     load_weights,
@@ -403,7 +404,8 @@ def _train(
     if rank == 0:
         run_dir.mkdir(parents=True, exist_ok=True)
         if not resuming:
-            write_run_config(run_dir, config, preprocessing, shards)
+            views = dataset_view_distance(train_set)
+            write_run_config(run_dir, config, preprocessing, shards, views)
     _barrier(world)
 
     torch.manual_seed(config.seed)
