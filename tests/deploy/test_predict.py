@@ -221,6 +221,10 @@ def test_predict_cli(episode, tiny_run, tmp_path, capsys):
     numbers = ["--reach", "0.8", "--mount-height", "0.5", "--finger-force", "120"]
     assert main([*args, *numbers]) == 0
     assert main([*args, "--robot", "panda", "--finger-force", "120"]) == 2
+    # a registered robot at another mount: its name stays (a model may read its URDF)
+    assert main([*args, "--robot", "panda", "--mount-height", "1.25", "--top-k", "1"]) == 0
+    assert json.loads((tmp_path / "out" / "prediction.json").read_text())["robot"] == "panda"
+    assert main([*args, "--robot", "panda", "--mount-height", "2.5"]) == 2
     assert main([*args, "--robot", "r2d2"]) == 2
     assert main([*args]) == 2  # no robot at all
     bad = tmp_path / "bad.npy"

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import argparse
 import time
+from typing import Any
 
 from momakitchen.cli.common import checked_run_dir, output_dir, planned_output_dir
 from momakitchen.cli.options import add_checkpoint, add_prediction, add_robot_yaml, config_fields
@@ -53,7 +54,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add_robot_yaml(p)
     p.add_argument("--reach", type=float, default=None, help="arm reach (m), if no --robot")
     p.add_argument(
-        "--mount-height", type=float, default=None, help="arm mount height (m), if no --robot"
+        "--mount-height",
+        type=float,
+        default=None,
+        help="arm mount height (m): of --robot (default its own), or of a robot given by numbers",
     )
     p.add_argument(
         "--finger-force",
@@ -98,18 +102,21 @@ def run(args: argparse.Namespace) -> int:
         "shoulder_rise": args.shoulder_rise,
         "shoulder_offset": args.shoulder_offset,
     }
-    numbers = (args.reach, args.mount_height, *extra.values())
+    numbers = (args.reach, *extra.values())
     if args.robot is not None and any(n is not None for n in numbers):
         raise MomaError(
-            "give either --robot or --reach/--mount-height/--finger-force/--shoulder-*, not both"
+            "give either --robot [--mount-height] or --reach/--mount-height/--finger-force/"
+            "--shoulder-*, not both"
         )
     if args.checkpoint is not None:
         checked_run_dir(args.checkpoint)
-    robot = args.robot or {
+    robot: Any = args.robot or {
         "reach": args.reach,
         "mount_height": args.mount_height,
         **{k: v for k, v in extra.items() if v is not None},
     }
+    if args.robot is not None and args.mount_height is not None:
+        robot = (args.robot, args.mount_height)  # the registered robot at that mount
     out = planned_output_dir(args.out)
     # The model's options, the same for a frame from files and for a bag's frames.
     options = PredictOptions(**config_fields(args, PredictOptions))
