@@ -24,10 +24,12 @@ def test_floor_reach_is_the_placement_stages_map_of_the_robot_at_its_mount():
     assert out[0, 0] > 0 and out[0, 2] > 0  # reached, with a dexterity index
     assert out[1, 0] == -1.0 and out[1, 1] == -1.0 and out[1, 2] == 0.0  # far out of reach
     rmap = ReachabilityMap.for_robot("panda", 1.03)
-    expected = rmap.reachable_from(floor[:, :2], target) | rmap.reachable_from(
-        floor[:, :2], target, [0.0, 0.0, -1.0]
-    )
-    np.testing.assert_array_equal(out[:, 2] > 0, expected)
+    side = rmap.reachable_from(floor[:, :2], target)
+    down = rmap.reachable_from(floor[:, :2], target, [0.0, 0.0, -1.0])
+    np.testing.assert_array_equal(out[:, 0] > 0, side)
+    np.testing.assert_array_equal(out[:, 1] > 0, down)
+    rho, z, _, _ = rmap.tcp_coordinates(floor[:, :2], target)
+    np.testing.assert_allclose(out[:, 2], rmap.reachability_index(rho, z), atol=1e-6)
 
 
 def test_floor_reach_follows_the_mount_height():

@@ -13,8 +13,10 @@ Channels (:data:`REACH_CHANNELS`), per floor point:
 0. how far inside the arm's reachable region the target lies with a horizontal
    approach, in units of :data:`REACH_SCALE` and clipped to [-1, 1] (negative: outside);
 1. the same for a top-down approach;
-2. the reachability index there (the share of approach directions the arm reaches, at
-   least ``MIN_SCORE`` where it reaches the target at all, 0 where it does not).
+2. the reachability index of the target's position from there: the share of approach
+   directions (of every pitch and yaw class) by which the arm reaches it, 0 where none
+   does. It is the most generous of the three: a grasp need not come straight at the
+   target, and the labelling's trials try tilted approaches too.
 """
 
 from __future__ import annotations
@@ -25,7 +27,7 @@ import numpy as np
 import torch
 
 from momakitchen.errors import MomaError
-from momakitchen.placement.reachability import MIN_SCORE, ReachabilityMap
+from momakitchen.placement.reachability import ReachabilityMap
 from momakitchen.robots.spec import get_robot_spec
 
 REACH_CHANNELS = 3
@@ -55,14 +57,9 @@ def floor_reach(
     horizontal = rmap.tcp_coordinates(xy, target, None)
     side = rmap.signed_distance(*horizontal)
     down = rmap.signed_distance(*rmap.tcp_coordinates(xy, target, _DOWN))
-    rho, z = horizontal[:2]
-    index = np.clip(rmap.reachability_index(rho, z), MIN_SCORE, 1.0)
+    index = np.clip(rmap.reachability_index(*horizontal[:2]), 0.0, 1.0)
     out = np.stack(
-        [
-            np.clip(side / REACH_SCALE, -1.0, 1.0),
-            np.clip(down / REACH_SCALE, -1.0, 1.0),
-            np.where(np.maximum(side, down) > 0, index, 0.0),
-        ],
+        [np.clip(side / REACH_SCALE, -1.0, 1.0), np.clip(down / REACH_SCALE, -1.0, 1.0), index],
         axis=-1,
     )
     return out.astype(np.float32)
