@@ -365,6 +365,7 @@ def test_a_registered_robot_at_a_drawn_mount(server, episodes):
         mc_samples=0,
     )
     _check(doc, expected, floor_points=False)
+    assert doc["robot"] == "elephant"  # by name: a model may read its URDF
     status, doc, _ = _post(server, files, {**fields, "robot": "elephant", "mount_height": "3"})
     assert status == 400 and "mount_height" in doc["error"]
 
