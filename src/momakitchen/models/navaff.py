@@ -293,17 +293,15 @@ class NavAffBackbone(Backbone):
         widened model predicts what the original did until training gives them a use."""
         if not self.reach_input:
             return
-        at = {f"{prefix}fp1.mlp.0.weight": (self.fp1.mlp[0].weight, self.reach_offset)}
-        for i, mlp in enumerate(self.floor_sa1.mlps):
-            at[f"{prefix}floor_sa1.mlps.{i}.first.weight"] = (
-                mlp.first.weight,
-                3 + self.reach_offset,
-            )
-        for key, (param, at_col) in at.items():
-            w = state.get(key)
-            if w is not None and w.ndim == 2 and w.shape[1] == param.shape[1] - REACH_CHANNELS:
+        own = dict(self.named_parameters())
+        at = {"fp1.mlp.0.weight": self.reach_offset}
+        for i in range(len(self.floor_sa1.mlps)):  # after the 3 relative xyz columns
+            at[f"floor_sa1.mlps.{i}.first.weight"] = 3 + self.reach_offset
+        for name, col in at.items():
+            w = state.get(prefix + name)
+            if w is not None and w.ndim == 2 and w.shape[1] == own[name].shape[1] - REACH_CHANNELS:
                 pad = w.new_zeros(w.shape[0], REACH_CHANNELS)
-                state[key] = torch.cat([w[:, :at_col], pad, w[:, at_col:]], dim=1)
+                state[prefix + name] = torch.cat([w[:, :col], pad, w[:, col:]], dim=1)
 
     def plan(self, batch: dict[str, Any]) -> Plan:
         """Global encoder (``global.sa1``..``global.sa3``), floor set abstractions
