@@ -41,8 +41,9 @@ def _dataset(out: Path) -> Path:
 
 def _build(robot: str) -> tuple[float, float]:
     """Wall and CPU seconds of one map build from cold."""
-    from momakitchen.placement import ReachabilityMap, reachability
+    from momakitchen.placement import ReachabilityMap
     from momakitchen.robots.robot import forget_caches
+    from momakitchen.sim import reachability
 
     reachability._SAMPLED.clear()
     reachability._MAPS.clear()

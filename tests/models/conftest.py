@@ -16,8 +16,8 @@ def tiny_config() -> ModelConfig:
 @pytest.fixture(autouse=True)
 def _coarse_reachability(monkeypatch: pytest.MonkeyPatch) -> None:
     """Models that read the robot's reachability sample it coarsely (seconds a robot)."""
-    from momakitchen.placement import reachability
-    from momakitchen.placement.sampling import SamplingConfig
+    from momakitchen.sim import reachability
+    from momakitchen.sim.sampling import SamplingConfig
 
     coarse = SamplingConfig(cell=0.1, psi_bins=8, fk_samples=5000)
     monkeypatch.setattr(reachability, "DEFAULT_SAMPLING", coarse)

@@ -11,7 +11,7 @@ from momakitchen.data.synthetic import SyntheticConfig, SyntheticEpisodes
 from momakitchen.errors import MomaError
 from momakitchen.models import ModelConfig, build_model
 from momakitchen.models.reach_input import REACH_CHANNELS, floor_reach
-from momakitchen.placement.reachability import ReachabilityMap
+from momakitchen.sim.reachability import ReachabilityMap
 from momakitchen.train.checkpoint import load_weights, save_weights
 
 

@@ -9,7 +9,7 @@ from typing import Any
 import pytest
 from placement_helpers import COARSE
 
-from momakitchen.placement.sampling import SamplingConfig
+from momakitchen.sim.sampling import SamplingConfig
 
 
 @pytest.fixture(scope="session")
@@ -24,7 +24,7 @@ def episodes(real_view: Path) -> list[Any]:
 @pytest.fixture
 def coarse_maps(monkeypatch: pytest.MonkeyPatch) -> SamplingConfig:
     """``place`` samples reachability coarsely (:data:`COARSE`) while the test runs."""
-    from momakitchen.placement import reachability
+    from momakitchen.sim import reachability
 
     monkeypatch.setattr(reachability, "DEFAULT_SAMPLING", COARSE)
     return COARSE

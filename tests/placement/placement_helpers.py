@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from momakitchen.placement.sampling import SamplingConfig
+from momakitchen.sim.sampling import SamplingConfig
 
 # Coarse enough to sample a robot in about two seconds; the slow test checks the default.
 COARSE = SamplingConfig(cell=0.1, psi_bins=8, fk_samples=5000)
@@ -43,8 +43,8 @@ def ik_agreement(
     with the map's roll convention (:func:`approach_quaternion`)."""
     from momakitchen.bullet import connect_direct, p
     from momakitchen.placement import ReachabilityMap
-    from momakitchen.placement.sampling import approach_quaternion
     from momakitchen.robots.robot import Robot
+    from momakitchen.sim.sampling import approach_quaternion
 
     reach = ReachabilityMap.for_robot(robot, None, config)
     rng = np.random.default_rng(seed)

@@ -11,10 +11,11 @@ from placement_helpers import frame_of
 
 from momakitchen.errors import MomaError
 from momakitchen.perception.inputs import load_frame
-from momakitchen.placement import CLASSICAL_METHODS, METHODS, ReachabilityMap, place, reachability
+from momakitchen.placement import CLASSICAL_METHODS, METHODS, ReachabilityMap, place
 from momakitchen.placement.body import placement_robot
 from momakitchen.placement.observed import camera_side, free_floor, grasp_approaches, observe
 from momakitchen.placement.ring import BAND, ring_standoff, shoulder_distance
+from momakitchen.sim import reachability
 
 
 def test_the_registry_is_the_one_list_of_methods():
@@ -76,8 +77,8 @@ def test_poses_stand_on_free_floor_within_reach(episodes, coarse_maps, method):
 def _ik_reaches(robot, mount, pose, target, seen):
     """IK reaches the target from the best pose by one of the frame's approaches."""
     from momakitchen.bullet import connect_direct, p
-    from momakitchen.placement.sampling import approach_quaternion
     from momakitchen.robots.robot import Robot
+    from momakitchen.sim.sampling import approach_quaternion
 
     client = connect_direct()
     try:

@@ -9,8 +9,9 @@ import pytest
 from placement_helpers import COARSE, ik_agreement
 
 from momakitchen.errors import MomaError
-from momakitchen.placement import ReachabilityMap, reachability
-from momakitchen.placement.sampling import SamplingConfig
+from momakitchen.placement import ReachabilityMap
+from momakitchen.sim import reachability
+from momakitchen.sim.sampling import SamplingConfig
 
 
 @pytest.mark.slow
@@ -60,7 +61,7 @@ def test_a_user_robot_has_a_map_that_agrees_with_ik_and_is_cached(user_panda, mo
     def no_sampling(*args, **kwargs):
         raise AssertionError("sampled again")
 
-    monkeypatch.setattr("momakitchen.placement.sampling.sample_grid", no_sampling)
+    monkeypatch.setattr("momakitchen.sim.sampling.sample_grid", no_sampling)
     loaded = ReachabilityMap.for_robot(user_panda, None, COARSE)
     assert loaded is not built
     np.testing.assert_array_equal(loaded.reachable, built.reachable)

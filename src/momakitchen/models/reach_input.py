@@ -2,7 +2,7 @@
 
 A model with ``ModelConfig.reach_input`` reads, beside each floor point's position, what
 the robot's own arm can do from there: the inverse-reachability map of the placement
-stage (:class:`~momakitchen.placement.reachability.ReachabilityMap`, sampled from the
+stage (:class:`~momakitchen.sim.reachability.ReachabilityMap`, sampled from the
 robot's URDF and YAML, the same definition ``--method reachability`` places bases by)
 queried at the target's centroid, for a base standing on the point and facing the target.
 A user's robot and a built-in get their input from one definition, their URDF and mount:
@@ -27,8 +27,8 @@ import numpy as np
 import torch
 
 from momakitchen.errors import MomaError
-from momakitchen.placement.reachability import ReachabilityMap
 from momakitchen.robots.spec import get_robot_spec
+from momakitchen.sim.reachability import ReachabilityMap
 
 REACH_CHANNELS = 3
 # The signed distance (m) at which a channel saturates: a few centimetres decide between

@@ -9,6 +9,6 @@ grasp pose; :class:`ReachabilityMap`). See docs/PLACEMENT.md.
 """
 
 from momakitchen.placement.methods import CLASSICAL_METHODS, METHODS, place
-from momakitchen.placement.reachability import ReachabilityMap
+from momakitchen.sim.reachability import ReachabilityMap
 
 __all__ = ["CLASSICAL_METHODS", "METHODS", "ReachabilityMap", "place"]

@@ -48,7 +48,7 @@ def reachability_map(frame: ObservedFrame, robot: PlacementRobot) -> tuple[np.nd
 
     Shapes: -> (N,) float64 in [0, 1] over ``frame.floor_xyz``.
     """
-    from momakitchen.placement.reachability import ReachabilityMap
+    from momakitchen.sim.reachability import ReachabilityMap
 
     if not robot.registered:
         raise MomaError(NEEDS_URDF)

@@ -166,7 +166,7 @@ def grasp_approaches(frame: ObservedFrame) -> list[np.ndarray | None]:
     """The approach directions (each (3,), towards the target) a grasp of the target may
     take, from the frame alone: against the surface's normal where the target is a plane
     (levelled for a front, straight down for a top); else horizontal from the base
-    (None, as :meth:`~momakitchen.placement.reachability.ReachabilityMap.floor_map`
+    (None, as :meth:`~momakitchen.sim.reachability.ReachabilityMap.floor_map`
     reads it) or from above."""
     down = np.array([0.0, 0.0, -1.0])
     n = target_normal(frame)

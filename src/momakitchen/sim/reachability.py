@@ -2,7 +2,7 @@
 
 A robot's arm reaches a TCP pose or not whatever the room: which poses it reaches,
 relative to its base, is sampled once from its URDF
-(:func:`~momakitchen.placement.sampling.sample_grid`) and cached. Inverted at a target's
+(:func:`~momakitchen.sim.sampling.sample_grid`) and cached. Inverted at a target's
 grasp pose (its height and approach direction), the grid gives every floor point the
 answer "could the base stand here, facing the target, and the arm reach it?" and how
 far inside the reachable region the pose lies (:meth:`ReachabilityMap.floor_map`).
@@ -34,7 +34,7 @@ from numpy.typing import ArrayLike
 from scipy.ndimage import distance_transform_edt, map_coordinates
 
 from momakitchen.errors import MomaError
-from momakitchen.placement.sampling import SampledGrid, SamplingConfig
+from momakitchen.sim.sampling import SampledGrid, SamplingConfig
 
 # Bump when the sampling or the meaning of a cell changes: cached grids are then resampled.
 MAP_VERSION = 1
@@ -300,7 +300,7 @@ def _sampled(robot: str, cfg: SamplingConfig, key: str) -> SampledGrid:
     """The robot's grid: from memory, the disk cache, or sampled now (and stored)."""
     from momakitchen.assets.cache import cache_dir
     from momakitchen.fileio import atomic_write_bytes, dumps_strict
-    from momakitchen.placement.sampling import sample_grid
+    from momakitchen.sim.sampling import sample_grid
 
     if key in _SAMPLED:
         return _SAMPLED[key]
