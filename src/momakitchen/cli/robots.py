@@ -1,7 +1,8 @@
-"""``momakitchen robots``: list the robots, export a robot's URDF.
+"""``momakitchen robots``: list the robots, export a robot's URDF or its user-robot files.
 
     momakitchen robots [--json] [--robot-yaml FILE ...]
     momakitchen robots export-urdf NAME --out FILE [--mount-height M] [--robot-yaml FILE ...]
+    momakitchen robots export-yaml NAME --out DIR [--as NEW_NAME] [--robot-yaml FILE ...]
 
 ``--robot-yaml`` (repeatable) registers user robots (URDF + YAML, see
 ``momakitchen.robots.user``) before the command runs, here as on every command that takes
@@ -24,7 +25,8 @@ def add_parser(subparsers) -> None:
     parser = subparsers.add_parser(
         "robots",
         help="list robots (reach, mount height, DoF, end-effector) or export a URDF",
-        description="List the registered robots, or export one robot's URDF.",
+        description="List the registered robots, or export one robot's URDF or its "
+        "user-robot files (URDF + YAML).",
     )
     parser.add_argument("--json", action="store_true", help="print JSON instead of a table")
     add_robot_yaml(parser)
@@ -50,6 +52,23 @@ def add_parser(subparsers) -> None:
         help="mount the arm this high (m; default: the robot's own; any height of 0.3-1.3)",
     )
     add_robot_yaml(export, dest="robot_yaml_sub")
+    copy = sub.add_parser(
+        "export-yaml",
+        help="write a robot as a user robot's files (arm + tool URDF, YAML)",
+        description="Write DIR/NEW_NAME.urdf (the arm and its tool, no base) and "
+        "DIR/NEW_NAME.yaml: registered with --robot-yaml, the copy is the same robot "
+        "under a new name, with the same model input. A start for your own robot's files.",
+    )
+    copy.add_argument("name", help="robot name (see `momakitchen robots`)")
+    copy.add_argument("--out", required=True, metavar="DIR", help="existing directory")
+    copy.add_argument(
+        "--as",
+        dest="as_name",
+        default=None,
+        metavar="NEW_NAME",
+        help="the copy's name, a lower-case identifier (default: my_NAME)",
+    )
+    add_robot_yaml(copy, dest="robot_yaml_sub")
 
 
 def robot_rows() -> list[dict]:
@@ -90,6 +109,8 @@ def run(args: argparse.Namespace) -> int:
     # The --robot-yaml files (of either level) are registered by the entry point.
     if args.robots_command == "export-urdf":
         return _export(args)
+    if args.robots_command == "export-yaml":
+        return _export_yaml(args)
     rows = robot_rows()
     if args.json:
         print(dumps_strict(rows, indent=2))
@@ -145,4 +166,13 @@ def _export(args: argparse.Namespace) -> int:
         raise MomaError(f"cannot write {str(out)!r}: {exc.strerror}") from None
     at = "" if args.mount_height is None else f", arm at {args.mount_height:g} m"
     print(f"wrote {out} ({args.name}: mobile base + arm + end-effector{at})")
+    return 0
+
+
+def _export_yaml(args: argparse.Namespace) -> int:
+    from momakitchen.robots.export import export_user_robot
+
+    path = export_user_robot(args.name, args.out, args.as_name)
+    print(f"wrote {path} and {path.with_suffix('.urdf')} ({args.name} as a user robot)")
+    print(f"register it with: --robot-yaml {path}")
     return 0

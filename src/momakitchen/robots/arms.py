@@ -119,6 +119,7 @@ class ShippedArm:
             ``None`` keeps every link.
         limits: joint name -> (lower, upper) replacing the file's limits (published limits).
         drop_mimic: remove ``<mimic>`` tags (PyBullet ignores them; fingers are driven).
+        mount_yaw: rotation of ``root_link`` about the vertical on the mobile base, radians.
     """
 
     urdf: Path
@@ -127,6 +128,7 @@ class ShippedArm:
     keep_links: tuple[str, ...] | None = None
     limits: tuple[tuple[str, float, float], ...] = ()
     drop_mimic: bool = True
+    mount_yaw: float = 0.0
 
 
 @dataclass(frozen=True)

@@ -42,7 +42,7 @@ def _yaw_quaternion(yaw: float) -> tuple[float, float, float, float]:
     return (0.0, 0.0, math.sin(yaw / 2), math.cos(yaw / 2))
 
 
-def _finger_joint_names(ee: EndEffector) -> tuple[str, ...]:
+def finger_joint_names(ee: EndEffector) -> tuple[str, ...]:
     """The finger joints an end-effector drives (empty for a suction cup)."""
     if isinstance(ee, ParallelGripper):
         return ee.existing_fingers or FINGER_JOINTS
@@ -120,7 +120,7 @@ class RobotBody:
         link_index[BASE_LINK] = -1
         self._link_index = link_index
         ee = self.model.end_effector
-        fingers = _finger_joint_names(ee)
+        fingers = finger_joint_names(ee)
         jidx = {name: j for j, name in enumerate(self.joint_name_list)}
         missing = [f for f in fingers if f not in jidx]
         if missing:
@@ -158,11 +158,11 @@ class RobotBody:
         if home.shape != (self.spec.dof,):
             raise MomaError(f"robot {self.name!r}: home needs {self.spec.dof} values")
         self.home = np.clip(home, self.lower, self.upper)
-        # Flange: the model's flange link (shipped arm), "flange" (built arm), else the TCP.
-        if isinstance(self.model.arm, ShippedArm) and not isinstance(ee, UserTool):
+        # Flange: the model's flange link (a shipped arm's, a user's), or "flange" (built).
+        if isinstance(self.model.arm, ShippedArm):
             self.flange_link = link_index[self.model.arm.flange_link]
         else:
-            self.flange_link = link_index.get("flange", self.tcp_link)
+            self.flange_link = link_index["flange"]
         # Shoulder: the frame of the second arm joint (where reach is measured from).
         self.shoulder_link = self.arm_joints[1]
         # End-effector links: everything below the last arm joint's link (tool contacts

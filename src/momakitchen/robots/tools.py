@@ -18,7 +18,7 @@ from momakitchen.bullet import p
 from momakitchen.errors import MomaError
 from momakitchen.robots.arms import SuctionCup, UserTool
 from momakitchen.robots.body import RobotBody
-from momakitchen.robots.urdf import CUP_HEIGHT, SUCTION_LINK
+from momakitchen.robots.urdf import CUP_HEIGHT, SUCTION_LINK, TCP_LINK
 
 
 class ParallelGripperTool:
@@ -277,12 +277,12 @@ def cup_link(robot: RobotBody) -> int:
     frame that has collision geometry. A ROS-style TCP frame (``tool0``) has none, and
     PyBullet finds no contact on a link without geometry: such a cup would never attach."""
     c = robot.client
-    link = robot._parent[robot.tcp_link]
+    link = robot.tcp_link
     while link >= 0 and not p.getCollisionShapeData(robot.body, link, physicsClientId=c):
         link = robot._parent[link]
     if link < 0:
         raise MomaError(
             f"robot {robot.name!r}: no link with collision geometry carries the suction TCP "
-            f"{robot.link_names[robot._parent[robot.tcp_link]]!r}"
+            f"{getattr(robot.model.end_effector, 'tcp_link', TCP_LINK)!r}"
         )
     return link

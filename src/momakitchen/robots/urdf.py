@@ -326,12 +326,14 @@ def embed_urdf(
     keep_links=None,
     limits=(),
     drop_mimic: bool = True,
+    mount_yaw: float = 0.0,
 ) -> None:
     """Copy the links and joints of ``src`` under ``root_link`` into ``robot``.
 
     Mesh paths become absolute, ``<mimic>`` tags are dropped (PyBullet ignores them; the
     fingers are driven one by one), ``limits`` ((joint, lower, upper) triples) replace
-    the file's, and ``root_link`` is attached to ``mount_parent`` with a fixed joint.
+    the file's, and ``root_link`` is attached to ``mount_parent`` with a fixed joint,
+    turned ``mount_yaw`` radians about the vertical.
     """
     names = {link.get("name") for link in src.findall("link")}
     if root_link not in names:
@@ -343,8 +345,12 @@ def embed_urdf(
     clash = keep & taken
     if clash:
         raise MomaError(f"URDF link names clash with the mobile base: {sorted(clash)}")
+    # A material the base already defines (a URDF exported from a built robot carries
+    # them) is not defined twice.
+    materials = {mat.get("name") for mat in robot.findall("material")}
     for mat in src.findall("material"):
-        robot.append(mat)
+        if mat.get("name") not in materials:
+            robot.append(mat)
     for link in src.findall("link"):
         if link.get("name") not in keep:
             continue
@@ -368,7 +374,7 @@ def embed_urdf(
             lim.set("lower", f"{lo:.9g}")
             lim.set("upper", f"{hi:.9g}")
         robot.append(joint)
-    _joint(robot, "mount_joint", "fixed", mount_parent, root_link, mount_xyz)
+    _joint(robot, "mount_joint", "fixed", mount_parent, root_link, mount_xyz, (0, 0, mount_yaw))
 
 
 def _shipped_arm(robot: ET.Element, arm: ShippedArm, mount_parent: str, mount_xyz) -> str:
@@ -383,6 +389,7 @@ def _shipped_arm(robot: ET.Element, arm: ShippedArm, mount_parent: str, mount_xy
         keep_links=arm.keep_links,
         limits=arm.limits,
         drop_mimic=arm.drop_mimic,
+        mount_yaw=arm.mount_yaw,
     )
     return arm.flange_link
 
@@ -523,10 +530,12 @@ def build_urdf(spec: RobotSpec, mount_height: float | None = None) -> str:
     else:
         flange = _shipped_arm(robot, model.arm, BASE_LINK, mount)
     if isinstance(model.end_effector, UserTool):
-        # The user's URDF carries its tool: only name its TCP frame uniformly.
-        link = ET.SubElement(robot, "link", name=TCP_LINK)
-        _inertial(link, 0.001, inertia=1e-6)
-        _joint(robot, "tcp_joint", "fixed", model.end_effector.tcp_link, TCP_LINK)
+        # The user's URDF carries its tool: only name its TCP frame uniformly (a URDF
+        # exported from a built robot, robots/export.py, has it named already).
+        if model.end_effector.tcp_link != TCP_LINK:
+            link = ET.SubElement(robot, "link", name=TCP_LINK)
+            _inertial(link, 0.001, inertia=1e-6)
+            _joint(robot, "tcp_joint", "fixed", model.end_effector.tcp_link, TCP_LINK)
     elif isinstance(model.end_effector, SuctionCup):
         _suction(robot, model.end_effector, flange)
     else:

@@ -14,6 +14,9 @@ Example ``myarm.yaml`` (paths relative to the YAML file)::
     home: [0, -1.0, 1.2, 0, 0.5, 0]  # rest configuration (IK seed), one value per joint
     footprint: [0.55, 0.45]        # base length and width in metres
     mount_offset_x: 0.0            # arm mount position along the base's x axis
+    mount_yaw: 0.0                 # the arm's rotation on the base about the vertical, rad
+    flange_link: tool_flange       # the wrist's flange (reach checks); default: a link
+                                   # named "flange", else end_effector_link
     finger_force: 40.0             # closing force per finger, N (grippers; default 40)
 
 The YAML file may be at most :data:`MAX_YAML_BYTES` (1 MB): its fields are a few lines,
@@ -85,6 +88,8 @@ _OPTIONAL: dict[str, type] = {
     "home": list,
     "footprint": list,
     "mount_offset_x": float,
+    "mount_yaw": float,
+    "flange_link": str,
     "finger_force": float,
 }
 _LOADED: dict[str, str] = {}  # resolved YAML path -> robot name
@@ -139,6 +144,10 @@ class UserRobotConfig:
         home: rest configuration, or empty for mid-range.
         footprint: base (length, width) in metres.
         mount_offset_x: arm mount position along the base's x axis, metres.
+        mount_yaw: rotation of the URDF's root link about the vertical on the base, radians
+            in [-2 pi, 2 pi] (turns an arm whose joint 1 at 0 points backwards forward).
+        flange_link: the link whose frame is the wrist's flange (IK's reach pre-check), or
+            "" for the default (a link named ``flange``, else ``end_effector_link``).
         finger_force: closing force per finger of a gripper, N (in
             ``grip.FORCE_RANGE``; it decides e.g. whether a fridge door opens), or None
             for the default (``DEFAULT_FINGER_FORCE``); grippers only.
@@ -156,6 +165,8 @@ class UserRobotConfig:
     home: tuple[float, ...] = ()
     footprint: tuple[float, float] = (0.55, 0.45)
     mount_offset_x: float = 0.0
+    mount_yaw: float = 0.0
+    flange_link: str = ""
     finger_force: float | None = None
     source: str = ""
 
@@ -175,6 +186,10 @@ class UserRobotConfig:
             problem = mount_range_problem(self.mount_range)
         if problem:
             raise MomaError(f"{where}: {problem}")
+        if not abs(self.mount_yaw) <= 2 * math.pi:
+            raise MomaError(
+                f"{where}: mount_yaw must be in [-2 pi, 2 pi] rad, got {self.mount_yaw}"
+            )
         if self.finger_force is not None:
             lo, hi = FORCE_RANGE
             if self.end_effector == "suction":
@@ -402,13 +417,18 @@ def _model(cfg: UserRobotConfig) -> tuple[RobotModel, int]:
     root = parse_urdf(cfg.urdf)
     where = str(cfg.urdf)
     links = [link.get("name", "") for link in root.findall("link")]
-    _unique_names("link", links, (BASE_LINK, TCP_LINK), where)
-    if cfg.end_effector_link not in links:
-        raise MomaError(
-            f"URDF file {where!r}: no link {cfg.end_effector_link!r} "
-            f"(end_effector_link in {cfg.source}); "
-            + _listing(links, cfg.end_effector_link, "links")
-        )
+    # A URDF exported from a built robot (robots/export.py) names its TCP frame "tcp":
+    # as the end_effector_link it is the TCP itself, and the build adds none above it.
+    reserved = (BASE_LINK,) if cfg.end_effector_link == TCP_LINK else (BASE_LINK, TCP_LINK)
+    _unique_names("link", links, reserved, where)
+    for key in ("end_effector_link", "flange_link"):
+        link = getattr(cfg, key)
+        if link and link not in links:
+            raise MomaError(
+                f"URDF file {where!r}: no link {link!r} ({key} in {cfg.source}); "
+                + _listing(links, link, "links")
+            )
+    flange = cfg.flange_link or ("flange" if "flange" in links else cfg.end_effector_link)
     joints = root.findall("joint")
     _unique_names("joint", [j.get("name", "") for j in joints], RESERVED_JOINTS, where)
     children = _parent_joints(joints, where)
@@ -480,7 +500,12 @@ def _model(cfg: UserRobotConfig) -> tuple[RobotModel, int]:
     if problem:
         raise MomaError(f"{cfg.source}: {problem}")
     model = RobotModel(
-        ShippedArm(urdf=cfg.urdf, root_link=roots[0], flange_link=cfg.end_effector_link),
+        ShippedArm(
+            urdf=cfg.urdf,
+            root_link=roots[0],
+            flange_link=flange,
+            mount_yaw=cfg.mount_yaw,
+        ),
         UserTool(
             cfg.end_effector,
             cfg.end_effector_link,
