@@ -24,6 +24,7 @@ OPTIONS = {
     "target": {"target_points": 6},
     "robot_head": {"robot_head": True},
     "reach": {"reach_input": True},
+    "reach8": {"reach_input": True, "reach_points": 8},
 }
 VARIANTS = [*sorted(EXPECTED), *(f"navaff+{o}" for o in OPTIONS)]
 

@@ -10,7 +10,7 @@ from momakitchen.data.batch import collate_episodes
 from momakitchen.data.synthetic import SyntheticConfig, SyntheticEpisodes
 from momakitchen.errors import MomaError
 from momakitchen.models import ModelConfig, build_model
-from momakitchen.models.reach_input import REACH_CHANNELS, floor_reach
+from momakitchen.models.reach_input import REACH_CHANNELS, floor_reach, target_points
 from momakitchen.sim.reachability import ReachabilityMap
 from momakitchen.train.checkpoint import load_weights, save_weights
 
@@ -85,6 +85,33 @@ def test_the_option_is_validated_and_left_out_of_older_configs():
     assert "reach_input" not in ModelConfig().to_dict()  # older runs' configs keep their bytes
     assert ModelConfig.from_dict({}).reach_input is False
     assert ModelConfig.from_dict({"reach_input": True}).to_dict()["reach_input"] is True
+    with pytest.raises(MomaError, match=r"reach_points must be an integer in \[1, 64\], got 0"):
+        ModelConfig(reach_points=0)
+    assert "reach_points" not in ModelConfig(reach_input=True).to_dict()
+
+
+def test_several_target_points_give_each_channels_best():
+    # A door's panel: the handle end (y = 0.35) is in reach from where its centre is not.
+    points = np.array([[0.0, y, 0.5] for y in (-0.35, 0.0, 0.35)])
+    floor = np.array([[-0.5, 0.55, 0.0], [-0.5, 0.0, 0.0], [-3.0, 0.0, 0.0]])
+    each = [floor_reach("elephant", 1.03, t, floor) for t in points]
+    best = floor_reach("elephant", 1.03, points, floor)
+    np.testing.assert_array_equal(best, np.max(each, axis=0))
+    np.testing.assert_array_equal(floor_reach("elephant", 1.03, points[1:2], floor), each[1])
+    assert best[0, 2] > each[1][0, 2]  # the handle end counts
+    assert best[2, 2] == 0.0  # 3 m away, no point of it is in reach
+
+
+def test_target_points_spread_over_the_flagged_points():
+    xyz = torch.arange(30, dtype=torch.float32).reshape(1, 10, 3)
+    align = torch.tensor([[0, 1, 1, 0, 1, 1, 1, 0, 1, 0]], dtype=torch.float32)
+    mask = torch.ones(1, 10, dtype=torch.bool)
+    centroid = torch.zeros(1, 3)
+    picked = target_points(xyz, align, mask, centroid, 3)
+    assert picked.shape == (1, 3, 3)
+    assert picked[0, :, 0].tolist() == [3.0, 12.0, 24.0]  # first, middle, last of six
+    few = target_points(xyz, align, mask, centroid, 8)  # fewer than 8 flagged: the centroid
+    assert torch.equal(few, torch.zeros(1, 8, 3))
 
 
 def test_hidden_descriptor_columns_are_not_read_but_the_mount_still_places_the_arm(batch):

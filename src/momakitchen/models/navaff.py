@@ -49,7 +49,7 @@ from momakitchen.models.pointnet2 import (
     interpolation_geometry,
     masked_max,
 )
-from momakitchen.models.reach_input import REACH_CHANNELS, batch_floor_reach
+from momakitchen.models.reach_input import REACH_CHANNELS, batch_floor_reach, target_points
 from momakitchen.robots.spec import DESCRIPTOR_DIM
 
 
@@ -254,6 +254,7 @@ class NavAffBackbone(Backbone):
         self.relative_dropout = cfg.relative_dropout
         # The reachability is of the target: it needs the alignment channel to find it.
         self.reach_input = cfg.reach_input and self.relative
+        self.reach_points = cfg.reach_points
         pos_ch = floor_channels(cfg.pos_freqs, self.relative)
         # Where the reachability channels start in the floor features (the last ones).
         self.reach_offset = pos_ch
@@ -364,8 +365,17 @@ class NavAffBackbone(Backbone):
             assert target is not None
             names = batch.get("robot_name", [])
             mount = batch.get("robot_mount", batch["robot"][:, 1])
-            reach = batch_floor_reach(names, mount, target, fxyz)
-            creach = reach if cxyz is fxyz else batch_floor_reach(names, mount, target, cxyz)
+            at = target
+            if self.reach_points > 1:
+                at = target_points(
+                    batch["global_xyz"],
+                    batch["global_align"],
+                    batch["global_mask"],
+                    target,
+                    self.reach_points,
+                )
+            reach = batch_floor_reach(names, mount, at, fxyz)
+            creach = reach if cxyz is fxyz else batch_floor_reach(names, mount, at, cxyz)
             fpos, cpos = torch.cat([fpos, reach], -1), torch.cat([cpos, creach], -1)
         x1, f1, m1 = self.floor_sa1(cxyz, cpos, cmask, plan["floor.sa1"])
         if self.target_points:

@@ -4,7 +4,9 @@ A model with ``ModelConfig.reach_input`` reads, beside each floor point's positi
 the robot's own arm can do from there: the inverse-reachability map of the placement
 stage (:class:`~momakitchen.sim.reachability.ReachabilityMap`, sampled from the
 robot's URDF and YAML, the same definition ``--method reachability`` places bases by)
-queried at the target's centroid, for a base standing on the point and facing the target.
+queried at the target's centroid (or, with ``ModelConfig.reach_points`` K > 1, at K of
+its visible points, each channel the best of them), for a base standing on the point and
+facing the target.
 A user's robot and a built-in get their input from one definition, their URDF and mount:
 nothing about a robot is a number the model learnt for that robot's name.
 
@@ -47,13 +49,17 @@ def floor_reach(
 
     Shapes:
         - ``target_xyz``: (3,) the target in the robot base frame of the view (z = 0 on
-          the floor); ``floor_xyz``: (N, 3) floor points in that frame
+          the floor), or (K, 3) K of its points (each channel: the best of them);
+          ``floor_xyz``: (N, 3) floor points in that frame
         - output: (N, REACH_CHANNELS) float32
     """
     mount = round(round(float(mount_height) / MOUNT_STEP) * MOUNT_STEP, 6)
     rmap = ReachabilityMap.for_robot(robot, mount)
     xy = np.asarray(floor_xyz, np.float64).reshape(-1, 3)[:, :2]
-    target = np.asarray(target_xyz, np.float64).reshape(3)
+    targets = np.asarray(target_xyz, np.float64).reshape(-1, 3)
+    k, n = len(targets), len(xy)
+    # Every (target point, floor point) pair at once: K blocks of the N floor points.
+    xy, target = np.tile(xy, (k, 1)), np.repeat(targets, n, axis=0)
     horizontal = rmap.tcp_coordinates(xy, target, None)
     side = rmap.signed_distance(*horizontal)
     down = rmap.signed_distance(*rmap.tcp_coordinates(xy, target, _DOWN))
@@ -62,17 +68,39 @@ def floor_reach(
         [np.clip(side / REACH_SCALE, -1.0, 1.0), np.clip(down / REACH_SCALE, -1.0, 1.0), index],
         axis=-1,
     )
-    return out.astype(np.float32)
+    return out.reshape(k, n, REACH_CHANNELS).max(axis=0).astype(np.float32)
+
+
+def target_points(
+    xyz: torch.Tensor, align: torch.Tensor, mask: torch.Tensor, centroid: torch.Tensor, k: int
+) -> torch.Tensor:
+    """``k`` of each episode's target points (alignment +1, real), evenly spaced in the
+    cloud's order (which the preprocessing draws over the whole view, so they spread over
+    the target); the centroid repeated where an episode shows fewer than ``k``.
+
+    Shapes:
+        - ``xyz``: (B, N, 3), ``align``: (B, N), ``mask``: (B, N) bool, ``centroid``: (B, 3)
+        - output: (B, k, 3)
+    """
+    out = centroid.unsqueeze(1).repeat(1, k, 1)
+    flags = ((align > 0.5) & mask).detach().cpu()
+    for i in range(xyz.shape[0]):
+        idx = torch.nonzero(flags[i]).flatten()
+        if len(idx) >= k:
+            pick = idx[torch.linspace(0, len(idx) - 1, k).round().long()]
+            out[i] = xyz[i, pick.to(xyz.device)]
+    return out
 
 
 def batch_floor_reach(
     robots: Sequence[str], mount: torch.Tensor, target: torch.Tensor, floor_xyz: torch.Tensor
 ) -> torch.Tensor:
     """:func:`floor_reach` for a batch: each episode's robot by name (``robot_name``, a
-    registered robot) at its mount height (its descriptor's ``mount_height_m``).
+    registered robot) at its mount height (its descriptor's ``mount_height_m``); with K
+    target points per episode, each channel's maximum over them.
 
     Shapes:
-        - ``robots``: B names; ``mount``: (B,) metres; ``target``: (B, 3);
+        - ``robots``: B names; ``mount``: (B,) metres; ``target``: (B, 3) or (B, K, 3);
           ``floor_xyz``: (B, N, 3)
         - output: (B, N, REACH_CHANNELS), ``floor_xyz``'s dtype and device
     """
@@ -83,6 +111,8 @@ def batch_floor_reach(
         )
     mounts = mount.detach().cpu().double().numpy()
     targets = target.detach().cpu().double().numpy()
+    if targets.ndim == 2:
+        targets = targets[:, None]
     points = floor_xyz.detach().cpu().double().numpy()
     out = np.zeros((*points.shape[:2], REACH_CHANNELS), np.float32)
     for i, name in enumerate(robots):

@@ -195,19 +195,22 @@ class ReachabilityMap:
         target: ``(rho, z, psi, pitch)`` as :meth:`signed_distance` takes them.
 
         Shapes:
-            - ``base_xy``: (N, 2) floor positions; ``target_xyz``: (3,), in the same
-              frame (z up, z = 0 on the floor); ``approach``: (3,) the TCP's approach
+            - ``base_xy``: (N, 2) floor positions; ``target_xyz``: (3,), or (N, 3) one
+              per base, in the same frame (z up, z = 0 on the floor); ``approach``: (3,)
+              the TCP's approach
               direction (towards the target) in that frame, or None: horizontal, from
               each base straight towards the target
             - output: four (N,) arrays
         """
         b = np.asarray(base_xy, np.float64).reshape(-1, 2)
-        t = np.asarray(target_xyz, np.float64).reshape(3)
-        to = t[:2] - b
+        t = np.asarray(target_xyz, np.float64).reshape(-1, 3)
+        if len(t) not in (1, len(b)):
+            raise MomaError(f"tcp_coordinates: {len(b)} bases but {len(t)} targets")
+        to = t[:, :2] - b
         dist = np.hypot(to[:, 0], to[:, 1])
         u = np.where(dist[:, None] > 1e-9, to / np.maximum(dist, 1e-9)[:, None], [1.0, 0.0])
         side = np.column_stack([-u[:, 1], u[:, 0]])
-        v = t[:2] - (b + self.axis_xy[0] * u + self.axis_xy[1] * side)
+        v = t[:, :2] - (b + self.axis_xy[0] * u + self.axis_xy[1] * side)
         rho = np.hypot(v[:, 0], v[:, 1])
         e_r = np.where(rho[:, None] > 1e-9, v / np.maximum(rho, 1e-9)[:, None], u)
         if approach is None:
@@ -217,7 +220,7 @@ class ReachabilityMap:
         a_r = a[:, 0] * e_r[:, 0] + a[:, 1] * e_r[:, 1]
         a_t = -a[:, 0] * e_r[:, 1] + a[:, 1] * e_r[:, 0]
         pitch = np.degrees(np.arcsin(np.clip(-a[:, 2], -1.0, 1.0)))
-        return rho, np.full(len(b), t[2]), np.arctan2(a_t, a_r), pitch
+        return rho, np.broadcast_to(t[:, 2], len(b)).copy(), np.arctan2(a_t, a_r), pitch
 
     def reachable_from(
         self, base_xy: ArrayLike, target_xyz: ArrayLike, approach: ArrayLike | None = None
