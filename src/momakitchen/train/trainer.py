@@ -324,11 +324,13 @@ def _initial_run(config: TrainConfig) -> tuple[Path, int, bool]:
     version = config.model_config.descriptor_version
     reach = config.model_config.reach_input
     widen_reach = reach and not other.model_config.reach_input
-    # Which descriptor columns a model reads changes no weight's shape.
+    # Which descriptor columns a model reads, and at how many target points it reads the
+    # reachability, change no weight's shape.
     sizes = replace(
         other.model_config,
         descriptor_version=version,
         reach_input=other.model_config.reach_input or widen_reach,
+        reach_points=config.model_config.reach_points,
         hidden_descriptor=config.model_config.hidden_descriptor,
     )
     if other.model != config.model or sizes != config.model_config:
