@@ -21,7 +21,7 @@ from momakitchen.fileio import atomic_write_text
 from momakitchen.robots.arms import ShippedArm
 from momakitchen.robots.body import finger_joint_names
 from momakitchen.robots.spec import finger_force, get_robot_spec
-from momakitchen.robots.urdf import TCP_LINK, build_urdf, link_of
+from momakitchen.robots.urdf import TCP_LINK, build_urdf, link_of, subtree
 
 # The TCP joint's name is reserved in a user's URDF (the loader adds one above a TCP link
 # named otherwise); its link keeps the name "tcp", which the loader then takes as the TCP
@@ -38,15 +38,7 @@ def arm_urdf(name: str) -> str:
     mount = [j for j in joints if j.get("name") == "mount_joint"]
     if len(mount) != 1:
         raise MomaError(f"robot {name!r}: its URDF has no single mount_joint")
-    root = link_of(mount[0], "child")
-    children: dict[str, list[str]] = {}
-    for joint in joints:
-        children.setdefault(link_of(joint, "parent"), []).append(link_of(joint, "child"))
-    keep, stack = set(), [root]
-    while stack:
-        link = stack.pop()
-        keep.add(link)
-        stack.extend(children.get(link, []))
+    keep = subtree(full, link_of(mount[0], "child"))
     out = ET.Element("robot", name=name)
     for element in full:
         if element.tag == "material":
@@ -54,8 +46,8 @@ def arm_urdf(name: str) -> str:
         elif element.tag == "link" and element.get("name") in keep:
             out.append(element)
         elif element.tag == "joint" and link_of(element, "parent") in keep:
-            name = element.get("name", "")
-            element.set("name", _RENAMED_JOINTS.get(name, name))
+            joint = element.get("name", "")
+            element.set("name", _RENAMED_JOINTS.get(joint, joint))
             out.append(element)
     ET.indent(out)
     return '<?xml version="1.0"?>\n' + ET.tostring(out, encoding="unicode") + "\n"

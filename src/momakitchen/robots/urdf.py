@@ -303,7 +303,8 @@ def parse_urdf(path: Path) -> ET.Element:
     return root
 
 
-def _subtree(root: ET.Element, start: str) -> set[str]:
+def subtree(root: ET.Element, start: str) -> set[str]:
+    """The names of link ``start`` and of every link below it in URDF ``root``."""
     children: dict[str, list[str]] = {}
     for joint in root.findall("joint"):
         children.setdefault(link_of(joint, "parent"), []).append(link_of(joint, "child"))
@@ -338,7 +339,7 @@ def embed_urdf(
     names = {link.get("name") for link in src.findall("link")}
     if root_link not in names:
         raise MomaError(f"URDF has no link {root_link!r}")
-    keep = _subtree(src, root_link)
+    keep = subtree(src, root_link)
     if keep_links is not None:
         keep &= set(keep_links)
     taken = {el.get("name") for el in robot.findall("link")}
