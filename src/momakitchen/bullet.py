@@ -3,7 +3,9 @@
 PyBullet's C code prints a build banner when it is imported and may print more when a
 client connects; it would turn the CLI's one-line errors into two lines. The package
 imports PyBullet through this module (see ``momakitchen/__init__.py``) and creates clients
-with :func:`connect_direct`, both with C-level stdout and stderr muted.
+with :func:`connect_direct`, both with C-level stdout and stderr muted; robots load through
+:func:`muted` too (a user's URDF without inertials draws a warning per link, which would
+land in the middle of ``robots --json``).
 """
 
 from __future__ import annotations
@@ -18,16 +20,21 @@ from typing import TypeVar
 T = TypeVar("T")
 
 
-def _muted(fn: Callable[[], T]) -> T:
+def muted(fn: Callable[[], T]) -> T:
     """Call ``fn`` with file descriptors 1 and 2 sent to /dev/null (C output included)."""
-    fds = []
     for stream in (sys.stdout, sys.stderr):
         try:
             stream.flush()
-            fds.append(stream.fileno())
         except (AttributeError, OSError, ValueError):  # not a real file (e.g. captured)
             continue
-    saved = [os.dup(fd) for fd in fds]
+    # C code writes to the process's descriptors 1 and 2, whatever sys.stdout is.
+    fds, saved = [], []
+    for fd in (1, 2):
+        try:
+            saved.append(os.dup(fd))
+            fds.append(fd)
+        except OSError:  # closed
+            continue
     try:
         with open(os.devnull, "w") as null:
             for fd in fds:
@@ -41,9 +48,9 @@ def _muted(fn: Callable[[], T]) -> T:
     return result
 
 
-p = _muted(lambda: importlib.import_module("pybullet"))
+p = muted(lambda: importlib.import_module("pybullet"))
 
 
 def connect_direct() -> int:
     """A new headless (DIRECT) PyBullet client id."""
-    return _muted(lambda: p.connect(p.DIRECT))
+    return muted(lambda: p.connect(p.DIRECT))

@@ -134,6 +134,57 @@ def test_user_robot_yaml_option(tmp_path, capsys, cleanup):
         p.disconnect(client)
 
 
+def test_json_stays_json_when_a_user_urdf_draws_pybullet_warnings(tmp_path, capfd, cleanup):
+    # A bare TCP frame (no <inertial>) makes PyBullet's C code print a warning to the
+    # process's stdout each time the robot loads, as registration does.
+    urdf = tmp_path / "kuka_tool.urdf"
+    urdf.write_text(
+        KUKA.read_text()
+        .replace('filename="meshes/', f'filename="{KUKA.parent}/meshes/')
+        .replace(
+            "</robot>",
+            '<link name="tool0"/><joint name="tool0_joint" type="fixed">'
+            '<parent link="lbr_iiwa_link_7"/><child link="tool0"/>'
+            '<origin xyz="0 0 0.05"/></joint></robot>',
+        )
+    )
+    cleanup.append("kuka_tool")
+    path = tmp_path / "kuka_tool.yaml"
+    path.write_text(
+        f"name: kuka_tool\nurdf: {urdf}\nmount_height: 0.9\nend_effector_link: tool0\n"
+        "end_effector: suction\nreach: 0.8\n"
+    )
+    assert main(["robots", "--json", "--robot-yaml", str(path)]) == 0
+    rows = {r["name"]: r for r in json.loads(capfd.readouterr().out)}
+    assert rows["kuka_tool"]["reach_m"] == 0.8
+
+
+def test_export_yaml_writes_a_copy_that_registers(tmp_path, capsys, cleanup):
+    assert main(["robots", "export-yaml", "realman", "--out", str(tmp_path), "--as", "rm2"]) == 0
+    out = capsys.readouterr().out
+    assert "rm2.yaml" in out and "--robot-yaml" in out
+    cleanup.append("rm2")
+    assert main(["robots", "--json", "--robot-yaml", str(tmp_path / "rm2.yaml")]) == 0
+    rows = {r["name"]: r for r in json.loads(capsys.readouterr().out)}
+    assert rows["rm2"]["descriptor"] == rows["realman"]["descriptor"]
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["nope", "--out", "{tmp}"], "unknown robot 'nope'"),
+        (["panda", "--out", "{tmp}/missing"], "does not exist"),
+        (["panda", "--out", "{tmp}", "--as", "Panda-2"], "lower-case identifier, got 'Panda-2'"),
+    ],
+)
+def test_export_yaml_bad_input_is_one_line_exit_2(tmp_path, capsys, argv, message):
+    argv = [a.replace("{tmp}", str(tmp_path)) for a in argv]
+    assert main(["robots", "export-yaml", *argv]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and message in err
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_user_robot_env_var(tmp_path, capsys, cleanup, monkeypatch):
     cleanup.append("kuka_env")
     monkeypatch.setenv(ENV_VAR, str(kuka_yaml(tmp_path, "kuka_env", reach=0.8)))

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from momakitchen.bullet import p
+from momakitchen.bullet import muted, p
 from momakitchen.errors import MomaError
 from momakitchen.robots.arms import EndEffector, ParallelGripper, RobotModel, ShippedArm, UserTool
 from momakitchen.robots.spec import RobotSpec, get_robot_spec
@@ -103,7 +103,9 @@ class RobotBody:
     # ---------------------------------------------------------------- structure
     def _load(self, path) -> int:
         try:
-            return p.loadURDF(str(path), useFixedBase=True, physicsClientId=self.client)
+            return muted(
+                lambda: p.loadURDF(str(path), useFixedBase=True, physicsClientId=self.client)
+            )
         except p.error as exc:
             raise MomaError(
                 f"robot {self.name!r}: PyBullet cannot load {str(path)!r}: {exc}"
