@@ -135,3 +135,22 @@ def test_hidden_descriptor_columns_are_not_read_but_the_mount_still_places_the_a
         assert not torch.allclose(model({**batch, "robot": other_mount})["pred"], base)
     with pytest.raises(MomaError, match=r"hidden_descriptor must name distinct columns"):
         ModelConfig(hidden_descriptor=("reach",))
+
+
+@pytest.mark.parametrize("name", ["navaff", "pointnet2"])
+def test_the_reach_gate_scales_any_models_prediction_by_the_arms_reach(name, batch):
+    from momakitchen.models.config import TINY_MODEL
+    from momakitchen.models.reach_input import reach_gate
+
+    torch.manual_seed(0)
+    plain = build_model(name, TINY_MODEL).eval()
+    gated = build_model(name, dataclasses.replace(TINY_MODEL, reach_gate=0.03)).eval()
+    gated.load_state_dict(plain.state_dict())  # the gate has no weights
+    with torch.no_grad():
+        gate = reach_gate(batch, 0.03, 1)
+        assert gate.shape == batch["floor_mask"].shape
+        assert 0.0 < float(gate.min()) < 0.05 and float(gate.max()) > 0.95
+        torch.testing.assert_close(gated(batch)["pred"], plain(batch)["pred"] * gate)
+    with pytest.raises(MomaError, match=r"reach_gate must be in \[0, 1\] m"):
+        ModelConfig(reach_gate=-0.1)
+    assert "reach_gate" not in ModelConfig().to_dict()

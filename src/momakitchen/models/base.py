@@ -12,6 +12,7 @@ from torch import nn
 from momakitchen.models.config import ModelConfig
 from momakitchen.models.loss import WeightedMSELoss
 from momakitchen.models.pointnet2 import Plan, PointMLP
+from momakitchen.models.reach_input import reach_gate
 from momakitchen.robots.spec import DESCRIPTOR_DIM
 
 # Initial value of every prediction (a typical mean label is a few per cent).
@@ -161,7 +162,7 @@ class AffordanceModel(nn.Module):
     def forward(self, batch: dict[str, Any]) -> dict[str, torch.Tensor]:
         batch = self.visible(batch)
         feats = self.backbone(batch)
-        pred = self.head(feats, batch["robot"]) * batch["floor_mask"].to(feats.dtype)
+        pred = self.head(feats, batch["robot"]) * self._keep(batch, feats.dtype)
         out = {"pred": pred}
         if "floor_label" in batch:
             out.update(self.criterion(pred, batch["floor_label"], batch["floor_mask"]))
@@ -183,9 +184,18 @@ class AffordanceModel(nn.Module):
             copies = {k: v.expand(samples, *v.shape[1:]).contiguous() for k, v in ctx.items()}
             feats = self.backbone.decode(copies)
             robot = batch["robot"].expand(samples, -1)
-            return self.head(feats, robot) * batch["floor_mask"].to(feats.dtype)
+            return self.head(feats, robot) * self._keep(batch, feats.dtype)
         finally:
             self.train(was_training)
+
+    def _keep(self, batch: dict[str, Any], dtype: torch.dtype) -> torch.Tensor:
+        """What of each prediction stands: 0 on padded floor points, else 1 or, with
+        ``ModelConfig.reach_gate``, the robot's reachability gate. Shapes: (B, Nf)."""
+        keep = batch["floor_mask"].to(dtype)
+        if self.config.reach_gate > 0:
+            gate = reach_gate(batch, self.config.reach_gate, self.config.reach_points)
+            keep = keep * gate.to(dtype)
+        return keep
 
 
 def num_parameters(model: nn.Module) -> int:

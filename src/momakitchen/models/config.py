@@ -57,11 +57,16 @@ class ModelConfig:
             of the target from there (:mod:`momakitchen.models.reach_input`, from the
             robot's URDF and mount), so that a robot is known by what its arm reaches and
             not only by its descriptor's numbers (False: runs made before it).
-        reach_points: with ``reach_input``: at how many of the target's points the
-            reachability is read, each channel the best over them. 1: at the target's
+        reach_points: with ``reach_input`` or ``reach_gate``: at how many of the target's
+            points the reachability is read, each channel the best over them. 1: at the target's
             centroid (runs made before this field); K > 1: at K of its visible points,
             spread over it (:func:`~momakitchen.models.reach_input.target_points`), since
             a door is opened at its handle, not at its centre.
+        reach_gate: any model: each prediction is multiplied by ``sigmoid(d / reach_gate)``,
+            ``d`` (m) how far inside the robot's reachable region the target lies from
+            that floor point (:func:`~momakitchen.models.reach_input.reach_gate`, at
+            ``reach_points`` of its points), so that no stance the arm cannot reach from
+            is chosen, whatever the network learnt; 0: no gate.
         hidden_descriptor: names of robot descriptor columns the model does not read
             (zeroed before it sees them), e.g. the reach and mount numbers of a model
             that knows the arm by its reachability (``reach_input``); (): it reads all.
@@ -93,6 +98,7 @@ class ModelConfig:
     descriptor_version: int = DESCRIPTOR_VERSION
     reach_input: bool = field(default=False, metadata=codec.OMIT_IF_DEFAULT)
     reach_points: int = field(default=1, metadata=codec.OMIT_IF_DEFAULT)
+    reach_gate: float = field(default=0.0, metadata=codec.OMIT_IF_DEFAULT)
     hidden_descriptor: tuple[str, ...] = field(default=(), metadata=codec.OMIT_IF_DEFAULT)
 
     def __post_init__(self) -> None:
@@ -144,6 +150,8 @@ class ModelConfig:
             raise bad("reach_input", "must be true or false")
         if isinstance(self.reach_points, bool) or self.reach_points not in range(1, 65):
             raise bad("reach_points", "must be an integer in [1, 64]")
+        if not 0.0 <= self.reach_gate <= 1.0:
+            raise bad("reach_gate", "must be in [0, 1] m (0: no gate)")
         names = DESCRIPTOR_LAYOUTS.get(self.descriptor_version, ())
         hidden = tuple(self.hidden_descriptor)
         if any(h not in names for h in hidden) or len(set(hidden)) != len(hidden):

@@ -24,7 +24,7 @@ from momakitchen.data.batch import EpisodeCollator
 from momakitchen.data.torch_dataset import episode_sample
 from momakitchen.errors import MomaError
 from momakitchen.models.base import AffordanceModel
-from momakitchen.models.navaff import target_centroid
+from momakitchen.models.reach_input import target_centroid
 from momakitchen.perception.floor import FloorCorrection
 from momakitchen.perception.live import FrameClouds
 

@@ -49,18 +49,13 @@ from momakitchen.models.pointnet2 import (
     interpolation_geometry,
     masked_max,
 )
-from momakitchen.models.reach_input import REACH_CHANNELS, batch_floor_reach, target_points
+from momakitchen.models.reach_input import (
+    REACH_CHANNELS,
+    batch_floor_reach,
+    target_centroid,
+    target_points,
+)
 from momakitchen.robots.spec import DESCRIPTOR_DIM
-
-
-def target_centroid(xyz: torch.Tensor, align: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
-    """Mean position of the real points flagged as target (alignment +1); zeros if none.
-
-    Shapes:
-        - ``xyz``: (B, N, 3), ``align``: (B, N), ``mask``: (B, N) bool; output: (B, 3)
-    """
-    w = ((align > 0.5) & mask).to(xyz.dtype)
-    return (xyz * w.unsqueeze(-1)).sum(1) / w.sum(1, keepdim=True).clamp_min(1.0)
 
 
 def floor_features(fxyz: torch.Tensor, target: torch.Tensor | None, pos_freqs: int) -> torch.Tensor:

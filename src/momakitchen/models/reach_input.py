@@ -71,6 +71,16 @@ def floor_reach(
     return out.reshape(k, n, REACH_CHANNELS).max(axis=0).astype(np.float32)
 
 
+def target_centroid(xyz: torch.Tensor, align: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
+    """Mean position of the real points flagged as target (alignment +1); zeros if none.
+
+    Shapes:
+        - ``xyz``: (B, N, 3), ``align``: (B, N), ``mask``: (B, N) bool; output: (B, 3)
+    """
+    w = ((align > 0.5) & mask).to(xyz.dtype)
+    return (xyz * w.unsqueeze(-1)).sum(1) / w.sum(1, keepdim=True).clamp_min(1.0)
+
+
 def target_points(
     xyz: torch.Tensor, align: torch.Tensor, mask: torch.Tensor, centroid: torch.Tensor, k: int
 ) -> torch.Tensor:
@@ -132,3 +142,26 @@ def batch_floor_reach(
             ) from None
         out[i] = floor_reach(str(name), float(mounts[i]), targets[i], points[i])
     return torch.from_numpy(out).to(device=floor_xyz.device, dtype=floor_xyz.dtype)
+
+
+def reach_gate(batch: dict, width: float, points: int) -> torch.Tensor:
+    """How much of a prediction the robot's reachability lets through
+    (``ModelConfig.reach_gate``): ``sigmoid(d / width)`` at each floor point, where ``d``
+    (m) is how far inside the arm's reachable region the target lies for a base there
+    facing it, the better of a horizontal and a top-down approach, at the best of
+    ``points`` of the target's points (1: its centroid). ``d`` saturates at
+    :data:`REACH_SCALE`.
+
+    Shapes: a batch (``floor_xyz`` (B, Nf, 3), the global cloud, ``robot``,
+    ``robot_name``) -> (B, Nf) in (0, 1)
+    """
+    target = target_centroid(batch["global_xyz"], batch["global_align"], batch["global_mask"])
+    at = target
+    if points > 1:
+        at = target_points(
+            batch["global_xyz"], batch["global_align"], batch["global_mask"], target, points
+        )
+    mount = batch.get("robot_mount", batch["robot"][:, 1])
+    reach = batch_floor_reach(batch.get("robot_name", []), mount, at, batch["floor_xyz"])
+    inside = torch.maximum(reach[..., 0], reach[..., 1]) * REACH_SCALE
+    return torch.sigmoid(inside / width)
