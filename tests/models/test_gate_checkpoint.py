@@ -1,0 +1,44 @@
+"""scripts/gate_checkpoint.py: a trained run copied with the robot's reachability gate."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+from pathlib import Path
+
+import pytest
+
+from momakitchen.errors import MomaError
+from momakitchen.train.checkpoint import default_checkpoint, read_run_config
+
+SCRIPT = Path(__file__).resolve().parents[2] / "scripts" / "gate_checkpoint.py"
+
+
+def _script():
+    spec = importlib.util.spec_from_file_location("gate_checkpoint", SCRIPT)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_the_copy_reads_the_gate_and_keeps_the_weights(tmp_path):
+    gate = _script()
+    assert gate.main(["bundled", str(tmp_path / "gated"), "--width", "0.05"]) == 0
+    config, _ = read_run_config(tmp_path / "gated")
+    assert config.model_config.reach_gate == 0.05 and config.model_config.reach_points == 8
+    weights = "model.safetensors"
+    copied = (tmp_path / "gated" / weights).read_bytes()
+    assert copied == (default_checkpoint() / weights).read_bytes()
+    source = json.loads((default_checkpoint() / "config.json").read_text())
+    assert "reach_gate" not in source["train_config"]["model_config"]  # the source is untouched
+
+
+def test_bad_values_and_existing_directories_write_nothing(tmp_path, capsys):
+    gate = _script()
+    assert gate.main(["bundled", str(tmp_path / "a"), "--width", "5"]) == 2
+    assert "reach_gate must be in [0, 1] m" in capsys.readouterr().err
+    (tmp_path / "b").mkdir()
+    with pytest.raises(MomaError, match="exists"):
+        gate.gate_copy(default_checkpoint(), tmp_path / "b", 0.03, 8)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["b"]
