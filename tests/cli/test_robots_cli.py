@@ -173,7 +173,7 @@ def test_export_yaml_writes_a_copy_that_registers(tmp_path, capsys, cleanup):
     ("argv", "message"),
     [
         (["nope", "--out", "{tmp}"], "unknown robot 'nope'"),
-        (["panda", "--out", "{tmp}/missing"], "does not exist"),
+        (["nope", "--out", "{tmp}/missing"], "unknown robot 'nope'"),
         (["panda", "--out", "{tmp}", "--as", "Panda-2"], "lower-case identifier, got 'Panda-2'"),
     ],
 )

@@ -129,11 +129,13 @@ def test_the_yaml_carries_every_number_of_the_built_in(tmp_path):
 def test_export_errors_name_the_bad_value(tmp_path):
     with pytest.raises(MomaError, match="lower-case identifier, got 'My-Arm'"):
         export_user_robot("panda", tmp_path, "My-Arm")
-    with pytest.raises(MomaError, match="does not exist"):
-        export_user_robot("panda", tmp_path / "missing")
+    (tmp_path / "file").write_text("")
+    with pytest.raises(MomaError, match="is a file"):
+        export_user_robot("panda", tmp_path / "file")
     with pytest.raises(MomaError, match="unknown robot 'nope'"):
-        export_user_robot("nope", tmp_path)
-    assert list(tmp_path.iterdir()) == []
+        export_user_robot("nope", tmp_path / "new")
+    assert [p.name for p in tmp_path.iterdir()] == ["file"]
+    assert export_user_robot("panda", tmp_path / "a" / "b").is_file()  # made if missing
 
 
 def test_mount_yaw_turns_the_arm_and_is_checked(tmp_path, copy_of):

@@ -60,7 +60,7 @@ def add_parser(subparsers) -> None:
         "under a new name, with the same model input. A start for your own robot's files.",
     )
     copy.add_argument("name", help="robot name (see `momakitchen robots`)")
-    copy.add_argument("--out", required=True, metavar="DIR", help="existing directory")
+    copy.add_argument("--out", required=True, metavar="DIR", help="directory (made if missing)")
     copy.add_argument(
         "--as",
         dest="as_name",

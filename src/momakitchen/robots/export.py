@@ -86,15 +86,19 @@ def user_yaml(name: str, as_name: str, urdf_file: str) -> str:
 
 def export_user_robot(name: str, out_dir: str | Path, as_name: str | None = None) -> Path:
     """Write ``AS.urdf`` and ``AS.yaml`` (``AS``: ``as_name``, default ``my_NAME``) into
-    the existing directory ``out_dir``; returns the YAML's path. Each file is written
-    atomically; MomaError names a missing directory or an unwritable file."""
+    the directory ``out_dir`` (made if missing); returns the YAML's path. Each file is
+    written atomically; MomaError names a bad name, a robot or an unwritable place."""
     as_name = as_name or f"my_{name}"
     if as_name != as_name.lower() or not as_name.isidentifier():
         raise MomaError(f"a user robot's name must be a lower-case identifier, got {as_name!r}")
     out = Path(out_dir)
-    if not out.is_dir():
-        raise MomaError(f"output directory {str(out)!r} does not exist")
+    if out.exists() and not out.is_dir():
+        raise MomaError(f"output directory {str(out)!r} is a file")
     urdf_text, yaml_text = arm_urdf(name), user_yaml(name, as_name, f"{as_name}.urdf")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise MomaError(f"cannot make directory {str(out)!r}: {exc.strerror}") from None
     paths = (out / f"{as_name}.urdf", out / f"{as_name}.yaml")
     for path, text in zip(paths, (urdf_text, yaml_text), strict=True):
         try:
