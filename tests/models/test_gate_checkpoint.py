@@ -2,24 +2,17 @@
 
 from __future__ import annotations
 
-import importlib.util
 import json
-from pathlib import Path
 
 import pytest
 
 from momakitchen.errors import MomaError
 from momakitchen.train.checkpoint import default_checkpoint, read_run_config
-
-SCRIPT = Path(__file__).resolve().parents[2] / "scripts" / "gate_checkpoint.py"
+from script_helpers import load_script
 
 
 def _script():
-    spec = importlib.util.spec_from_file_location("gate_checkpoint", SCRIPT)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_script("gate_checkpoint")
 
 
 def test_the_copy_reads_the_gate_and_keeps_the_weights(tmp_path):

@@ -4,7 +4,6 @@ the labelling routine gets successes with them where the built-in Panda does."""
 
 from __future__ import annotations
 
-import importlib.util
 import subprocess
 import sys
 from pathlib import Path
@@ -18,16 +17,13 @@ from momakitchen.robots.tools import SuctionTool
 from momakitchen.robots.user import register_user_robot, unregister_user_robot
 from momakitchen.sim.config import Stage
 from momakitchen.sim.labels import Labels, rejections
+from script_helpers import load_script
 
 SCRIPT = Path(__file__).resolve().parents[2] / "scripts" / "public_urdf_robots.py"
 
 
 def _script():
-    spec = importlib.util.spec_from_file_location("public_urdf_robots", SCRIPT)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_script("public_urdf_robots")
 
 
 @pytest.fixture(scope="module")
