@@ -52,8 +52,8 @@ from momakitchen.models.pointnet2 import (
 from momakitchen.models.reach_input import (
     REACH_CHANNELS,
     batch_floor_reach,
+    reach_targets,
     target_centroid,
-    target_points,
 )
 from momakitchen.robots.spec import DESCRIPTOR_DIM
 
@@ -360,15 +360,7 @@ class NavAffBackbone(Backbone):
             assert target is not None
             names = batch.get("robot_name", [])
             mount = batch.get("robot_mount", batch["robot"][:, 1])
-            at = target
-            if self.reach_points > 1:
-                at = target_points(
-                    batch["global_xyz"],
-                    batch["global_align"],
-                    batch["global_mask"],
-                    target,
-                    self.reach_points,
-                )
+            at = reach_targets(batch, target, self.reach_points)
             reach = batch_floor_reach(names, mount, at, fxyz)
             creach = reach if cxyz is fxyz else batch_floor_reach(names, mount, at, cxyz)
             fpos, cpos = torch.cat([fpos, reach], -1), torch.cat([cpos, creach], -1)

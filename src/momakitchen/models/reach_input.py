@@ -102,6 +102,15 @@ def target_points(
     return out
 
 
+def reach_targets(batch: dict, centroid: torch.Tensor, points: int) -> torch.Tensor:
+    """Where a batch's reachability is read: the target's centroid (``points`` 1), else
+    ``points`` of its points (:func:`target_points`). Shapes: -> (B, 3) or (B, points, 3)"""
+    if points == 1:
+        return centroid
+    xyz, align, mask = batch["global_xyz"], batch["global_align"], batch["global_mask"]
+    return target_points(xyz, align, mask, centroid, points)
+
+
 def batch_floor_reach(
     robots: Sequence[str], mount: torch.Tensor, target: torch.Tensor, floor_xyz: torch.Tensor
 ) -> torch.Tensor:
@@ -156,11 +165,7 @@ def reach_gate(batch: dict, width: float, points: int) -> torch.Tensor:
     ``robot_name``) -> (B, Nf) in (0, 1)
     """
     target = target_centroid(batch["global_xyz"], batch["global_align"], batch["global_mask"])
-    at = target
-    if points > 1:
-        at = target_points(
-            batch["global_xyz"], batch["global_align"], batch["global_mask"], target, points
-        )
+    at = reach_targets(batch, target, points)
     mount = batch.get("robot_mount", batch["robot"][:, 1])
     reach = batch_floor_reach(batch.get("robot_name", []), mount, at, batch["floor_xyz"])
     inside = torch.maximum(reach[..., 0], reach[..., 1]) * REACH_SCALE

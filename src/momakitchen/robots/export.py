@@ -22,6 +22,7 @@ from momakitchen.robots.arms import ShippedArm
 from momakitchen.robots.body import finger_joint_names
 from momakitchen.robots.spec import finger_force, get_robot_spec
 from momakitchen.robots.urdf import TCP_LINK, build_urdf, link_of, subtree
+from momakitchen.robots.user import is_robot_name
 
 # The TCP joint's name is reserved in a user's URDF (the loader adds one above a TCP link
 # named otherwise); its link keeps the name "tcp", which the loader then takes as the TCP
@@ -89,7 +90,7 @@ def export_user_robot(name: str, out_dir: str | Path, as_name: str | None = None
     the directory ``out_dir`` (made if missing); returns the YAML's path. Each file is
     written atomically; MomaError names a bad name, a robot or an unwritable place."""
     as_name = as_name or f"my_{name}"
-    if as_name != as_name.lower() or not as_name.isidentifier():
+    if not is_robot_name(as_name):
         raise MomaError(f"a user robot's name must be a lower-case identifier, got {as_name!r}")
     out = Path(out_dir)
     if out.exists() and not out.is_dir():

@@ -126,6 +126,11 @@ class UserRobotFile:
 _FILES: dict[str, UserRobotFile] = {}  # robot name -> its files
 
 
+def is_robot_name(name: str) -> bool:
+    """Whether ``name`` can name a user robot: a lower-case identifier."""
+    return bool(name) and name == name.lower() and name.isidentifier()
+
+
 @dataclass(frozen=True)
 class UserRobotConfig:
     """The contents of a user robot YAML file (validated).
@@ -177,7 +182,7 @@ class UserRobotConfig:
                 f"{where}: end_effector must be 'parallel_gripper' or 'suction', "
                 f"got {self.end_effector!r}"
             )
-        if not self.name or self.name != self.name.lower() or not self.name.isidentifier():
+        if not is_robot_name(self.name):
             raise MomaError(f"{where}: name must be a lower-case identifier, got {self.name!r}")
         if len(self.footprint) != 2:
             raise MomaError(f"{where}: footprint must be [length, width], got {self.footprint}")
