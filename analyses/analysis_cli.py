@@ -33,8 +33,12 @@ def test_views(args: argparse.Namespace) -> Subset:
 
 
 def run_main(main: Callable[[], None], prog: str) -> None:
-    """Call ``main``; bad input (a MomaError) becomes one line on stderr and exit status 2."""
+    """Call ``main`` with the user robots of ``$MOMAKITCHEN_ROBOT_YAML`` registered; bad
+    input (a MomaError) becomes one line on stderr and exit status 2."""
+    from momakitchen.robots.user import load_env_robots
+
     try:
+        load_env_robots()
         main()
     except MomaError as exc:
         print(f"{prog}: error: {exc}", file=sys.stderr)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -10,6 +11,18 @@ import numpy as np
 import pytest
 
 SCRIPT = Path(__file__).resolve().parents[1] / "descriptor_twins.py"
+SCALED_YAML = Path(__file__).resolve().parents[1] / "robots" / "realman_x070.yaml"
+
+
+def _scaled_realman() -> str:
+    """The Realman with links x0.70, registered in this process."""
+    from momakitchen.robots.spec import ROBOTS
+    from momakitchen.robots.user import register_user_robot
+
+    name = "realman_x070"
+    if name not in ROBOTS:
+        register_user_robot(SCALED_YAML)
+    return name
 
 
 def _dataset(root: Path, robot: str) -> Path:
@@ -37,12 +50,13 @@ def twins(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
     # The Elephant (reach 0.63 m, 6 DoF, gripper) and the Realman scaled to 0.70 share
     # the descriptor at the Elephant's own mount.
     root = tmp_path_factory.mktemp("twins")
-    return _dataset(root, "elephant"), _dataset(root, "realman-x0.70")
+    return _dataset(root, "elephant"), _dataset(root, _scaled_realman())
 
 
 def _run(*args: str | Path) -> subprocess.CompletedProcess:
     cmd = [sys.executable, str(SCRIPT), *map(str, args)]
-    return subprocess.run(cmd, capture_output=True, text=True, check=False)
+    env = {**os.environ, "MOMAKITCHEN_ROBOT_YAML": str(SCALED_YAML)}
+    return subprocess.run(cmd, capture_output=True, text=True, check=False, env=env)
 
 
 def test_own_ground_truth_comes_back(twins, tmp_path):

@@ -130,7 +130,6 @@ def test_robot_check_finetunes_and_reports_again(small, tmp_path, capsys):
     ("extra", "message"),
     [
         (["nobody"], "unknown robot 'nobody'"),
-        (["ur5e-x0.40"], "robot 'ur5e-x0.40': link scale must be in [0.5, 1.5], got 0.4"),
         (["panda", "--checkpoint", "NORUN"], "--checkpoint 'NORUN' is not a run directory"),
         (
             ["panda", "--finetune-scenes", "2", "--finetune-first-scene-id", "900003"],

@@ -80,8 +80,8 @@ def test_a_user_copy_gets_the_built_ins_descriptor_and_body(name, copy_of):
 
 @pytest.mark.parametrize("name", ["elephant", "panda"])
 def test_a_user_copy_gets_the_built_ins_reachability_input(name, copy_of, monkeypatch):
-    # elephant: an arm built from a joint table and mounted turned half a turn;
-    # panda: a shipped URDF with meshes and its own fingers.
+    # elephant: an arm of primitives, mounted turned half a turn; panda: an arm of meshes
+    # with its own fingers.
     monkeypatch.setattr(
         reachability, "DEFAULT_SAMPLING", SamplingConfig(cell=0.2, psi_bins=4, fk_samples=1500)
     )
@@ -107,8 +107,9 @@ def test_the_exported_urdf_is_the_arm_and_tool_without_the_base():
     links = {link.get("name") for link in root.findall("link")}
     joints = {joint.get("name") for joint in root.findall("joint")}
     assert BASE_LINK not in links and "tcp" in links and "flange" in links
-    # The loader adds these joints itself: a user URDF may not have them.
-    assert not joints & {"mount_joint", "tcp_joint"}
+    # The loader adds the mount itself: a user URDF may not have it. The TCP link is named
+    # "tcp", so the loader adds no TCP joint above it and the file keeps its own.
+    assert "mount_joint" not in joints and "tcp_joint" in joints
     built = ET.fromstring(robot_urdf("elephant"))
     assert links < {link.get("name") for link in built.findall("link")}
 

@@ -20,9 +20,10 @@ from momakitchen.robots import (
     get_robot_spec,
     register_robot,
 )
-from momakitchen.robots.arms import BuiltArm, RobotModel, SuctionCup
+from momakitchen.robots.arms import RobotModel, UrdfArm
 from momakitchen.robots.descriptor import robot_descriptor, upgrade_descriptor
 from momakitchen.robots.spec import DESCRIPTOR_DIM, DESCRIPTOR_LAYOUTS, descriptor_dim
+from momakitchen.robots.user import register_user_robot, unregister_user_robot
 
 NAMES = ["panda", "flexiv", "ur5e", "xarm6", "realman", "elephant"]
 
@@ -56,16 +57,26 @@ def test_a_spec_must_agree_with_its_model():
     ur5e = get_robot_spec("ur5e")
     with pytest.raises(MomaError, match="end_effector 'parallel_gripper' but its model's tool"):
         dataclasses.replace(ur5e, name="bad", end_effector="parallel_gripper")
-    with pytest.raises(MomaError, match="dof=7 but its arm has 6 joints"):
-        dataclasses.replace(ur5e, name="bad", dof=7)
-    assert isinstance(ur5e.model.arm, BuiltArm)
-    short_home = RobotModel(ur5e.model.arm, SuctionCup(tcp_offset=0.1), home=(0.0,) * 5)
+    assert isinstance(ur5e.model.arm, UrdfArm)
+    short_home = RobotModel(ur5e.model.arm, ur5e.model.end_effector, home=(0.0,) * 5)
     with pytest.raises(MomaError, match="home needs 6 values, got 5"):
         dataclasses.replace(ur5e, name="bad", model=short_home)
     assert "bad" not in ROBOTS
 
 
-def test_descriptor_is_reach_mount_height_dof_tool_grip_shoulder():
+def test_the_built_ins_are_registered_from_their_shipped_files():
+    from momakitchen.robots.spec import BUILT_IN_ROBOTS
+    from momakitchen.robots.user import SHIPPED, user_robot_file
+
+    assert ROBOTS.names()[: len(BUILT_IN_ROBOTS)] == BUILT_IN_ROBOTS
+    for name in BUILT_IN_ROBOTS:
+        spec = get_robot_spec(name)
+        assert spec.model.arm.urdf == SHIPPED / f"{name}.urdf"
+        assert spec.model.source  # where the figures come from, from the YAML
+        assert user_robot_file(name) is None  # a built-in, not a user robot
+
+
+def test_descriptor_is_reach_mount_height_dof_tool_grip_shoulder(tmp_path):
     assert DESCRIPTOR_VERSION == 3
     assert DESCRIPTOR_NAMES[:2] == ("reach_m", "mount_height_m")
     ur5e = robot_descriptor(get_robot_spec("ur5e"))
@@ -76,7 +87,10 @@ def test_descriptor_is_reach_mount_height_dof_tool_grip_shoulder():
     assert robot_descriptor(get_robot_spec("panda"))[4] == 0.7
     # The descriptor twins of version 2 (docs/ROBOTS.md): apart in version 3.
     elephant = robot_descriptor(get_robot_spec("elephant"))
-    twin = robot_descriptor(get_robot_spec("realman-x0.70-f40"))
+    yaml = tmp_path / "twin.yaml"
+    yaml.write_text("name: twin\nlike: realman\nlink_scale: 0.7\nfinger_force: 40\n")
+    twin = robot_descriptor(register_user_robot(yaml))
+    unregister_user_robot("twin")
     assert elephant[:5] == pytest.approx(twin[:5], abs=0.005)
     assert elephant[5] - twin[5] == pytest.approx(0.229 - 0.7 * 0.172, abs=0.001)
     assert (elephant[6], twin[6]) == pytest.approx((0.0, 0.7 * 0.86), abs=0.001)

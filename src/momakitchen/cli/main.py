@@ -68,12 +68,12 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
 def register_user_robots(args: argparse.Namespace) -> None:
     """Register the user robots of MOMAKITCHEN_ROBOT_YAML (for every command) and of the
     command's ``--robot-yaml`` options (every command that takes a robot has one)."""
-    from momakitchen.robots.user import ENV_VAR, load_env_robots, register_user_robot
+    from momakitchen.robots.user import ENV_VAR, load_env_robots, register_user_robots
 
     if os.environ.get(ENV_VAR):
         load_env_robots()
     for path in [*getattr(args, "robot_yaml", []), *getattr(args, "robot_yaml_sub", [])]:
-        register_user_robot(path)
+        register_user_robots(path)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -116,7 +116,8 @@ ROBOT_YAML = Option(
     action="append",
     default=[],
     metavar="FILE",
-    help="register a user robot (URDF + YAML, see `momakitchen robots`) first; repeatable",
+    help="register a user robot (URDF + YAML, see `momakitchen robots`) first; a directory: "
+    "each of its *.yaml files; repeatable",
 )
 CHECKPOINT = Option(
     "--checkpoint",

@@ -103,8 +103,8 @@ def robot_rows() -> list[dict]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from momakitchen.robots.grip import FORCE_RANGE
     from momakitchen.robots.scaled import SCALE_RANGE
+    from momakitchen.robots.spec import FORCE_RANGE
 
     # The --robot-yaml files (of either level) are registered by the entry point.
     if args.robots_command == "export-urdf":
@@ -141,12 +141,9 @@ def run(args: argparse.Namespace) -> int:
         print("  ".join(cell.ljust(w) for cell, w in zip(row, widths, strict=True)).rstrip())
     defaults = ", ".join(r["name"] for r in rows if r["generate_default"])
     print(
-        "arms with scaled links: NAME-xS.SS (a table-built arm above, lengths times S in "
-        f"{SCALE_RANGE[0]}-{SCALE_RANGE[1]}, e.g. ur5e-x0.65)"
-    )
-    print(
-        "grippers of another force: NAME-fN (N newtons per finger in "
-        f"{FORCE_RANGE[0]:g}-{FORCE_RANGE[1]:g}, e.g. realman-f40)"
+        "a robot like one above, its links scaled (link_scale: {}-{}) or its grip changed "
+        "(finger_force: {:g}-{:g} N): a YAML with `like: NAME` and --robot-yaml FILE "
+        "(docs/ROBOTS.md)".format(*SCALE_RANGE, *FORCE_RANGE)
     )
     print(f"generate's robots by default: {defaults}; the others by --robot NAME")
     return 0

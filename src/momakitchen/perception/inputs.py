@@ -149,12 +149,12 @@ def robot_input(
     registered robot at another mount (m). Returns the name ("custom" for a descriptor)
     and the descriptor, shape ``(DESCRIPTOR_DIM,)``."""
     from momakitchen.robots.descriptor import robot_descriptor
-    from momakitchen.robots.grip import FORCE_RANGE
     from momakitchen.robots.spec import (
         DEFAULT_FINGER_FORCE,
         DEFAULT_SHOULDER_OFFSET,
         DEFAULT_SHOULDER_RISE,
         DESCRIPTOR_DIM,
+        FORCE_RANGE,
         descriptor_dim,
         descriptor_values,
         get_robot_spec,

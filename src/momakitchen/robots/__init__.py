@@ -2,12 +2,12 @@
 
 ``ROBOTS`` (``spec.py``) is the single source of truth: each ``RobotSpec`` holds the
 numbers (name, reach, mount height, DoF, end-effector) and the model (``spec.model``,
-built from ``arms.py``: published joint tables or shipped URDFs); ``register_robot`` is
-the one way in, for built-in and user robots alike. ``urdf.py`` writes one URDF per robot
-(mobile base + arm + tool); ``robot.py`` drives it in PyBullet (placement, joints, FK),
-with IK in ``ik.py``, reach in ``reach.py``, collisions in ``collisions.py`` and the
-gripper or suction cup in ``tools.py`` (``robot.tool``); ``user.py`` registers user robots
-from URDF + YAML.
+``arms.py``: the robot's URDF of arm and tool). Every robot, built-in or a user's, comes
+from a URDF and a YAML file through one loader (``user.py``; the built-ins' files are in
+``shipped/``), and ``register_robot`` is the one way in. ``urdf.py`` writes one URDF per
+robot (mobile base + arm + tool); ``robot.py`` drives it in PyBullet (placement, joints,
+FK), with IK in ``ik.py``, reach in ``reach.py``, collisions in ``collisions.py`` and the
+gripper or suction cup in ``tools.py`` (``robot.tool``).
 """
 
 from momakitchen.robots.descriptor import robot_descriptor

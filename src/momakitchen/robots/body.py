@@ -18,11 +18,10 @@ from numpy.typing import ArrayLike
 
 from momakitchen.bullet import muted, p
 from momakitchen.errors import MomaError
-from momakitchen.robots.arms import EndEffector, ParallelGripper, RobotModel, ShippedArm, UserTool
+from momakitchen.robots.arms import RobotModel
 from momakitchen.robots.spec import RobotSpec, get_robot_spec
 from momakitchen.robots.urdf import (
     BASE_LINK,
-    FINGER_JOINTS,
     TCP_LINK,
     parse_urdf,
     robot_urdf_path,
@@ -40,15 +39,6 @@ def variant_key(name: str, mount_height: float | None) -> str:
 
 def _yaw_quaternion(yaw: float) -> tuple[float, float, float, float]:
     return (0.0, 0.0, math.sin(yaw / 2), math.cos(yaw / 2))
-
-
-def finger_joint_names(ee: EndEffector) -> tuple[str, ...]:
-    """The finger joints an end-effector drives (empty for a suction cup)."""
-    if isinstance(ee, ParallelGripper):
-        return ee.existing_fingers or FINGER_JOINTS
-    if isinstance(ee, UserTool):
-        return ee.finger_joints
-    return ()
 
 
 @dataclass(frozen=True)
@@ -90,9 +80,8 @@ class RobotBody:
         self.cache_key = variant_key(name, self.mount_height)
         self.body = self._load(path)
         self._index_joints()
-        if isinstance(self.model.end_effector, UserTool):
-            self._check_tcp_axis()
-            self._lighten_bare_links()
+        self._check_tcp_axis()
+        self._lighten_bare_links()
         # PyBullet caches the kinematic tree behind calculateJacobian, its IK and inverse
         # dynamics by body and does not drop it when a body is removed, so a robot loaded
         # where another body was may inherit a stale tree. Nothing here uses those
@@ -122,7 +111,7 @@ class RobotBody:
         link_index[BASE_LINK] = -1
         self._link_index = link_index
         ee = self.model.end_effector
-        fingers = finger_joint_names(ee)
+        fingers = ee.finger_joints
         jidx = {name: j for j, name in enumerate(self.joint_name_list)}
         missing = [f for f in fingers if f not in jidx]
         if missing:
@@ -160,11 +149,7 @@ class RobotBody:
         if home.shape != (self.spec.dof,):
             raise MomaError(f"robot {self.name!r}: home needs {self.spec.dof} values")
         self.home = np.clip(home, self.lower, self.upper)
-        # Flange: the model's flange link (a shipped arm's, a user's), or "flange" (built).
-        if isinstance(self.model.arm, ShippedArm):
-            self.flange_link = link_index[self.model.arm.flange_link]
-        else:
-            self.flange_link = link_index["flange"]
+        self.flange_link = link_index[self.model.arm.flange_link]
         # Shoulder: the frame of the second arm joint (where reach is measured from).
         self.shoulder_link = self.arm_joints[1]
         # End-effector links: everything below the last arm joint's link (tool contacts
@@ -190,7 +175,6 @@ class RobotBody:
         # direction is a frame turned back, not a tool mounted off-axis.
         if length > 0.02 and float(out @ z) < -0.5 * length:
             tool = self.model.end_effector
-            assert isinstance(tool, UserTool)
             raise MomaError(
                 f"robot {self.name!r}: the z axis of end_effector_link {tool.tcp_link!r} "
                 f"points back into the arm ({float(out @ z) / length:.2f} along the wrist-to-"
@@ -200,10 +184,7 @@ class RobotBody:
     def _lighten_bare_links(self) -> None:
         """Links of a user's URDF without ``<inertial>`` (bare frames such as ``tool0``)
         weigh 1 g, not the 1 kg PyBullet gives them: a frame on the tool is no payload."""
-        arm = self.model.arm
-        if not isinstance(arm, ShippedArm):
-            return
-        for link in parse_urdf(arm.urdf).findall("link"):
+        for link in parse_urdf(self.model.arm.urdf).findall("link"):
             j = self._link_index.get(link.get("name", ""))
             if link.find("inertial") is None and j is not None and j >= 0:
                 p.changeDynamics(

@@ -18,22 +18,16 @@ import yaml
 
 from momakitchen.errors import MomaError
 from momakitchen.fileio import atomic_write_text
-from momakitchen.robots.arms import ShippedArm
-from momakitchen.robots.body import finger_joint_names
+from momakitchen.robots.arms import UrdfTool
 from momakitchen.robots.spec import finger_force, get_robot_spec
 from momakitchen.robots.urdf import TCP_LINK, build_urdf, link_of, subtree
 from momakitchen.robots.user import is_robot_name
 
-# The TCP joint's name is reserved in a user's URDF (the loader adds one above a TCP link
-# named otherwise); its link keeps the name "tcp", which the loader then takes as the TCP
-# itself, so the copy's links are the original's, in its order.
-_RENAMED_JOINTS = {"tcp_joint": "tool_tcp_joint"}
-
 
 def arm_urdf(name: str) -> str:
     """URDF text of robot ``name``'s arm and tool without the mobile base: the links below
-    the arm's mount joint, as the robot is built (limits, masses and absolute mesh paths
-    included), its TCP link named ``tcp``."""
+    the arm's mount joint, as the robot is built (limits, masses, a link scale and absolute
+    mesh paths included), its TCP link named ``tcp``."""
     full = ET.fromstring(build_urdf(get_robot_spec(name)))
     joints = full.findall("joint")
     mount = [j for j in joints if j.get("name") == "mount_joint"]
@@ -47,8 +41,6 @@ def arm_urdf(name: str) -> str:
         elif element.tag == "link" and element.get("name") in keep:
             out.append(element)
         elif element.tag == "joint" and link_of(element, "parent") in keep:
-            joint = element.get("name", "")
-            element.set("name", _RENAMED_JOINTS.get(joint, joint))
             out.append(element)
     ET.indent(out)
     return '<?xml version="1.0"?>\n' + ET.tostring(out, encoding="unicode") + "\n"
@@ -70,16 +62,19 @@ def user_yaml(name: str, as_name: str, urdf_file: str) -> str:
         "end_effector": spec.end_effector,
         "reach": float(spec.reach),
     }
+    tool = model.end_effector
     if spec.end_effector == "parallel_gripper":
-        data["finger_joints"] = list(finger_joint_names(model.end_effector))
+        data["finger_joints"] = list(tool.finger_joints)
         data["finger_force"] = finger_force(spec)
+    elif tool.face_tolerance != UrdfTool.face_tolerance:
+        data["suction_face_tolerance"] = tool.face_tolerance
     if model.home:
         data["home"] = [float(v) for v in model.home]
     data["footprint"] = [float(v) for v in spec.footprint]
     data["mount_offset_x"] = float(spec.mount_offset_x)
     if model.arm.mount_yaw:
         data["mount_yaw"] = float(model.arm.mount_yaw)
-    if isinstance(model.arm, ShippedArm) and model.arm.flange_link != "flange":
+    if model.arm.flange_link != "flange":
         data["flange_link"] = model.arm.flange_link
     head = f"# Robot {name!r} as a user robot (momakitchen robots export-yaml {name}).\n"
     return head + yaml.safe_dump(data, sort_keys=False, default_flow_style=None)

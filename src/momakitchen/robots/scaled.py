@@ -1,86 +1,87 @@
-"""Arms with scaled links: a built-in arm's joint table with every length multiplied.
+"""Arms with scaled links: every length of a robot's arm multiplied, its tool unchanged.
 
 A model meant for robots it never saw needs training robots whose reach varies
-continuously; real arms come in a few sizes. ``NAME-xS.SS`` (for example ``ur5e-x0.65``)
-is robot ``NAME`` with its joint origins, flange offset, link radii and base housing scaled
-by ``S`` (in :data:`SCALE_RANGE`), its reach ``S`` times the original's. Joint axes and
-limits, the home pose, masses, motor limits, the tool and the mobile base are the
-original's: a scaled arm has the same joint space and the same gripper, only longer or
-shorter links.
-
-Scaled robots are not listed; the registry (``spec.py``) builds one from its name with
-:func:`scaled_model` when it is first asked for it (``get_robot_spec``), in any process,
-so a dataset, a worker or a checkpoint can name one like any robot. Only arms built from
-joint tables scale (the shipped Panda and xArm6 have meshes, user robots their own URDF).
+continuously; real arms come in a few sizes. A robot's YAML may say ``link_scale: S`` (in
+:data:`SCALE_RANGE`): its URDF's arm, every link not below the flange link, then has its
+joint origins, collision and visual geometry (boxes, cylinders, capsules, spheres, meshes)
+and centres of mass scaled by ``S``, so its reach is ``S`` times the file's. Joint axes
+and limits, masses and inertias, the home pose, the tool and the mobile base stay as they
+are: a scaled arm has the same joint space and the same gripper, only longer or shorter
+links. A built-in scaled is a YAML of three lines (``like: NAME``, ``user.py``).
 """
 
 from __future__ import annotations
 
-import dataclasses
-import re
+import xml.etree.ElementTree as ET
 
 from momakitchen.errors import MomaError
-from momakitchen.robots.arms import BuiltArm, JointDef, RobotModel
 
 # Link length factors a scaled arm may have: half to one and a half times the original.
 SCALE_RANGE = (0.5, 1.5)
-# A scaled link never gets thinner than this (collision radius, metres).
+# A scaled link never gets thinner than this (collision radius, metres), nor than it was.
 MIN_RADIUS = 0.02
 
-_NAME = re.compile(r"^(?P<base>.+)-x(?P<scale>\d\.\d\d)$")
 
-
-def scaled_name(base: str, scale: float) -> str:
-    """The registry name of ``base`` with links scaled by ``scale`` (two decimals)."""
-    return f"{base}-x{scale:.2f}"
-
-
-def parse_scaled_name(name: str) -> tuple[str, float] | None:
-    """``(base, scale)`` if ``name`` is a scaled arm's name (``NAME-xS.SS``), else None."""
-    match = _NAME.match(name)
-    if match is None:
-        return None
-    return match["base"], float(match["scale"])
-
-
-def _times(v: tuple[float, float, float], scale: float) -> tuple[float, float, float]:
-    return (scale * v[0], scale * v[1], scale * v[2])
-
-
-def scaled_arm(arm: BuiltArm, scale: float) -> BuiltArm:
-    """``arm`` with every length (joint origins, flange offset, radii, base housing)
-    multiplied by ``scale``; angles, axes, limits, masses and motor limits unchanged."""
-
-    def joint(jd: JointDef) -> JointDef:
-        return dataclasses.replace(
-            jd,
-            xyz=_times(jd.xyz, scale),
-            radius=max(MIN_RADIUS, scale * jd.radius),
-        )
-
-    return dataclasses.replace(
-        arm,
-        joints=tuple(joint(jd) for jd in arm.joints),
-        flange_xyz=_times(arm.flange_xyz, scale),
-        base_radius=max(MIN_RADIUS, scale * arm.base_radius),
-        base_height=scale * arm.base_height,
-    )
-
-
-def scaled_model(name: str, model: RobotModel, scale: float) -> RobotModel:
-    """The model of the scaled arm called ``name``: ``model`` (its base robot's) with links
-    scaled by ``scale``; MomaError if the scale is outside :data:`SCALE_RANGE` or the base
-    arm is not built from a joint table."""
+def scale_problem(value: object) -> str | None:
+    """Why ``value`` is not a link scale (a number in :data:`SCALE_RANGE`), or None."""
     lo, hi = SCALE_RANGE
-    if not lo <= scale <= hi:
-        raise MomaError(f"robot {name!r}: link scale must be in [{lo}, {hi}], got {scale}")
-    if not isinstance(model.arm, BuiltArm):
-        raise MomaError(
-            f"robot {name!r}: only arms built from joint tables scale; "
-            f"{name.rsplit('-x', 1)[0]!r} comes from a URDF file"
-        )
-    return dataclasses.replace(
-        model,
-        arm=scaled_arm(model.arm, scale),
-        source=f"{model.source}; links scaled by {scale:.2f}",
-    )
+    if isinstance(value, bool) or not isinstance(value, int | float) or not lo <= value <= hi:
+        return f"link_scale must be in [{lo}, {hi}], got {value!r}"
+    return None
+
+
+def _numbers(text: str | None, what: str) -> list[float]:
+    try:
+        return [float(v) for v in (text or "").split()]
+    except ValueError:
+        raise MomaError(f"URDF: {what} {text!r} is not a list of numbers") from None
+
+
+def _fmt(values: list[float]) -> str:
+    return " ".join(f"{v:.9g}" for v in values)
+
+
+def _scale_attr(el: ET.Element, key: str, scale: float, default: str | None = None) -> None:
+    text = el.get(key, default)
+    if text is not None:
+        el.set(key, _fmt([scale * v for v in _numbers(text, f"<{el.tag} {key}>")]))
+
+
+def _scale_geometry(geometry: ET.Element, scale: float) -> None:
+    for shape in geometry:
+        if shape.tag == "box":
+            _scale_attr(shape, "size", scale)
+        elif shape.tag == "mesh":
+            _scale_attr(shape, "scale", scale, default="1 1 1")
+        else:  # cylinder, capsule, sphere
+            radius = shape.get("radius")
+            if radius is not None:
+                r = float(radius)
+                shape.set("radius", f"{max(min(r, MIN_RADIUS), scale * r):.9g}")
+            _scale_attr(shape, "length", scale)
+
+
+def scale_arm(urdf: ET.Element, flange_link: str, scale: float) -> None:
+    """Scale, in place, every length of the arm of the URDF tree ``urdf``: the links not
+    below ``flange_link`` (the flange's own included) and the joints into them; the tool
+    below the flange is left as it is. MomaError on a scale outside :data:`SCALE_RANGE`."""
+    from momakitchen.robots.urdf import link_of, subtree
+
+    problem = scale_problem(scale)
+    if problem:
+        raise MomaError(problem)
+    tool = subtree(urdf, flange_link) - {flange_link}
+    for link in urdf.findall("link"):
+        if link.get("name") in tool:
+            continue
+        for part in link:
+            origin = part.find("origin")
+            if origin is not None:
+                _scale_attr(origin, "xyz", scale)
+            geometry = part.find("geometry")
+            if geometry is not None:
+                _scale_geometry(geometry, scale)
+    for joint in urdf.findall("joint"):
+        origin = joint.find("origin")
+        if link_of(joint, "child") not in tool and origin is not None:
+            _scale_attr(origin, "xyz", scale)

@@ -2,39 +2,23 @@
 
 This registry is the single source of truth for robot names, reach and mount height; the
 scene sampler (obstacle semicircles), labelling (sampling radius) and the learning code
-(robot descriptor) all read it. Each entry also holds the robot's model (how its URDF is
-built, ``arms.py``): a robot is registered once, numbers and build together. Figures are
-the manufacturers' (``docs/ROBOTS.md``).
+(robot descriptor) all read it. Each entry also holds the robot's model (its URDF,
+``arms.py``): a robot is registered once, numbers and build together. Every robot, built-in
+or a user's, is registered from a URDF and a YAML file by one loader (``user.py``); the
+built-ins' files are in ``shipped/``, their figures the manufacturers'
+(``docs/ROBOTS.md``).
 
 Importing this module does not import PyBullet (only ``pybullet_data``, a path).
 """
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass, field
 
 from momakitchen.errors import MomaError
 from momakitchen.registry import Registry
-from momakitchen.robots.arms import (
-    ELEPHANT_ARM,
-    FLEXIV_ARM,
-    GEN3_ARM,
-    PANDA_ARM,
-    PI,
-    PYBULLET_DATA,
-    REALMAN_ARM,
-    UR5E_ARM,
-    UR10E_ARM,
-    XARM6_ARM,
-    BuiltArm,
-    ParallelGripper,
-    RobotModel,
-    SuctionCup,
-)
-from momakitchen.robots.grip import grip_model, parse_grip_name
-from momakitchen.robots.scaled import parse_scaled_name, scaled_model
+from momakitchen.robots.arms import RobotModel
 
 END_EFFECTORS = ("parallel_gripper", "suction")
 
@@ -154,11 +138,6 @@ class RobotSpec:
                 f"robot {self.name!r}: end_effector {self.end_effector!r} but its "
                 f"model's tool is a {model.tool_kind!r}"
             )
-        if isinstance(model.arm, BuiltArm) and len(model.arm.joints) != self.dof:
-            raise MomaError(
-                f"robot {self.name!r}: dof={self.dof} but its arm has "
-                f"{len(model.arm.joints)} joints"
-            )
         if model.home and len(model.home) != self.dof:
             raise MomaError(
                 f"robot {self.name!r}: home needs {self.dof} values, got {len(model.home)}"
@@ -166,35 +145,46 @@ class RobotSpec:
 
 
 class RobotRegistry(Registry[RobotSpec]):
-    """The robots by name; user robots can also be taken out again.
+    """The robots by name: the built-ins (:data:`BUILT_IN_ROBOTS`, registered from their
+    shipped URDF and YAML files by the user robots' loader the first time the registry is
+    read) and the user robots registered since; user robots can be taken out again."""
 
-    A name of the form ``NAME-xS.SS`` not yet registered is a built-in arm with scaled
-    links (``scaled.py``), one of the form ``NAME-fN`` robot ``NAME`` with fingers of
-    ``N`` newtons (``grip.py``): each is built and registered the first time it is asked
-    for.
-    """
+    def __init__(self, kind: str) -> None:
+        super().__init__(kind)
+        self._loading = False
+
+    def _builtins(self) -> None:
+        # Deferred: the loader (user.py) imports this module, and the files are read only
+        # by a process that looks a robot up.
+        if not self._loading:
+            self._loading = True
+            from momakitchen.robots.user import register_shipped
+
+            register_shipped(BUILT_IN_ROBOTS)
+
+    def register(self, entry: RobotSpec, *, replace: bool = False) -> RobotSpec:
+        self._builtins()
+        return super().register(entry, replace=replace)
 
     def get_entry(self, name: str) -> RobotSpec:
-        if isinstance(name, str) and name not in self._entries:
-            scaled = parse_scaled_name(name)
-            if scaled is not None and scaled[0] in self._entries:
-                base, scale = self._entries[scaled[0]], scaled[1]
-                model = scaled_model(name, base.model, scale)
-                reach = round(base.reach * scale, 4)
-                return self.register(dataclasses.replace(base, name=name, reach=reach, model=model))
-            grip = parse_grip_name(name)
-            if grip is not None and self._known(grip[0]):
-                base = self.get_entry(grip[0])
-                model = grip_model(name, base.model, grip[1])
-                return self.register(dataclasses.replace(base, name=name, model=model))
+        self._builtins()
         return super().get_entry(name)
 
-    def _known(self, name: str) -> bool:
-        """Whether ``name`` is registered or can be built from its name."""
-        if name in self._entries:
-            return True
-        scaled = parse_scaled_name(name)
-        return scaled is not None and scaled[0] in self._entries
+    def names(self) -> tuple[str, ...]:
+        self._builtins()
+        return super().names()
+
+    def __getitem__(self, name: str) -> RobotSpec:
+        self._builtins()
+        return super().__getitem__(name)
+
+    def __iter__(self):
+        self._builtins()
+        return super().__iter__()
+
+    def __len__(self) -> int:
+        self._builtins()
+        return super().__len__()
 
     def unregister(self, name: str) -> None:
         """Remove ``name`` if registered (user robots; the caller checks which)."""
@@ -217,152 +207,12 @@ def get_robot_spec(name: str) -> RobotSpec:
     return ROBOTS.get_entry(name)
 
 
-# Arms stand on the front half of the base, as on most mobile manipulators: a base meets a
-# counter with its front edge, and a centred arm would lose 0.15 m of its reach to it.
-FRONT_MOUNT = 0.15
-
-# Manufacturer figures (docs/ROBOTS.md, "Mounting and descriptors"). Reach as in the
-# MoMa-Kitchen reference code where it gives one.
-for _spec in (
-    RobotSpec(
-        "panda",
-        reach=0.85,
-        mount_height=1.03,
-        dof=7,
-        end_effector="parallel_gripper",
-        mount_offset_x=FRONT_MOUNT,
-        model=RobotModel(
-            PANDA_ARM,
-            # Franka Hand: fingers 0-0.04 m each, grasp centre 0.1034 m beyond the flange.
-            ParallelGripper(
-                tcp_offset=0.1034,
-                max_opening=0.08,
-                yaw=-PI / 4,
-                finger_force=70.0,
-                existing_fingers=("panda_finger_joint1", "panda_finger_joint2"),
-            ),
-            home=(0.0, 0.2, 0.0, -2.5, 0.0, 2.7, PI / 4),
-            source="pybullet_data/franka_panda/panda.urdf (Franka Emika), published limits",
-        ),
-    ),
-    RobotSpec(
-        "flexiv",
-        reach=0.78,
-        mount_height=1.03,
-        dof=7,
-        end_effector="parallel_gripper",
-        mount_offset_x=FRONT_MOUNT,
-        model=RobotModel(
-            FLEXIV_ARM,
-            # Robotiq 2F-85-like gripper (what BestMan mounted), 8 cm opening; the
-            # 2F-85 grips with 20-235 N: 100 N per finger.
-            ParallelGripper(tcp_offset=0.15, palm_size=(0.07, 0.14, 0.10), finger_force=100.0),
-            home=(0.0, -0.7, 0.0, 1.6, 0.0, 0.8, 0.0),
-            source="Flexiv SDK kinematics URDF (Rizon 4)",
-        ),
-    ),
-    RobotSpec(
-        "ur5e",
-        reach=0.85,
-        mount_height=1.03,
-        dof=6,
-        end_effector="suction",
-        mount_offset_x=FRONT_MOUNT,
-        model=RobotModel(
-            UR5E_ARM,
-            SuctionCup(tcp_offset=0.134),
-            home=(0.0, -1.9, 1.9, -1.57, -1.57, 0.0),
-            source="Universal Robots nominal kinematics (DH table), ROS description chain",
-        ),
-    ),
-    RobotSpec(
-        "xarm6",
-        reach=0.70,
-        mount_height=0.33,
-        dof=6,
-        end_effector="parallel_gripper",
-        footprint=(0.60, 0.48),
-        mount_offset_x=FRONT_MOUNT,
-        model=RobotModel(
-            XARM6_ARM,
-            # xArm gripper palm (shipped mesh) with prismatic fingers, TCP 0.172 m.
-            ParallelGripper(
-                tcp_offset=0.172,
-                palm_size=(0.06, 0.12, 0.11),
-                finger_size=(0.022, 0.012, 0.05),
-                palm_mesh=PYBULLET_DATA / "xarm" / "xarm_gripper" / "meshes" / "base_link.STL",
-            ),
-            home=(0.0, 0.26, -0.85, 0.0, 0.59, 0.0),
-            source="pybullet_data/xarm/xarm6_with_gripper.urdf (UFACTORY)",
-        ),
-    ),
-    RobotSpec(
-        "realman",
-        reach=0.90,
-        mount_height=1.03,
-        dof=6,
-        end_effector="parallel_gripper",
-        mount_offset_x=FRONT_MOUNT,
-        model=RobotModel(
-            REALMAN_ARM,
-            # DH Robotics AG-95-like gripper (what BestMan mounted), 8 cm opening; the
-            # AG-95 grips with 45-160 N: 80 N per finger.
-            ParallelGripper(tcp_offset=0.16, palm_size=(0.07, 0.13, 0.11), finger_force=80.0),
-            home=(0.0, 0.6, 1.5, 0.0, 1.0, 0.0),
-            source="Realman ROS 2 description (RML63-6F)",
-        ),
-    ),
-    RobotSpec(
-        "elephant",
-        reach=0.63,
-        mount_height=1.03,
-        dof=6,
-        end_effector="parallel_gripper",
-        mount_offset_x=FRONT_MOUNT,
-        model=RobotModel(
-            ELEPHANT_ARM,
-            ParallelGripper(tcp_offset=0.13),
-            home=(0.0, -1.24, -0.77, -1.14, 1.72, -1.57),
-            source="Elephant Robotics ROS description (myCobot Pro 630)",
-        ),
-    ),
-    # Arms beyond the paper's six (docs/ROBOTS.md, "More arms"): they widen the reach range
-    # to 0.9-1.3 m and are available by name, but not in DEFAULT_ROBOTS.
-    RobotSpec(
-        "ur10e",
-        reach=1.30,
-        # A long arm on a low platform: it reaches the lowest drawers and the wall cabinets.
-        mount_height=0.80,
-        dof=6,
-        end_effector="parallel_gripper",
-        mount_offset_x=FRONT_MOUNT,
-        model=RobotModel(
-            UR10E_ARM,
-            # Robotiq 2F-85-like gripper (as on the Flexiv): 8 cm opening, 100 N per finger.
-            ParallelGripper(tcp_offset=0.15, palm_size=(0.07, 0.14, 0.10), finger_force=100.0),
-            home=(0.0, -1.9, 1.9, -1.57, -1.57, 0.0),
-            source="Universal Robots DH table (UR10e), ROS description chain",
-        ),
-    ),
-    RobotSpec(
-        "gen3",
-        reach=0.902,
-        # A light arm on a low platform: its shoulder stands at counter height.
-        mount_height=0.60,
-        dof=7,
-        end_effector="parallel_gripper",
-        mount_offset_x=FRONT_MOUNT,
-        model=RobotModel(
-            GEN3_ARM,
-            # Robotiq 2F-85 (Kinova's gripper option for the Gen3): 100 N per finger.
-            ParallelGripper(tcp_offset=0.15, palm_size=(0.07, 0.14, 0.10), finger_force=100.0),
-            # Kinova's "Home" position (user guide): 0, 15, 180, 230, 0, 55, 90 degrees.
-            home=(0.0, 0.2618, PI, -2.2689, 0.0, 0.9599, PI / 2),
-            source="Kinova Gen3 7-DoF: user guide DH table, kortex_description joint origins",
-        ),
-    ),
-):
-    register_robot(_spec)
+# The built-in robots, in the order they are listed: each ships as ``shipped/NAME.urdf`` (arm
+# and tool) and ``shipped/NAME.yaml`` (its numbers; the manufacturers' figures,
+# docs/ROBOTS.md), loaded like a user's robot. The first six are the paper's; the UR10e and
+# the Gen3 widen the reach range to 0.9-1.3 m and are available by name, but not in
+# DEFAULT_ROBOTS.
+BUILT_IN_ROBOTS = ("panda", "flexiv", "ur5e", "xarm6", "realman", "elephant", "ur10e", "gen3")
 
 # The robots a generation config without ``scene.robots`` assigns (the paper's six, in this
 # order): every dataset made before the other arms existed keeps its bytes.
@@ -394,8 +244,13 @@ DESCRIPTOR_LAYOUTS: dict[int, tuple[str, ...]] = {
 DESCRIPTOR_VERSION = max(DESCRIPTOR_LAYOUTS)
 DESCRIPTOR_NAMES = DESCRIPTOR_LAYOUTS[DESCRIPTOR_VERSION]
 DESCRIPTOR_DIM = len(DESCRIPTOR_NAMES)
-# The finger force of a gripper whose force nobody gave (the built grippers' default), N.
+# The finger force of a gripper whose force nobody gave, N.
 DEFAULT_FINGER_FORCE = 40.0
+# Closing forces per finger a gripper may have, N (small electric grippers give ~20 N,
+# industrial ones 100-200 N). The force decides which targets can be opened at all: a
+# fridge door's seal holds against 40 N fingers that slip off its handle where 80 N ones
+# pull it open (docs/ROBOTS.md, "Grip force").
+FORCE_RANGE = (10.0, 200.0)
 # The shoulder of an arm given by its numbers only, m above its mount and off joint 1's
 # axis: about the middle of the registry's arms (0.16-0.37 m, docs/ROBOTS.md).
 DEFAULT_SHOULDER_RISE = 0.25
@@ -416,7 +271,7 @@ def finger_force(spec: RobotSpec) -> float:
     """Closing force per finger of the robot's gripper in N; 0 for a suction cup."""
     if spec.end_effector == "suction":
         return 0.0
-    return float(getattr(spec.model.end_effector, "finger_force", DEFAULT_FINGER_FORCE))
+    return float(spec.model.end_effector.finger_force)
 
 
 def descriptor_values(

@@ -16,9 +16,7 @@ import numpy as np
 
 from momakitchen.bullet import p
 from momakitchen.errors import MomaError
-from momakitchen.robots.arms import SuctionCup, UserTool
 from momakitchen.robots.body import RobotBody
-from momakitchen.robots.urdf import CUP_HEIGHT, SUCTION_LINK, TCP_LINK
 
 
 class ParallelGripperTool:
@@ -126,12 +124,9 @@ class SuctionTool:
         robot: the robot the cup is mounted on.
         cup_link: link index of the cup.
         contact_distance: a surface within this distance of the cup attaches, metres.
-        face_only: only contacts on the cup face count (not its rim or side); true for
-            the generated cup, whose face geometry is known.
-        face_link: for a cup of unknown geometry (a user's tool), the link whose frame
-            lies on the cup face, z out of it (the TCP): only contacts at most the contact
-            distance behind that plane count, not those along the side of a long stem.
-            None: no such test.
+        face_link: the link whose frame lies on the cup face, z out of it (the TCP).
+        face_tolerance: only contacts at most this far behind the face's plane count, not
+            those on the cup's rim or along the side of a long stem, metres.
     """
 
     kind = "suction"
@@ -144,14 +139,14 @@ class SuctionTool:
         robot: RobotBody,
         cup_link: int,
         contact_distance: float,
-        face_only: bool,
-        face_link: int | None = None,
+        face_link: int,
+        face_tolerance: float,
     ) -> None:
         self.robot = robot
         self.cup_link = cup_link
         self.contact_distance = contact_distance
-        self.face_only = face_only
         self.face_link = face_link
+        self.face_tolerance = face_tolerance
         self._attachment: tuple[int, int] | None = None  # (constraint id, body)
 
     @property
@@ -180,11 +175,8 @@ class SuctionTool:
                 p.getBodyUniqueId(i, physicsClientId=c)
                 for i in range(p.getNumBodies(physicsClientId=c))
             ]
-        cup_pos, cup_orn = r.link_pose(self.cup_link)
-        rot = np.array(p.getMatrixFromQuaternion(cup_orn)).reshape(3, 3)
-        if self.face_link is not None:
-            face_pos, face_orn = r.link_pose(self.face_link)
-            face_z = np.array(p.getMatrixFromQuaternion(face_orn)).reshape(3, 3)[:, 2]
+        face_pos, face_orn = r.link_pose(self.face_link)
+        face_z = np.array(p.getMatrixFromQuaternion(face_orn)).reshape(3, 3)[:, 2]
         best = None
         for b in bodies:
             if b == r.body:
@@ -193,13 +185,8 @@ class SuctionTool:
                 r.body, b, reach, linkIndexA=self.cup_link, physicsClientId=c
             ):
                 # The contact must be on the cup face, not on its rim or side.
-                local = rot.T @ (np.array(pt[5]) - cup_pos)
-                if self.face_only and local[2] < CUP_HEIGHT - 0.004:
+                if float((np.array(pt[5]) - face_pos) @ face_z) < -self.face_tolerance:
                     continue
-                if self.face_link is not None and (
-                    float((np.array(pt[5]) - face_pos) @ face_z) < -reach - 0.004
-                ):
-                    continue  # on the stem, behind the cup face
                 if best is None or pt[8] < best[2]:
                     best = (b, pt[4], pt[8])
         if best is None:
@@ -255,20 +242,9 @@ def make_tool(robot: RobotBody) -> Tool:
             raise MomaError(f"robot {robot.name!r}: a parallel gripper needs finger joints")
         # Fully open: both fingers at their upper limits.
         max_opening = float(sum(infos[j][9] for j in finger_joints))
-        return ParallelGripperTool(
-            robot, finger_joints, max_opening, float(getattr(ee, "finger_force", 40.0))
-        )
-    assert isinstance(ee, SuctionCup | UserTool)  # RobotSpec checks the tool kind
-    if isinstance(ee, SuctionCup):
-        return SuctionTool(
-            robot, robot.link_index(SUCTION_LINK), ee.contact_distance, face_only=True
-        )
+        return ParallelGripperTool(robot, finger_joints, max_opening, ee.finger_force)
     return SuctionTool(
-        robot,
-        cup_link(robot),
-        ee.contact_distance,
-        face_only=False,
-        face_link=robot.tcp_link,
+        robot, cup_link(robot), ee.contact_distance, robot.tcp_link, ee.face_tolerance
     )
 
 
@@ -283,6 +259,6 @@ def cup_link(robot: RobotBody) -> int:
     if link < 0:
         raise MomaError(
             f"robot {robot.name!r}: no link with collision geometry carries the suction TCP "
-            f"{getattr(robot.model.end_effector, 'tcp_link', TCP_LINK)!r}"
+            f"{robot.model.end_effector.tcp_link!r}"
         )
     return link

@@ -1,14 +1,12 @@
-"""Generate one URDF per robot: mobile base + arm + end-effector.
+"""One URDF per robot: the mobile base with the robot's own arm and tool on it.
 
-The base is a box footprint with a pillar up to the mount height; the arm is attached to
-the top of the pillar with a fixed joint. Arms from a joint table get capsule/cylinder
-collision geometry; shipped arms (``pybullet_data``) are parsed and re-emitted with
-absolute mesh paths, so the file loads anywhere with plain ``p.loadURDF(path)``.
+The base is a box footprint with a pillar up to the mount height; the arm and tool come from
+the robot's URDF file (``user.py``; the built-ins' are in ``shipped/``) and are attached to
+the top of the pillar with a fixed joint, re-emitted with absolute mesh paths, so the file
+loads anywhere with plain ``p.loadURDF(path)``.
 
 Link names the rest of the package relies on: ``mobile_base`` (root, footprint and
-pillar), ``flange`` frames as given by the model, ``tcp`` (tool centre point: z = approach,
-fingers close along y), ``finger_left``/``finger_right`` (generated grippers) and
-``suction_cup`` (suction tool).
+pillar) and ``tcp`` (tool centre point: z = approach, fingers close along y).
 """
 
 from __future__ import annotations
@@ -18,17 +16,10 @@ import math
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
-import numpy as np
-
 from momakitchen.errors import MomaError
 from momakitchen.fileio import existing_file
-from momakitchen.robots.arms import (
-    BuiltArm,
-    ParallelGripper,
-    ShippedArm,
-    SuctionCup,
-    UserTool,
-)
+from momakitchen.robots.arms import PYBULLET_DATA
+from momakitchen.robots.scaled import scale_arm
 from momakitchen.robots.spec import (
     RobotSpec,
     get_robot_spec,
@@ -37,9 +28,6 @@ from momakitchen.robots.spec import (
 
 BASE_LINK = "mobile_base"
 TCP_LINK = "tcp"
-FINGER_LINKS = ("finger_left", "finger_right")
-FINGER_JOINTS = ("finger_left_joint", "finger_right_joint")
-SUCTION_LINK = "suction_cup"
 
 BASE_CLEARANCE = 0.03  # ground clearance of the base box (wheels are below it)
 BASE_BOX_TOP = 0.33  # top of the base box; a pillar continues up to the mount height
@@ -126,14 +114,6 @@ def _joint(
     return joint
 
 
-def _z_to(vec: np.ndarray) -> tuple[float, float, float]:
-    """URDF rpy of a rotation taking +z onto the direction of ``vec`` (shape (3,))."""
-    v = vec / np.linalg.norm(vec)
-    pitch = math.atan2(math.hypot(v[0], v[1]), v[2])
-    yaw = math.atan2(v[1], v[0])
-    return (0.0, pitch, yaw)
-
-
 # --------------------------------------------------------------------------------------
 # Mobile base
 
@@ -183,77 +163,17 @@ def _base(robot: ET.Element, spec: RobotSpec) -> None:
 # Arms
 
 
-def _built_arm(robot: ET.Element, arm: BuiltArm, mount_parent: str, mount_xyz) -> str:
-    """Emit a joint-table arm; returns the flange link name."""
-    root = "arm_base"
-    link = ET.SubElement(robot, "link", name=root)
-    _inertial(link, 2.0, (0, 0, arm.base_height / 2))
-    _shape(
-        link,
-        "cylinder",
-        (0, 0, arm.base_height / 2),
-        (0, 0, 0),
-        "mk_joint",
-        radius=arm.base_radius,
-        length=arm.base_height,
-    )
-    _joint(robot, "mount_joint", "fixed", mount_parent, root, mount_xyz, (0, 0, arm.mount_yaw))
-    parent = root
-    n = len(arm.joints)
-    for i, jd in enumerate(arm.joints):
-        child = f"arm_link{i + 1}"
-        link = ET.SubElement(robot, "link", name=child)
-        nxt = np.array(arm.joints[i + 1].xyz if i + 1 < n else arm.flange_xyz)
-        mass = arm.link_masses[i] if arm.link_masses else 1.0
-        _inertial(link, mass, tuple(nxt / 2))
-        # Joint housing: a cylinder around the joint axis.
-        _shape(
-            link,
-            "cylinder",
-            (0, 0, 0),
-            _z_to(np.array(jd.axis)),
-            "mk_joint",
-            radius=jd.radius,
-            length=2.2 * jd.radius,
-        )
-        # Link body: a capsule from this joint to the next one.
-        seg = float(np.linalg.norm(nxt))
-        if seg > 1e-3:
-            _shape(
-                link,
-                "capsule",
-                tuple(nxt / 2),
-                _z_to(nxt),
-                "mk_arm",
-                radius=0.8 * jd.radius,
-                length=seg,
-            )
-        _joint(
-            robot,
-            jd.name,
-            "revolute",
-            parent,
-            child,
-            jd.xyz,
-            jd.rpy,
-            jd.axis,
-            (jd.lower, jd.upper, jd.effort, jd.velocity),
-        )
-        parent = child
-    flange = "flange"
-    link = ET.SubElement(robot, "link", name=flange)
-    _inertial(link, 0.01)
-    _joint(robot, "flange_joint", "fixed", parent, flange, arm.flange_xyz, arm.flange_rpy)
-    return flange
-
-
 def _resolve_mesh(filename: str, urdf_dir: Path) -> str:
     """Absolute path of a mesh referenced from a URDF in ``urdf_dir``.
 
     ``package://pkg/rest`` is looked up as ``rest`` or ``pkg/rest`` under the URDF's folder
-    and its ancestors (how ROS description packages sit next to their URDFs).
+    and its ancestors (how ROS description packages sit next to their URDFs);
+    ``package://pybullet_data/rest`` in the installed ``pybullet_data`` (the built-in Panda
+    and xArm6 use its meshes).
     """
-    if filename.startswith("package://"):
+    if filename.startswith("package://pybullet_data/"):
+        candidates = [str(PYBULLET_DATA / filename[len("package://pybullet_data/") :])]
+    elif filename.startswith("package://"):
         rest = filename[len("package://") :]
         candidates = [rest, rest.split("/", 1)[1] if "/" in rest else rest]
     elif filename.startswith("file://"):
@@ -323,31 +243,24 @@ def embed_urdf(
     root_link: str,
     mount_parent: str,
     mount_xyz,
-    *,
-    keep_links=None,
-    limits=(),
-    drop_mimic: bool = True,
     mount_yaw: float = 0.0,
 ) -> None:
     """Copy the links and joints of ``src`` under ``root_link`` into ``robot``.
 
     Mesh paths become absolute, ``<mimic>`` tags are dropped (PyBullet ignores them; the
-    fingers are driven one by one), ``limits`` ((joint, lower, upper) triples) replace
-    the file's, and ``root_link`` is attached to ``mount_parent`` with a fixed joint,
-    turned ``mount_yaw`` radians about the vertical.
+    fingers are driven one by one), and ``root_link`` is attached to ``mount_parent`` with a
+    fixed joint, turned ``mount_yaw`` radians about the vertical.
     """
     names = {link.get("name") for link in src.findall("link")}
     if root_link not in names:
         raise MomaError(f"URDF has no link {root_link!r}")
     keep = subtree(src, root_link)
-    if keep_links is not None:
-        keep &= set(keep_links)
     taken = {el.get("name") for el in robot.findall("link")}
     clash = keep & taken
     if clash:
         raise MomaError(f"URDF link names clash with the mobile base: {sorted(clash)}")
-    # A material the base already defines (a URDF exported from a built robot carries
-    # them) is not defined twice.
+    # A material the base already defines (the built-ins' URDFs carry them) is not
+    # defined twice.
     materials = {mat.get("name") for mat in robot.findall("material")}
     for mat in src.findall("material"):
         if mat.get("name") not in materials:
@@ -362,141 +275,13 @@ def embed_urdf(
         for mesh in link.iter("mesh"):
             mesh.set("filename", _resolve_mesh(mesh.get("filename", ""), urdf_dir))
         robot.append(link)
-    overrides = {name: (lo, hi) for name, lo, hi in limits}
     for joint in src.findall("joint"):
         if link_of(joint, "parent") not in keep or link_of(joint, "child") not in keep:
             continue
-        if drop_mimic:
-            for mimic in joint.findall("mimic"):
-                joint.remove(mimic)
-        lim = joint.find("limit")
-        if joint.get("name") in overrides and lim is not None:
-            lo, hi = overrides[joint.get("name", "")]
-            lim.set("lower", f"{lo:.9g}")
-            lim.set("upper", f"{hi:.9g}")
+        for mimic in joint.findall("mimic"):
+            joint.remove(mimic)
         robot.append(joint)
     _joint(robot, "mount_joint", "fixed", mount_parent, root_link, mount_xyz, (0, 0, mount_yaw))
-
-
-def _shipped_arm(robot: ET.Element, arm: ShippedArm, mount_parent: str, mount_xyz) -> str:
-    src = parse_urdf(arm.urdf)
-    embed_urdf(
-        robot,
-        src,
-        arm.urdf.parent,
-        arm.root_link,
-        mount_parent,
-        mount_xyz,
-        keep_links=arm.keep_links,
-        limits=arm.limits,
-        drop_mimic=arm.drop_mimic,
-        mount_yaw=arm.mount_yaw,
-    )
-    return arm.flange_link
-
-
-# --------------------------------------------------------------------------------------
-# End-effectors
-
-
-def _gripper(robot: ET.Element, g: ParallelGripper, flange: str) -> None:
-    if g.existing_fingers:
-        # Shipped hand: the TCP hangs off the link that carries the fingers.
-        joints = {j.get("name"): j for j in robot.findall("joint")}
-        missing = [f for f in g.existing_fingers if f not in joints]
-        if missing:
-            raise MomaError(f"gripper finger joints {missing} not in the URDF")
-        hand = link_of(joints[g.existing_fingers[0]], "parent")
-        link = ET.SubElement(robot, "link", name=TCP_LINK)
-        _inertial(link, 0.001, inertia=1e-6)
-        _joint(robot, "tcp_joint", "fixed", hand, TCP_LINK, (0, 0, g.tcp_offset))
-        return
-    fx, fy, flen = g.finger_size
-    tip = 0.015  # fingertips reach this far beyond the TCP
-    finger_base = g.tcp_offset + tip - flen
-    palm = "gripper_palm"
-    link = ET.SubElement(robot, "link", name=palm)
-    _inertial(link, 0.6, (0, 0, finger_base / 2))
-    if g.palm_mesh is not None:
-        mesh = str(Path(g.palm_mesh).resolve())
-        _shape(link, "mesh", (0, 0, 0), (0, 0, 0), "mk_tool", filename=mesh)
-        # Fingers of this gripper sit beyond its palm mesh: a carrier block joins them.
-        gap_lo = 0.09
-        if finger_base > gap_lo + 0.005:
-            _shape(
-                link,
-                "box",
-                (0, 0, (gap_lo + finger_base) / 2),
-                (0, 0, 0),
-                "mk_tool",
-                size=(g.palm_size[0] * 0.6, g.max_opening + 2 * fy, finger_base - gap_lo),
-            )
-    else:
-        px, py, _ = g.palm_size
-        _shape(
-            link,
-            "box",
-            (0, 0, finger_base / 2),
-            (0, 0, 0),
-            "mk_tool",
-            size=(px, max(py, g.max_opening + 2 * fy + 0.01), finger_base),
-        )
-    _joint(robot, "gripper_mount_joint", "fixed", flange, palm, (0, 0, 0), (0, 0, g.yaw))
-    half = g.max_opening / 2
-    for name, jname, sign in zip(FINGER_LINKS, FINGER_JOINTS, (1, -1), strict=True):
-        link = ET.SubElement(robot, "link", name=name)
-        _inertial(link, 0.05, (0, sign * fy / 2, flen / 2), inertia=1e-5)
-        _shape(
-            link, "box", (0, sign * fy / 2, flen / 2), (0, 0, 0), "mk_joint", size=(fx, fy, flen)
-        )
-        _joint(
-            robot,
-            jname,
-            "prismatic",
-            palm,
-            name,
-            (0, 0, finger_base),
-            (0, 0, 0),
-            (0, sign, 0),
-            (0.0, half, g.finger_force, 0.2),
-        )
-    link = ET.SubElement(robot, "link", name=TCP_LINK)
-    _inertial(link, 0.001, inertia=1e-6)
-    _joint(robot, "tcp_joint", "fixed", palm, TCP_LINK, (0, 0, g.tcp_offset))
-
-
-CUP_HEIGHT = 0.012
-
-
-def _suction(robot: ET.Element, s: SuctionCup, flange: str) -> None:
-    stem_len = s.tcp_offset - CUP_HEIGHT
-    link = ET.SubElement(robot, "link", name="suction_stem")
-    _inertial(link, 0.3, (0, 0, stem_len / 2))
-    _shape(
-        link,
-        "cylinder",
-        (0, 0, stem_len / 2),
-        (0, 0, 0),
-        "mk_tool",
-        radius=s.stem_radius,
-        length=stem_len,
-    )
-    _joint(robot, "suction_mount_joint", "fixed", flange, "suction_stem")
-    link = ET.SubElement(robot, "link", name=SUCTION_LINK)
-    _inertial(link, 0.05, (0, 0, CUP_HEIGHT / 2), inertia=1e-5)
-    _shape(
-        link,
-        "cylinder",
-        (0, 0, CUP_HEIGHT / 2),
-        (0, 0, 0),
-        "mk_joint",
-        radius=s.cup_radius,
-        length=CUP_HEIGHT,
-    )
-    _joint(robot, "suction_cup_joint", "fixed", "suction_stem", SUCTION_LINK, (0, 0, stem_len))
-    link = ET.SubElement(robot, "link", name=TCP_LINK)
-    _inertial(link, 0.001, inertia=1e-6)
-    _joint(robot, "tcp_joint", "fixed", SUCTION_LINK, TCP_LINK, (0, 0, CUP_HEIGHT))
 
 
 # --------------------------------------------------------------------------------------
@@ -515,7 +300,7 @@ def mounted(spec: RobotSpec, mount_height: float | None) -> RobotSpec:
 
 
 def build_urdf(spec: RobotSpec, mount_height: float | None = None) -> str:
-    """URDF text of the whole robot (base + arm + end-effector, ``spec.model``), the arm at
+    """URDF text of the whole robot (base + the arm and tool of ``spec.model``), the arm at
     ``mount_height`` (default: the robot's own); deterministic. The mount height only sets
     the pillar's length and the arm's mount joint: the arm and tool are the same."""
     spec = mounted(spec, mount_height)
@@ -526,21 +311,17 @@ def build_urdf(spec: RobotSpec, mount_height: float | None = None) -> str:
         ET.SubElement(mat, "color", rgba=rgba)
     _base(robot, spec)
     mount = (spec.mount_offset_x, 0.0, spec.mount_height)
-    if isinstance(model.arm, BuiltArm):
-        flange = _built_arm(robot, model.arm, BASE_LINK, mount)
-    else:
-        flange = _shipped_arm(robot, model.arm, BASE_LINK, mount)
-    if isinstance(model.end_effector, UserTool):
-        # The user's URDF carries its tool: only name its TCP frame uniformly (a URDF
-        # exported from a built robot, robots/export.py, has it named already).
-        if model.end_effector.tcp_link != TCP_LINK:
-            link = ET.SubElement(robot, "link", name=TCP_LINK)
-            _inertial(link, 0.001, inertia=1e-6)
-            _joint(robot, "tcp_joint", "fixed", model.end_effector.tcp_link, TCP_LINK)
-    elif isinstance(model.end_effector, SuctionCup):
-        _suction(robot, model.end_effector, flange)
-    else:
-        _gripper(robot, model.end_effector, flange)
+    arm, tool = model.arm, model.end_effector
+    src = parse_urdf(arm.urdf)
+    if arm.link_scale != 1.0:
+        scale_arm(src, arm.flange_link, arm.link_scale)
+    embed_urdf(robot, src, arm.urdf.parent, arm.root_link, BASE_LINK, mount, arm.mount_yaw)
+    # The TCP frame is named uniformly; a URDF whose TCP link is already named so (the
+    # built-ins', one exported by robots/export.py) gets no extra frame.
+    if tool.tcp_link != TCP_LINK:
+        link = ET.SubElement(robot, "link", name=TCP_LINK)
+        _inertial(link, 0.001, inertia=1e-6)
+        _joint(robot, "tcp_joint", "fixed", tool.tcp_link, TCP_LINK)
     ET.indent(robot)
     return '<?xml version="1.0"?>\n' + ET.tostring(robot, encoding="unicode") + "\n"
 

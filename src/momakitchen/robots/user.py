@@ -18,6 +18,19 @@ Example ``myarm.yaml`` (paths relative to the YAML file)::
     flange_link: tool_flange       # the wrist's flange (reach checks); default: a link
                                    # named "flange", else end_effector_link
     finger_force: 40.0             # closing force per finger, N (grippers; default 40)
+    suction_face_tolerance: 0.008  # suction: how far behind the TCP plane a contact still
+                                   # counts as on the cup's face, m (default 0.008)
+    link_scale: 1.0                # every length of the arm (not the tool) times this
+    source: "maker's DH table"     # where the figures come from
+
+A robot like a built-in one needs only what differs: ``like: ur5e`` starts from the
+built-in's files (``shipped/ur5e.yaml`` and its URDF), and the fields given replace its
+own; ``name`` is still required. For example a UR5e with links 0.65 times as long::
+
+    name: ur5e_x065
+    like: ur5e
+    link_scale: 0.65
+    # reach: the built-in's times link_scale unless given
 
 The YAML file may be at most :data:`MAX_YAML_BYTES` (1 MB): its fields are a few lines,
 and a larger file is refused before it is parsed. The URDF must be a tree: one root
@@ -25,14 +38,16 @@ link, every other link the child of exactly one joint, no loops.
 
 The robot is mounted on the same mobile base as the built-in ones, at any height of
 :data:`~momakitchen.robots.spec.MOUNT_RANGE`. On the command line, ``--robot-yaml FILE``
-(repeatable) or the environment variable ``MOMAKITCHEN_ROBOT_YAML`` (paths separated by
-``os.pathsep``) registers user robots before the command runs. Each registered file is
+(repeatable; a directory: each of its ``*.yaml`` files) or the environment variable
+``MOMAKITCHEN_ROBOT_YAML`` (paths separated by ``os.pathsep``) registers user robots
+before the command runs. Each registered file is
 known with the content hash of the YAML and its URDF (:func:`user_robot_file`): datasets
 record it, and generation's worker processes register the same files and check the hash.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import difflib
 import hashlib
 import math
@@ -47,10 +62,11 @@ import yaml
 
 from momakitchen.errors import MomaError
 from momakitchen.fileio import existing_file
-from momakitchen.robots.arms import RobotModel, ShippedArm, UserTool
-from momakitchen.robots.grip import FORCE_RANGE
+from momakitchen.robots.arms import RobotModel, UrdfArm, UrdfTool
+from momakitchen.robots.scaled import scale_problem
 from momakitchen.robots.spec import (
     DEFAULT_FINGER_FORCE,
+    FORCE_RANGE,
     ROBOTS,
     RobotSpec,
     mount_height_problem,
@@ -63,14 +79,17 @@ if TYPE_CHECKING:
     from momakitchen.robots.body import RobotBody
 
 ENV_VAR = "MOMAKITCHEN_ROBOT_YAML"
+# The built-in robots' files: ``NAME.yaml`` and the URDF it names, for each name of
+# ``spec.BUILT_IN_ROBOTS``.
+SHIPPED = Path(__file__).resolve().parent / "shipped"
 # Heights above the floor (m) between which the kitchens place what a robot manipulates,
 # from low drawers and bins to the wall cabinets' shelves: a tool must reach into them.
 TARGET_HEIGHTS = (0.1, 2.0)
 # A robot's YAML is a few hundred bytes; parsing a huge one (a list of millions of items)
 # would take minutes, so a larger file is refused unparsed.
 MAX_YAML_BYTES = 1024 * 1024
-# Joints that build_urdf adds around a user's URDF: the arm's mount and the TCP frame
-# (PyBullet crashes on a URDF with two joints of one name).
+# Joints that build_urdf adds around a user's URDF: the arm's mount and, above a TCP link
+# not named "tcp", the TCP frame's (PyBullet crashes on a URDF with two joints of one name).
 RESERVED_JOINTS = ("mount_joint", "tcp_joint")
 # How many of a URDF's names an error lists when the YAML names one it does not have.
 _LISTED = 8
@@ -83,6 +102,7 @@ _REQUIRED: dict[str, type] = {
     "end_effector": str,
 }
 _OPTIONAL: dict[str, type] = {
+    "like": str,
     "reach": float,
     "finger_joints": list,
     "home": list,
@@ -91,6 +111,9 @@ _OPTIONAL: dict[str, type] = {
     "mount_yaw": float,
     "flange_link": str,
     "finger_force": float,
+    "suction_face_tolerance": float,
+    "link_scale": float,
+    "source": str,
 }
 _LOADED: dict[str, str] = {}  # resolved YAML path -> robot name
 
@@ -102,8 +125,9 @@ class UserRobotFile:
     Attributes:
         name: the robot's registry name.
         yaml: the resolved path of its YAML file.
-        sha256: hex digest of the YAML file's bytes followed by its URDF's bytes
-            (:func:`robot_files_digest`): the same text gives the same robot.
+        sha256: hex digest of the YAML file's bytes followed by its URDF's bytes (and
+            between them, for a YAML ``like`` a built-in, the built-in's YAML;
+            :func:`robot_files_digest`): the same text gives the same robot.
     """
 
     name: str
@@ -154,8 +178,13 @@ class UserRobotConfig:
         flange_link: the link whose frame is the wrist's flange (IK's reach pre-check), or
             "" for the default (a link named ``flange``, else ``end_effector_link``).
         finger_force: closing force per finger of a gripper, N (in
-            ``grip.FORCE_RANGE``; it decides e.g. whether a fridge door opens), or None
+            ``spec.FORCE_RANGE``; it decides e.g. whether a fridge door opens), or None
             for the default (``DEFAULT_FINGER_FORCE``); grippers only.
+        suction_face_tolerance: how far behind the TCP's xy plane a contact still counts
+            as on a suction cup's face, m, or None for the default (0.008); suction only.
+        link_scale: every length of the arm is multiplied by this (``scaled.py``).
+        like: the built-in robot whose files this one starts from, or "".
+        provenance: where the figures come from (the YAML's ``source``), or "".
         source: the YAML path (for error messages).
     """
 
@@ -173,6 +202,10 @@ class UserRobotConfig:
     mount_yaw: float = 0.0
     flange_link: str = ""
     finger_force: float | None = None
+    suction_face_tolerance: float | None = None
+    link_scale: float = 1.0
+    like: str = ""
+    provenance: str = ""
     source: str = ""
 
     def __post_init__(self) -> None:
@@ -195,6 +228,20 @@ class UserRobotConfig:
             raise MomaError(
                 f"{where}: mount_yaw must be in [-2 pi, 2 pi] rad, got {self.mount_yaw}"
             )
+        problem = scale_problem(self.link_scale)
+        if problem:
+            raise MomaError(f"{where}: {problem}")
+        if self.suction_face_tolerance is not None:
+            if self.end_effector != "suction":
+                raise MomaError(
+                    f"{where}: suction_face_tolerance is for suction cups; end_effector is "
+                    f"{self.end_effector!r}"
+                )
+            if not 0.0 < self.suction_face_tolerance <= 0.05:
+                raise MomaError(
+                    f"{where}: suction_face_tolerance must be in (0, 0.05] m, "
+                    f"got {self.suction_face_tolerance:g}"
+                )
         if self.finger_force is not None:
             lo, hi = FORCE_RANGE
             if self.end_effector == "suction":
@@ -223,9 +270,9 @@ def _typed(value, kind, key: str, where: str):
     return value
 
 
-def load_config(path: str | os.PathLike) -> UserRobotConfig:
-    """Read and validate a user robot YAML file (MomaError naming the file otherwise)."""
-    path = existing_file(path, "robot YAML file")
+def _read_yaml(path: Path) -> dict[str, Any]:
+    """The fields of robot YAML file ``path`` (at most :data:`MAX_YAML_BYTES`), unchecked;
+    MomaError naming the file when it cannot be read or parsed or is not a mapping."""
     where = str(path)
     try:
         with path.open("rb") as f:
@@ -244,6 +291,43 @@ def load_config(path: str | os.PathLike) -> UserRobotConfig:
         raise MomaError(f"robot YAML file {where!r} does not parse: {detail}") from None
     if not isinstance(data, dict):
         raise MomaError(f"{where}: expected a mapping of fields, got {type(data).__name__}")
+    return data
+
+
+def shipped_yaml(name: str) -> Path:
+    """The YAML file of built-in robot ``name`` (in ``shipped/``)."""
+    return SHIPPED / f"{name}.yaml"
+
+
+def _like(data: dict[str, Any], where: str) -> dict[str, Any]:
+    """The fields of a YAML that says ``like: NAME``: the built-in's, replaced by those the
+    file gives (its URDF path made absolute). A ``link_scale`` without a ``reach`` scales
+    the built-in's reach."""
+    from momakitchen.robots.spec import BUILT_IN_ROBOTS
+
+    like = data["like"]
+    if like not in BUILT_IN_ROBOTS:
+        raise MomaError(
+            f"{where}: field 'like' must name a built-in robot ({', '.join(BUILT_IN_ROBOTS)}), "
+            f"got {like!r}"
+        )
+    base = _read_yaml(shipped_yaml(like))
+    merged = {k: v for k, v in base.items() if k != "name"}
+    merged["urdf"] = str(SHIPPED / base["urdf"])
+    if "link_scale" in data and "reach" not in data and "reach" in base:
+        scale = _typed(data["link_scale"], float, "link_scale", where)
+        merged["reach"] = round(base["reach"] * scale, 4)
+    merged.update(data)
+    return merged
+
+
+def load_config(path: str | os.PathLike) -> UserRobotConfig:
+    """Read and validate a user robot YAML file (MomaError naming the file otherwise)."""
+    path = existing_file(path, "robot YAML file")
+    where = str(path)
+    data = _read_yaml(path)
+    if data.get("like") is not None:
+        data = _like(data, where)
     unknown = sorted(set(data) - set(_REQUIRED) - set(_OPTIONAL))
     if unknown:
         raise MomaError(
@@ -266,6 +350,7 @@ def load_config(path: str | os.PathLike) -> UserRobotConfig:
     if "finger_joints" in values:
         values["finger_joints"] = tuple(values["finger_joints"])
     values["mount_height"], values["mount_range"] = _mount(values["mount_height"], where)
+    values["provenance"] = values.pop("source", "")
     urdf = Path(values.pop("urdf"))
     if not urdf.is_absolute():
         urdf = (path.parent / urdf).resolve()
@@ -288,10 +373,11 @@ def _mount(value: object, where: str) -> tuple[float, tuple[float, float] | None
     return float(value), None
 
 
-def robot_files_digest(yaml_path: str | os.PathLike, urdf_path: str | os.PathLike) -> str:
-    """sha256 (hex) of a user robot's YAML bytes then its URDF's bytes."""
+def robot_files_digest(*paths: str | os.PathLike) -> str:
+    """sha256 (hex) of a user robot's files' bytes, in order: its YAML, the built-in's YAML
+    it is ``like`` (if any), its URDF."""
     digest = hashlib.sha256()
-    for path in (yaml_path, urdf_path):
+    for path in paths:
         try:
             data = Path(path).read_bytes()
         except OSError as exc:
@@ -435,7 +521,8 @@ def _model(cfg: UserRobotConfig) -> tuple[RobotModel, int]:
             )
     flange = cfg.flange_link or ("flange" if "flange" in links else cfg.end_effector_link)
     joints = root.findall("joint")
-    _unique_names("joint", [j.get("name", "") for j in joints], RESERVED_JOINTS, where)
+    reserved = RESERVED_JOINTS if cfg.end_effector_link != TCP_LINK else RESERVED_JOINTS[:1]
+    _unique_names("joint", [j.get("name", "") for j in joints], reserved, where)
     children = _parent_joints(joints, where)
     roots = [name for name in links if name not in children]
     if len(roots) != 1:
@@ -504,23 +591,57 @@ def _model(cfg: UserRobotConfig) -> tuple[RobotModel, int]:
     problem = _home_problem(cfg, arm) if cfg.home else None
     if problem:
         raise MomaError(f"{cfg.source}: {problem}")
+    tool = UrdfTool(
+        cfg.end_effector,
+        cfg.end_effector_link,
+        tuple(fingers),
+        DEFAULT_FINGER_FORCE if cfg.finger_force is None else cfg.finger_force,
+    )
+    if cfg.suction_face_tolerance is not None:
+        tool = dataclasses.replace(tool, face_tolerance=cfg.suction_face_tolerance)
     model = RobotModel(
-        ShippedArm(
+        UrdfArm(
             urdf=cfg.urdf,
             root_link=roots[0],
             flange_link=flange,
             mount_yaw=cfg.mount_yaw,
+            link_scale=cfg.link_scale,
         ),
-        UserTool(
-            cfg.end_effector,
-            cfg.end_effector_link,
-            tuple(fingers),
-            DEFAULT_FINGER_FORCE if cfg.finger_force is None else cfg.finger_force,
-        ),
+        tool,
         home=cfg.home,
         source=f"user robot {cfg.source}",
     )
     return model, dof
+
+
+def _spec(cfg: UserRobotConfig, model: RobotModel, dof: int, reach: float) -> RobotSpec:
+    try:
+        return RobotSpec(
+            cfg.name,
+            reach=reach,
+            mount_height=cfg.mount_height,
+            mount_range=cfg.mount_range,
+            dof=dof,
+            end_effector=cfg.end_effector,
+            footprint=(cfg.footprint[0], cfg.footprint[1]),
+            mount_offset_x=cfg.mount_offset_x,
+            model=model,
+        )
+    except MomaError as exc:
+        raise MomaError(f"{cfg.source}: {exc}") from None
+
+
+def register_shipped(names: Iterable[str]) -> None:
+    """Register the built-in robots ``names`` from their files in ``shipped/``: the same
+    loader as a user's robot, without the checks a shipped robot passes in the tests (its
+    body loaded in PyBullet) and without a user robot's record."""
+    for name in names:
+        cfg = load_config(shipped_yaml(name))
+        if cfg.name != name or cfg.reach is None:
+            raise MomaError(f"{cfg.source}: a built-in's YAML needs name {name!r} and a reach")
+        model, dof = _model(cfg)
+        model = dataclasses.replace(model, source=cfg.provenance)
+        register_robot(_spec(cfg, model, dof, cfg.reach))
 
 
 def register_user_robot(path: str | os.PathLike) -> RobotSpec:
@@ -537,31 +658,15 @@ def register_user_robot(path: str | os.PathLike) -> RobotSpec:
     if cfg.name in ROBOTS:
         raise MomaError(f"{cfg.source}: robot name {cfg.name!r} is already registered")
     model, dof = _model(cfg)
-    files = UserRobotFile(cfg.name, key, robot_files_digest(key, cfg.urdf))
-
-    def make_spec(reach: float) -> RobotSpec:
-        try:
-            return RobotSpec(
-                cfg.name,
-                reach=reach,
-                mount_height=cfg.mount_height,
-                mount_range=cfg.mount_range,
-                dof=dof,
-                end_effector=cfg.end_effector,
-                footprint=(cfg.footprint[0], cfg.footprint[1]),
-                mount_offset_x=cfg.mount_offset_x,
-                model=model,
-            )
-        except MomaError as exc:
-            raise MomaError(f"{cfg.source}: {exc}") from None
-
+    like = (shipped_yaml(cfg.like),) if cfg.like else ()
+    files = UserRobotFile(cfg.name, key, robot_files_digest(key, *like, cfg.urdf))
     # Registered with a provisional reach when it is to be measured: measuring loads the
     # robot by name.
-    spec = register_robot(make_spec(cfg.reach if cfg.reach is not None else 1.0))
+    spec = register_robot(_spec(cfg, model, dof, cfg.reach if cfg.reach is not None else 1.0))
     try:
         reach = _check_body(cfg, measure_reach=cfg.reach is None)
         if reach is not None:
-            spec = register_robot(make_spec(round(reach, 3)), replace=True)
+            spec = register_robot(_spec(cfg, model, dof, round(reach, 3)), replace=True)
     except BaseException:
         ROBOTS.unregister(cfg.name)
         raise
@@ -661,10 +766,29 @@ def floor_reach_problem(robot: RobotBody, cfg: UserRobotConfig, samples: int = 2
     )
 
 
+def robot_yaml_files(path: str | os.PathLike) -> list[Path]:
+    """``path`` as robot YAML files: a file itself, a directory its ``*.yaml`` files in
+    order of name (MomaError if it holds none)."""
+    path = Path(path)
+    if not path.is_dir():
+        return [path]
+    files = sorted(path.glob("*.yaml"))
+    if not files:
+        raise MomaError(f"robot YAML directory {str(path)!r} holds no *.yaml file")
+    return files
+
+
+def register_user_robots(path: str | os.PathLike) -> list[RobotSpec]:
+    """Register the robot of YAML file ``path``, or of every YAML file of directory
+    ``path`` (:func:`robot_yaml_files`)."""
+    return [register_user_robot(f) for f in robot_yaml_files(path)]
+
+
 def load_env_robots() -> list[RobotSpec]:
-    """Register the robots listed in ``$MOMAKITCHEN_ROBOT_YAML`` (os.pathsep-separated)."""
+    """Register the robots listed in ``$MOMAKITCHEN_ROBOT_YAML`` (os.pathsep-separated
+    files or directories)."""
     paths = [s for s in os.environ.get(ENV_VAR, "").split(os.pathsep) if s.strip()]
-    return [register_user_robot(s) for s in paths]
+    return [spec for path in paths for spec in register_user_robots(path)]
 
 
 def unregister_user_robot(name: str) -> None:
