@@ -12,7 +12,7 @@ from torch import nn
 from momakitchen.models.config import ModelConfig
 from momakitchen.models.loss import WeightedMSELoss
 from momakitchen.models.pointnet2 import Plan, PointMLP
-from momakitchen.models.reach_input import reach_gate
+from momakitchen.models.reach_input import footprint_gate, reach_gate
 from momakitchen.robots.spec import DESCRIPTOR_DIM
 
 # Initial value of every prediction (a typical mean label is a few per cent).
@@ -190,11 +190,14 @@ class AffordanceModel(nn.Module):
 
     def _keep(self, batch: dict[str, Any], dtype: torch.dtype) -> torch.Tensor:
         """What of each prediction stands: 0 on padded floor points, else 1 or, with
-        ``ModelConfig.reach_gate``, the robot's reachability gate. Shapes: (B, Nf)."""
+        ``ModelConfig.reach_gate``, the robot's reachability gate, and with
+        ``ModelConfig.footprint_gate``, where its base fits. Shapes: (B, Nf)."""
         keep = batch["floor_mask"].to(dtype)
         if self.config.reach_gate > 0:
             gate = reach_gate(batch, self.config.reach_gate, self.config.reach_points)
             keep = keep * gate.to(dtype)
+        if self.config.footprint_gate:
+            keep = keep * footprint_gate(batch).to(dtype)
         return keep
 
 

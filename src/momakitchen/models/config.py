@@ -67,6 +67,10 @@ class ModelConfig:
             that floor point (:func:`~momakitchen.models.reach_input.reach_gate`, at
             ``reach_points`` of its points), so that no stance the arm cannot reach from
             is chosen, whatever the network learnt; 0: no gate.
+        footprint_gate: any model: each prediction is multiplied by 0 where the robot's
+            base, facing the target, would stand on points the view shows above the floor
+            (:func:`~momakitchen.models.reach_input.footprint_gate`, the test the
+            classical methods place by); False: no gate.
         hidden_descriptor: names of robot descriptor columns the model does not read
             (zeroed before it sees them), e.g. the reach and mount numbers of a model
             that knows the arm by its reachability (``reach_input``); (): it reads all.
@@ -99,6 +103,7 @@ class ModelConfig:
     reach_input: bool = field(default=False, metadata=codec.OMIT_IF_DEFAULT)
     reach_points: int = field(default=1, metadata=codec.OMIT_IF_DEFAULT)
     reach_gate: float = field(default=0.0, metadata=codec.OMIT_IF_DEFAULT)
+    footprint_gate: bool = field(default=False, metadata=codec.OMIT_IF_DEFAULT)
     hidden_descriptor: tuple[str, ...] = field(default=(), metadata=codec.OMIT_IF_DEFAULT)
 
     def __post_init__(self) -> None:
@@ -152,6 +157,8 @@ class ModelConfig:
             raise bad("reach_points", "must be an integer in [1, 64]")
         if not 0.0 <= self.reach_gate <= 1.0:
             raise bad("reach_gate", "must be in [0, 1] m (0: no gate)")
+        if not isinstance(self.footprint_gate, bool):
+            raise bad("footprint_gate", "must be true or false")
         names = DESCRIPTOR_LAYOUTS.get(self.descriptor_version, ())
         hidden = tuple(self.hidden_descriptor)
         if any(h not in names for h in hidden) or len(set(hidden)) != len(hidden):

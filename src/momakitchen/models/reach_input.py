@@ -170,3 +170,33 @@ def reach_gate(batch: dict, width: float, points: int) -> torch.Tensor:
     reach = batch_floor_reach(batch.get("robot_name", []), mount, at, batch["floor_xyz"])
     inside = torch.maximum(reach[..., 0], reach[..., 1]) * REACH_SCALE
     return torch.sigmoid(inside / width)
+
+
+def footprint_gate(batch: dict) -> torch.Tensor:
+    """Where the robot's base fits (``ModelConfig.footprint_gate``): 1 at each floor point
+    where its box, facing the target, holds none of the view's points above the floor up
+    to the arm's mount, else 0 (:func:`~momakitchen.placement.observed.footprint_free`,
+    the test the classical methods place by; the points filtered by
+    :func:`~momakitchen.placement.observed.supported`, as there). A registered robot's
+    footprint is its own, a robot given by its numbers the built-ins' base's.
+
+    Shapes: a batch (``floor_xyz`` (B, Nf, 3), ``floor_mask``, the global cloud,
+    ``robot``, ``robot_name``) -> (B, Nf) in {0, 1}
+    """
+    from momakitchen.placement.body import DEFAULT_FOOTPRINT
+    from momakitchen.placement.observed import OBSTACLE_MIN_Z, footprint_free, supported
+
+    target = target_centroid(batch["global_xyz"], batch["global_align"], batch["global_mask"])
+    mounts = batch.get("robot_mount", batch["robot"][:, 1]).detach().cpu().double().numpy()
+    floor = batch["floor_xyz"].detach().cpu().double().numpy()
+    cloud = batch["global_xyz"].detach().cpu().double().numpy()
+    real = batch["global_mask"].detach().cpu().numpy()
+    targets = target.detach().cpu().double().numpy()
+    names = list(batch.get("robot_name", [])) or [""] * len(floor)
+    out = np.ones(floor.shape[:2], np.float32)
+    for i, name in enumerate(names):
+        footprint = get_robot_spec(str(name)).footprint if name else DEFAULT_FOOTPRINT
+        pts = cloud[i][real[i]]
+        above = supported(pts[pts[:, 2] > OBSTACLE_MIN_Z])
+        out[i] = footprint_free(floor[i], above, targets[i], footprint, float(mounts[i]))
+    return torch.from_numpy(out).to(device=batch["floor_xyz"].device)

@@ -116,10 +116,23 @@ def free_floor(frame: ObservedFrame, footprint: tuple[float, float], ceiling: fl
 
     Shapes: -> (N,) bool over ``frame.floor_xyz``.
     """
-    floor = frame.floor_xyz[:, :2]
-    pts = frame.points[frame.points[:, 2] <= ceiling, :2]
+    return footprint_free(frame.floor_xyz, frame.points, frame.target_xyz, footprint, ceiling)
+
+
+def footprint_free(
+    floor_xyz: np.ndarray,
+    points: np.ndarray,
+    target_xyz: np.ndarray,
+    footprint: tuple[float, float],
+    ceiling: float,
+) -> np.ndarray:
+    """:func:`free_floor` on arrays: floor points ``floor_xyz`` (N, 3), obstacle points
+    ``points`` (M, 3) (the frame's points off the floor, filtered by :func:`supported`),
+    the target ``target_xyz`` (3,) the base faces. Shapes: -> (N,) bool."""
+    floor = floor_xyz[:, :2]
+    pts = points[points[:, 2] <= ceiling, :2]
     free = np.ones(len(floor), bool)
-    if len(pts) == 0:
+    if len(pts) == 0 or len(floor) == 0:
         return free
     pts = np.unique(np.floor(pts / OBSTACLE_GRID), axis=0) * OBSTACLE_GRID + OBSTACLE_GRID / 2
     half_l = footprint[0] / 2 + FOOTPRINT_MARGIN
@@ -129,7 +142,7 @@ def free_floor(frame: ObservedFrame, footprint: tuple[float, float], ceiling: fl
         cKDTree(pts), math.hypot(half_l, half_w), output_type="ndarray"
     )
     i, j = pairs["i"], pairs["j"]
-    to = frame.target_xyz[:2] - floor
+    to = target_xyz[:2] - floor
     u = to / np.maximum(np.hypot(to[:, 0], to[:, 1]), 1e-9)[:, None]
     rel = pts[j] - floor[i]
     along = rel[:, 0] * u[i, 0] + rel[:, 1] * u[i, 1]
