@@ -154,3 +154,58 @@ def test_the_reach_gate_scales_any_models_prediction_by_the_arms_reach(name, bat
     with pytest.raises(MomaError, match=r"reach_gate must be in \[0, 1\] m"):
         ModelConfig(reach_gate=-0.1)
     assert "reach_gate" not in ModelConfig().to_dict()
+
+
+def _fence_batch(name: str) -> dict:
+    """One episode: a target 1 m ahead at 0.9 m, floor points along the line to it, and a
+    box of points 0.6-0.7 m ahead (a stool, 0.3 m high) between them."""
+    floor = np.column_stack([np.linspace(-0.2, 0.8, 11), np.zeros(11), np.zeros(11)])
+    gx, gy, gz = np.meshgrid(
+        np.arange(0.6, 0.71, 0.02), np.arange(-0.1, 0.11, 0.02), np.arange(0.05, 0.31, 0.02)
+    )
+    stool = np.column_stack([gx.ravel(), gy.ravel(), gz.ravel()])
+    target = np.array([[1.0, 0.0, 0.9]] * 20) + np.linspace(0, 0.02, 20)[:, None]
+    cloud = np.vstack([stool, target])
+    align = np.r_[np.zeros(len(stool)), np.ones(len(target))]
+    f32 = lambda a: torch.tensor(np.asarray(a)[None], dtype=torch.float32)  # noqa: E731
+    return {
+        "floor_xyz": f32(floor),
+        "floor_mask": torch.ones(1, len(floor), dtype=torch.bool),
+        "global_xyz": f32(cloud),
+        "global_align": f32(align),
+        "global_mask": torch.ones(1, len(cloud), dtype=torch.bool),
+        "robot": torch.tensor([[0.85, 1.03, 1.0, 0.0, 0.7, 1.36, 0.0]]),
+        "robot_name": [name],
+    }
+
+
+@pytest.mark.parametrize("name", ["panda", ""])
+def test_the_footprint_gate_keeps_no_stance_whose_base_covers_an_obstacle(name):
+    """The base (0.55 x 0.45 m for the Panda and for a robot given by its numbers) facing
+    the target covers the stool from floor points within about 0.3 m of it."""
+    from momakitchen.models.reach_input import footprint_gate
+
+    batch = _fence_batch(name)
+    gate = footprint_gate(batch)[0].numpy()
+    x = batch["floor_xyz"][0, :, 0].numpy()
+    half = 0.55 / 2 + 0.02  # the box's half length and the margin
+    blocked = (x > 0.6 - half - 1e-6) & (x < 0.7 + half + 1e-6)
+    np.testing.assert_array_equal(gate, np.where(blocked, 0.0, 1.0))
+    assert blocked.any() and not blocked.all()
+
+
+def test_the_footprint_gate_multiplies_any_models_prediction(batch):
+    from momakitchen.models.config import TINY_MODEL
+    from momakitchen.models.reach_input import footprint_gate
+
+    torch.manual_seed(0)
+    plain = build_model("pointnet2", TINY_MODEL).eval()
+    gated = build_model("pointnet2", dataclasses.replace(TINY_MODEL, footprint_gate=True)).eval()
+    gated.load_state_dict(plain.state_dict())
+    with torch.no_grad():
+        torch.testing.assert_close(
+            gated(batch)["pred"], plain(batch)["pred"] * footprint_gate(batch)
+        )
+    with pytest.raises(MomaError, match="footprint_gate must be true or false"):
+        ModelConfig(footprint_gate=1)
+    assert "footprint_gate" not in ModelConfig().to_dict()

@@ -141,9 +141,10 @@ def run(args: argparse.Namespace) -> int:
         print("  ".join(cell.ljust(w) for cell, w in zip(row, widths, strict=True)).rstrip())
     defaults = ", ".join(r["name"] for r in rows if r["generate_default"])
     print(
-        "a robot like one above, its links scaled (link_scale: {}-{}) or its grip changed "
-        "(finger_force: {:g}-{:g} N): a YAML with `like: NAME` and --robot-yaml FILE "
-        "(docs/ROBOTS.md)".format(*SCALE_RANGE, *FORCE_RANGE)
+        "a robot like one above, links scaled ({}-{}) or fingers of another force "
+        "({:g}-{:g} N): a YAML with `like: NAME` (docs/ROBOTS.md)".format(
+            *SCALE_RANGE, *FORCE_RANGE
+        )
     )
     print(f"generate's robots by default: {defaults}; the others by --robot NAME")
     return 0
