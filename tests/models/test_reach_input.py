@@ -209,3 +209,31 @@ def test_the_footprint_gate_multiplies_any_models_prediction(batch):
     with pytest.raises(MomaError, match="footprint_gate must be true or false"):
         ModelConfig(footprint_gate=1)
     assert "footprint_gate" not in ModelConfig().to_dict()
+
+
+def test_the_gate_reads_the_obstacles_of_the_whole_cloud_not_the_thinned_one():
+    """A model samples its cloud down (2048 points in the bundled one): too thin for the
+    outlier filter, the stool would vanish. The collator of a gated model keeps each
+    view's obstacle points from the whole cloud."""
+    from momakitchen.data.batch import collate_episodes
+    from momakitchen.models.reach_input import footprint_gate
+
+    full = _fence_batch("panda")
+    sample = {
+        "global_xyz": full["global_xyz"][0].numpy(),
+        "global_rgb": np.zeros_like(full["global_xyz"][0].numpy()),
+        "global_align": full["global_align"][0].numpy(),
+        "floor_xyz": full["floor_xyz"][0].numpy(),
+        "robot": full["robot"][0].numpy(),
+        "scene_id": 0,
+        "config_index": 0,
+        "episode_index": 0,
+        "robot_name": "panda",
+    }
+    whole = footprint_gate(full)
+    thin = collate_episodes([sample], num_global=24)
+    kept = collate_episodes([sample], num_global=24, obstacles=True)
+    assert kept["obstacle_xyz"].shape[1] > 24 and "obstacle_xyz" not in thin
+    torch.testing.assert_close(footprint_gate(kept), whole)
+    # the thinned stool loses its points to the filter: fewer stances are kept out
+    assert float(footprint_gate(thin).sum()) > float(whole.sum())

@@ -71,7 +71,7 @@ def test_the_targets_surface_gives_the_approach():
 
 
 def test_isolated_points_above_the_floor_are_no_obstacle(monkeypatch):
-    import momakitchen.placement.observed as observed
+    import momakitchen.perception.footprint as observed
 
     monkeypatch.setattr(observed, "OBSTACLE_NEIGHBOURS", 3)
     # a chair leg: a column of points 2 cm apart; a stray point (far floor noise, a

@@ -41,6 +41,10 @@ Batch (after :class:`EpisodeCollator`, ``B`` samples, ``Ng``/``Nf`` fixed point 
   ``floor_xyz``. Training samples each floor cloud down to ``Nf`` points; at inference
   every floor point is predicted, so the model encodes the same density it was trained on
   (the points training would have drawn) and interpolates to the rest.
+- ``obstacle_xyz`` (B, No, 3) float32, ``obstacle_mask`` (B, No) bool (only with
+  ``obstacles``): each view's points that may block a base, taken from its whole cloud
+  before it is sampled down (:func:`~momakitchen.perception.footprint.obstacle_points`),
+  for a model's footprint gate (``ModelConfig.footprint_gate``); No = the largest count.
 - ``scene_id``, ``config_index``, ``episode_index``: lists of int; ``robot_name``: list of str
 
 Padding entries are zeros. Real points always come first in each row (masks are prefix
@@ -196,12 +200,14 @@ class EpisodeCollator:
         num_context: Nc, adds the floor context (``context_xyz``, ``context_mask``): each
             floor cloud sampled down to this many points as ``num_floor=num_context``
             would sample it. ``None``: no context (the model encodes ``floor_xyz``).
+        obstacles: add ``obstacle_xyz`` and ``obstacle_mask`` from each whole cloud.
     """
 
     num_global: int | None = None
     num_floor: int | None = None
     seed: int = 0
     num_context: int | None = None
+    obstacles: bool = False
 
     def __post_init__(self) -> None:
         for name in ("num_global", "num_floor", "num_context"):
@@ -211,7 +217,7 @@ class EpisodeCollator:
 
     def __call__(self, samples: Sequence[Mapping[str, Any]]) -> Batch:
         return collate_episodes(
-            samples, self.num_global, self.num_floor, self.seed, self.num_context
+            samples, self.num_global, self.num_floor, self.seed, self.num_context, self.obstacles
         )
 
 
@@ -221,6 +227,7 @@ def collate_episodes(
     num_floor: int | None = None,
     seed: int = 0,
     num_context: int | None = None,
+    obstacles: bool = False,
 ) -> Batch:
     """Stack samples into a batch with fixed point counts and masks.
 
@@ -228,7 +235,8 @@ def collate_episodes(
         - input: a list of B samples (``global_xyz`` (ng_i, 3), ``floor_xyz`` (nf_i, 3), ...)
         - output: ``global_*`` (B, Ng, ...), ``floor_*`` (B, Nf, ...), ``robot`` (B, D),
           masks (B, Ng) / (B, Nf) bool. Ng = ``num_global`` or max ng_i; Nf likewise;
-          with ``num_context``, ``context_xyz`` (B, Nc, 3) and ``context_mask`` (B, Nc).
+          with ``num_context``, ``context_xyz`` (B, Nc, 3) and ``context_mask`` (B, Nc);
+          with ``obstacles``, ``obstacle_xyz`` (B, No, 3) and ``obstacle_mask`` (B, No).
     """
     if len(samples) == 0:
         raise MomaError("cannot collate an empty list of samples")
@@ -268,6 +276,16 @@ def collate_episodes(
         if ci is not None:
             out["context_xyz"][i, : len(ci)] = s["floor_xyz"][ci]
             out["context_mask"][i, : len(ci)] = True
+    if obstacles:
+        from momakitchen.perception.footprint import obstacle_points
+
+        found = [obstacle_points(s["global_xyz"]) for s in clean]
+        no = max(1, *(len(f) for f in found))
+        out["obstacle_xyz"] = np.zeros((b, no, 3), np.float32)
+        out["obstacle_mask"] = np.zeros((b, no), bool)
+        for i, f in enumerate(found):
+            out["obstacle_xyz"][i, : len(f)] = f
+            out["obstacle_mask"][i, : len(f)] = True
     batch: Batch = {k: torch.from_numpy(v) for k, v in out.items()}
     for key in META_KEYS:
         batch[key] = [s[key] for s in clean]

@@ -132,8 +132,15 @@ def inference_collator(config: Any) -> EpisodeCollator:
     global cloud reduced to ``num_global`` points as in training, every floor point
     predicted, and the floor encoded at the training density (``num_floor`` points, the
     ones training would have drawn; the rest are interpolated). Models trained on a
-    sampled-down floor score a denser one worse when it is encoded whole."""
-    return EpisodeCollator(config.num_global, None, config.seed, num_context=config.num_floor)
+    sampled-down floor score a denser one worse when it is encoded whole. A model with a
+    footprint gate gets each view's obstacle points from its whole cloud."""
+    return EpisodeCollator(
+        config.num_global,
+        None,
+        config.seed,
+        num_context=config.num_floor,
+        obstacles=config.model_config.footprint_gate,
+    )
 
 
 def run_model(

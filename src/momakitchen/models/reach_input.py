@@ -174,29 +174,35 @@ def reach_gate(batch: dict, width: float, points: int) -> torch.Tensor:
 
 def footprint_gate(batch: dict) -> torch.Tensor:
     """Where the robot's base fits (``ModelConfig.footprint_gate``): 1 at each floor point
-    where its box, facing the target, holds none of the view's points above the floor up
-    to the arm's mount, else 0 (:func:`~momakitchen.placement.observed.footprint_free`,
-    the test the classical methods place by; the points filtered by
-    :func:`~momakitchen.placement.observed.supported`, as there). A registered robot's
-    footprint is its own, a robot given by its numbers the built-ins' base's.
+    where its box, facing the target, holds none of the view's obstacle points up to the
+    arm's mount, else 0 (:func:`~momakitchen.perception.footprint.footprint_free`, the
+    test the classical methods place by). The obstacle points are the batch's
+    ``obstacle_xyz`` (from each whole cloud: the collator of a gated model adds them),
+    else those of its global cloud, which a model's sampling down may have thinned. A
+    registered robot's footprint is its own, a robot given by its numbers the built-ins'.
 
-    Shapes: a batch (``floor_xyz`` (B, Nf, 3), ``floor_mask``, the global cloud,
-    ``robot``, ``robot_name``) -> (B, Nf) in {0, 1}
+    Shapes: a batch (``floor_xyz`` (B, Nf, 3), the global cloud, ``robot``,
+    ``robot_name``, optionally ``obstacle_xyz`` (B, No, 3) and ``obstacle_mask``) ->
+    (B, Nf) in {0, 1}
     """
-    from momakitchen.placement.body import DEFAULT_FOOTPRINT
-    from momakitchen.placement.observed import OBSTACLE_MIN_Z, footprint_free, supported
+    from momakitchen.perception.footprint import footprint_free, obstacle_points
+    from momakitchen.robots.spec import DEFAULT_FOOTPRINT
 
     target = target_centroid(batch["global_xyz"], batch["global_align"], batch["global_mask"])
     mounts = batch.get("robot_mount", batch["robot"][:, 1]).detach().cpu().double().numpy()
     floor = batch["floor_xyz"].detach().cpu().double().numpy()
-    cloud = batch["global_xyz"].detach().cpu().double().numpy()
-    real = batch["global_mask"].detach().cpu().numpy()
     targets = target.detach().cpu().double().numpy()
+    if "obstacle_xyz" in batch:
+        points = batch["obstacle_xyz"].detach().cpu().double().numpy()
+        real = batch["obstacle_mask"].detach().cpu().numpy()
+        obstacles = [points[i][real[i]] for i in range(len(floor))]
+    else:
+        points = batch["global_xyz"].detach().cpu().double().numpy()
+        real = batch["global_mask"].detach().cpu().numpy()
+        obstacles = [obstacle_points(points[i][real[i]]) for i in range(len(floor))]
     names = list(batch.get("robot_name", [])) or [""] * len(floor)
     out = np.ones(floor.shape[:2], np.float32)
     for i, name in enumerate(names):
         footprint = get_robot_spec(str(name)).footprint if name else DEFAULT_FOOTPRINT
-        pts = cloud[i][real[i]]
-        above = supported(pts[pts[:, 2] > OBSTACLE_MIN_Z])
-        out[i] = footprint_free(floor[i], above, targets[i], footprint, float(mounts[i]))
+        out[i] = footprint_free(floor[i], obstacles[i], targets[i], footprint, float(mounts[i]))
     return torch.from_numpy(out).to(device=batch["floor_xyz"].device)

@@ -7,11 +7,11 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 from momakitchen.errors import MomaError
+from momakitchen.robots.spec import DEFAULT_FOOTPRINT
 
-# A robot given by its numbers stands on the built-in robots' base: this footprint
-# (length, width; RobotSpec's default) with its arm this far ahead of the base's centre
-# (momakitchen.robots.spec.FRONT_MOUNT, where every built-in arm stands).
-DEFAULT_FOOTPRINT = (0.55, 0.45)
+# A robot given by its numbers stands on the built-in robots' base (its footprint,
+# robots.spec.DEFAULT_FOOTPRINT) with its arm this far ahead of the base's centre, where
+# every built-in arm stands.
 DEFAULT_MOUNT_OFFSET = 0.15
 
 

@@ -12,28 +12,12 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from momakitchen.errors import MomaError
 from momakitchen.perception.floor import FloorCorrection
+from momakitchen.perception.footprint import OBSTACLE_MIN_Z, footprint_free, supported
 from momakitchen.perception.inputs import FrameArrays
 
-# Points this high above the fitted floor (m) are obstacles: above the floor noise a
-# frame's floor points are put on the plane from (perception.floor), and below any bumper.
-OBSTACLE_MIN_Z = 0.03
-# Clearance (m) kept around the base's box, as generation keeps around its viewpoints.
-FOOTPRINT_MARGIN = 0.02
-# Obstacle points are merged on this grid (m) before the footprint test: a wall's column
-# of points blocks the floor as one.
-OBSTACLE_GRID = 0.02
-# A point above the floor is an obstacle only with this many others within
-# OBSTACLE_RADIUS (m): a radius outlier filter, as a costmap's point cloud is filtered
-# before marking. A real surface seen through 2 cm voxels has many neighbours at any
-# range; a stereo sensor's far floor noise and flying pixels at depth edges stand alone.
-# Chosen on development scenes (docs/PLACEMENT.md, "Design"): 4 and 8 did equally well
-# there, 0 (no filter) worse; the smaller keeps more of a thin obstacle.
-OBSTACLE_NEIGHBOURS = 4
-OBSTACLE_RADIUS = 0.05
 # The target's points are a plane (a door, a drawer front) when they lie this close to it
 # (m, standard deviation) and spread this far along both of its directions.
 PLANE_THICKNESS = 0.01
@@ -99,15 +83,6 @@ def observe(frame: FrameArrays, metric_depth: bool = True) -> ObservedFrame:
     )
 
 
-def supported(points: np.ndarray) -> np.ndarray:
-    """The points with at least :data:`OBSTACLE_NEIGHBOURS` others within
-    :data:`OBSTACLE_RADIUS`. Shapes: (M, 3) -> (K, 3), K <= M, in input order."""
-    if len(points) == 0:
-        return points
-    counts = cKDTree(points).query_ball_point(points, OBSTACLE_RADIUS, return_length=True)
-    return points[counts > OBSTACLE_NEIGHBOURS]
-
-
 def free_floor(frame: ObservedFrame, footprint: tuple[float, float], ceiling: float) -> np.ndarray:
     """Floor points where the base's box (``footprint`` = length along its x, width,
     grown by :data:`FOOTPRINT_MARGIN`), centred there and turned to face the target as
@@ -117,39 +92,6 @@ def free_floor(frame: ObservedFrame, footprint: tuple[float, float], ceiling: fl
     Shapes: -> (N,) bool over ``frame.floor_xyz``.
     """
     return footprint_free(frame.floor_xyz, frame.points, frame.target_xyz, footprint, ceiling)
-
-
-def footprint_free(
-    floor_xyz: np.ndarray,
-    points: np.ndarray,
-    target_xyz: np.ndarray,
-    footprint: tuple[float, float],
-    ceiling: float,
-) -> np.ndarray:
-    """:func:`free_floor` on arrays: floor points ``floor_xyz`` (N, 3), obstacle points
-    ``points`` (M, 3) (the frame's points off the floor, filtered by :func:`supported`),
-    the target ``target_xyz`` (3,) the base faces. Shapes: -> (N,) bool."""
-    floor = floor_xyz[:, :2]
-    pts = points[points[:, 2] <= ceiling, :2]
-    free = np.ones(len(floor), bool)
-    if len(pts) == 0 or len(floor) == 0:
-        return free
-    pts = np.unique(np.floor(pts / OBSTACLE_GRID), axis=0) * OBSTACLE_GRID + OBSTACLE_GRID / 2
-    half_l = footprint[0] / 2 + FOOTPRINT_MARGIN
-    half_w = footprint[1] / 2 + FOOTPRINT_MARGIN
-    # Candidates within the box's circumscribed circle, then the box itself.
-    pairs = cKDTree(floor).sparse_distance_matrix(
-        cKDTree(pts), math.hypot(half_l, half_w), output_type="ndarray"
-    )
-    i, j = pairs["i"], pairs["j"]
-    to = target_xyz[:2] - floor
-    u = to / np.maximum(np.hypot(to[:, 0], to[:, 1]), 1e-9)[:, None]
-    rel = pts[j] - floor[i]
-    along = rel[:, 0] * u[i, 0] + rel[:, 1] * u[i, 1]
-    across = -rel[:, 0] * u[i, 1] + rel[:, 1] * u[i, 0]
-    inside = (np.abs(along) <= half_l) & (np.abs(across) <= half_w)
-    free[np.unique(i[inside])] = False
-    return free
 
 
 def camera_side(frame: ObservedFrame) -> np.ndarray:

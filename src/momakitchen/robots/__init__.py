@@ -10,6 +10,8 @@ FK), with IK in ``ik.py``, reach in ``reach.py``, collisions in ``collisions.py`
 gripper or suction cup in ``tools.py`` (``robot.tool``).
 """
 
+# The loader: it registers the built-ins on the registry's first read (user.py).
+import momakitchen.robots.user  # noqa: F401
 from momakitchen.robots.descriptor import robot_descriptor
 from momakitchen.robots.spec import (
     DESCRIPTOR_DIM,

@@ -61,16 +61,13 @@ def _scale_geometry(geometry: ET.Element, scale: float) -> None:
             _scale_attr(shape, "length", scale)
 
 
-def scale_arm(urdf: ET.Element, flange_link: str, scale: float) -> None:
+def scale_arm(urdf: ET.Element, tool: set[str], scale: float) -> None:
     """Scale, in place, every length of the arm of the URDF tree ``urdf``: the links not
-    below ``flange_link`` (the flange's own included) and the joints into them; the tool
-    below the flange is left as it is. MomaError on a scale outside :data:`SCALE_RANGE`."""
-    from momakitchen.robots.urdf import link_of, subtree
-
+    in ``tool`` (the links below the flange) and the joints into them; the tool is left as
+    it is. MomaError on a scale outside :data:`SCALE_RANGE`."""
     problem = scale_problem(scale)
     if problem:
         raise MomaError(problem)
-    tool = subtree(urdf, flange_link) - {flange_link}
     for link in urdf.findall("link"):
         if link.get("name") in tool:
             continue
@@ -82,6 +79,6 @@ def scale_arm(urdf: ET.Element, flange_link: str, scale: float) -> None:
             if geometry is not None:
                 _scale_geometry(geometry, scale)
     for joint in urdf.findall("joint"):
-        origin = joint.find("origin")
-        if link_of(joint, "child") not in tool and origin is not None:
+        origin, child = joint.find("origin"), joint.find("child")
+        if child is not None and child.get("link") not in tool and origin is not None:
             _scale_attr(origin, "xyz", scale)

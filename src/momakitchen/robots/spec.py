@@ -14,6 +14,7 @@ Importing this module does not import PyBullet (only ``pybullet_data``, a path).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from momakitchen.errors import MomaError
@@ -21,6 +22,10 @@ from momakitchen.registry import Registry
 from momakitchen.robots.arms import RobotModel
 
 END_EFFECTORS = ("parallel_gripper", "suction")
+
+# The mobile base's footprint (length along its x, width), m: every built-in's but the
+# xArm6's, and the base of a robot given by its numbers.
+DEFAULT_FOOTPRINT = (0.55, 0.45)
 
 # Heights (m above the floor) at which any arm may be mounted on the mobile base: from just
 # below the base box's top (0.33 m) to a tall pillar. A robot's own mount height, a range to
@@ -79,7 +84,7 @@ class RobotSpec:
     mount_height: float
     dof: int
     end_effector: str
-    footprint: tuple[float, float] = (0.55, 0.45)
+    footprint: tuple[float, float] = DEFAULT_FOOTPRINT
     mount_offset_x: float = 0.0
     mount_range: tuple[float, float] | None = field(default=None, kw_only=True)
     model: RobotModel = field(kw_only=True, repr=False)
@@ -147,20 +152,24 @@ class RobotSpec:
 class RobotRegistry(Registry[RobotSpec]):
     """The robots by name: the built-ins (:data:`BUILT_IN_ROBOTS`, registered from their
     shipped URDF and YAML files by the user robots' loader the first time the registry is
-    read) and the user robots registered since; user robots can be taken out again."""
+    read, :meth:`load_first`) and the user robots registered since; user robots can be
+    taken out again."""
 
     def __init__(self, kind: str) -> None:
         super().__init__(kind)
-        self._loading = False
+        self._load: Callable[[], None] | None = None
+
+    def load_first(self, load: Callable[[], None]) -> None:
+        """Call ``load`` (register the built-ins) the first time the registry is read.
+        ``user.py`` sets it on import, and importing this module imports the package
+        (``robots/__init__.py``), which imports ``user.py``: the loader is set before any
+        lookup, without this module importing the loader."""
+        self._load = load
 
     def _builtins(self) -> None:
-        # Deferred: the loader (user.py) imports this module, and the files are read only
-        # by a process that looks a robot up.
-        if not self._loading:
-            self._loading = True
-            from momakitchen.robots.user import register_shipped
-
-            register_shipped(BUILT_IN_ROBOTS)
+        load, self._load = self._load, None
+        if load is not None:
+            load()
 
     def register(self, entry: RobotSpec, *, replace: bool = False) -> RobotSpec:
         self._builtins()

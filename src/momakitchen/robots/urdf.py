@@ -314,7 +314,7 @@ def build_urdf(spec: RobotSpec, mount_height: float | None = None) -> str:
     arm, tool = model.arm, model.end_effector
     src = parse_urdf(arm.urdf)
     if arm.link_scale != 1.0:
-        scale_arm(src, arm.flange_link, arm.link_scale)
+        scale_arm(src, subtree(src, arm.flange_link) - {arm.flange_link}, arm.link_scale)
     embed_urdf(robot, src, arm.urdf.parent, arm.root_link, BASE_LINK, mount, arm.mount_yaw)
     # The TCP frame is named uniformly; a URDF whose TCP link is already named so (the
     # built-ins', one exported by robots/export.py) gets no extra frame.

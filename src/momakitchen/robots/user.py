@@ -65,6 +65,7 @@ from momakitchen.fileio import existing_file
 from momakitchen.robots.arms import RobotModel, UrdfArm, UrdfTool
 from momakitchen.robots.scaled import scale_problem
 from momakitchen.robots.spec import (
+    BUILT_IN_ROBOTS,
     DEFAULT_FINGER_FORCE,
     FORCE_RANGE,
     ROBOTS,
@@ -303,8 +304,6 @@ def _like(data: dict[str, Any], where: str) -> dict[str, Any]:
     """The fields of a YAML that says ``like: NAME``: the built-in's, replaced by those the
     file gives (its URDF path made absolute). A ``link_scale`` without a ``reach`` scales
     the built-in's reach."""
-    from momakitchen.robots.spec import BUILT_IN_ROBOTS
-
     like = data["like"]
     if like not in BUILT_IN_ROBOTS:
         raise MomaError(
@@ -642,6 +641,9 @@ def register_shipped(names: Iterable[str]) -> None:
         model, dof = _model(cfg)
         model = dataclasses.replace(model, source=cfg.provenance)
         register_robot(_spec(cfg, model, dof, cfg.reach))
+
+
+ROBOTS.load_first(lambda: register_shipped(BUILT_IN_ROBOTS))
 
 
 def register_user_robot(path: str | os.PathLike) -> RobotSpec:
