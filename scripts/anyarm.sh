@@ -119,7 +119,8 @@ if [[ -n $VARIANT ]]; then
   if [[ $RETRAIN == 1 ]]; then
     stamp "any-arm data, $recipe: $SCENES scenes from 30000 in $DATA/anyarm-$recipe (train split)"
     momakitchen generate --out "$DATA/anyarm-$recipe" --scenes "$SCENES" --first-scene-id 30000 \
-      --config "$RECIPES/anyarm_${recipe}_generate.yaml" --workers "$WORKERS" --split train --quiet
+      --config "$RECIPES/anyarm_${recipe}_generate.yaml" --robot-yaml "$RECIPES/robots" \
+      --workers "$WORKERS" --split train --quiet
   fi
   if [[ $VARIANT == rehearse && $RETRAIN == 1 ]]; then
     stamp "the six's own data: $SCENES scenes from 20000 in $DATA/six-train (train split)"
