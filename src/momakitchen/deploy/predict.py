@@ -60,7 +60,7 @@ def predict(
     intrinsics: Sequence[float] | Any,
     camera_to_base: np.ndarray | str | os.PathLike,
     target_mask: np.ndarray | str | os.PathLike,
-    robot: str | Sequence[float] | Mapping[str, float] = "panda",
+    robot: str | tuple[str, float] | Sequence[float] | Mapping[str, float] = "panda",
     *,
     rgb: np.ndarray | str | os.PathLike | None = None,
     obstacle_masks: Sequence[np.ndarray | str | os.PathLike] = (),
@@ -83,7 +83,8 @@ def predict(
         camera_to_base: (4, 4) rigid transform from the camera (x right, y down, z forward)
             to the robot base frame (x forward, y left, z up, z = 0 on the floor).
         target_mask: (H, W) mask of the target (e.g. from Grounded-SAM); non-zero = target.
-        robot: a registered robot name or a descriptor (see :func:`robot_input`).
+        robot: a registered robot name, ``(name, mount_height)`` for it at another mount,
+            or a descriptor (see :func:`robot_input`).
         rgb: optional (H, W, 3) image; without it the cloud is mid-grey.
         obstacle_masks: optional (H, W) masks of obstacles (chairs, bins, ...).
         checkpoint: a run directory (``momakitchen train``) or a loaded run; default: the

@@ -58,7 +58,7 @@ class ModelPerceiver:
         self.preprocessing = run.preprocessing
 
     def __call__(
-        self, frame: Any, robot: str | tuple[float, ...], metric: bool, config: ApproachConfig
+        self, frame: Any, robot: str | tuple[str, float], metric: bool, config: ApproachConfig
     ) -> Any:
         from momakitchen.deploy.predict import predict
 
@@ -141,16 +141,6 @@ class Context:
         """The head camera's height: above the configuration's mount (drawn or the
         robot's own), as the dataset's views."""
         return float(self.cfg.mount + self.gen.camera.above_mount)
-
-    @property
-    def robot(self) -> str | tuple[float, ...]:
-        """The robot as ``predict`` takes it: its name, or for a drawn mount height its
-        descriptor with that height."""
-        if self.cfg.mount_height is None:
-            return str(self.cfg.robot)
-        from momakitchen.robots.descriptor import robot_descriptor
-
-        return robot_descriptor(self.spec, self.cfg.mount_height)
 
     @property
     def robot_by_name(self) -> str | tuple[str, float]:
@@ -236,9 +226,10 @@ def take_look(ctx: Context, perceiver: Any, frame: Any, ids: tuple[int, ...]) ->
         return LookResult(None, "target_not_in_view", 0.0, obstacles)
     if obstacles is None:
         bad = corrupt_frame(frame, corruption, corruption_rng(ctx.config.seed, ids, name))
-    # A model reads the robot's descriptor; a classical method (here or behind a server)
-    # its URDF: the name, at the configuration's drawn mount height if it has one.
-    robot = ctx.robot if isinstance(perceiver, ModelPerceiver) else ctx.robot_by_name
+    # Every method gets the robot by name, at the configuration's drawn mount height if it
+    # has one: a model reads its descriptor there, a model's gates and a classical method
+    # (here or behind a server) its URDF.
+    robot = ctx.robot_by_name
     try:
         pred = perceiver(bad, robot, corruption.preset.depth.metric, ctx.config)
     except MomaError as exc:
