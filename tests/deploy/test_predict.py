@@ -302,3 +302,18 @@ def test_a_target_beyond_the_training_views_gives_a_warning(episode, tiny_run):
         correction=correction,
     )
     assert not predict_map(far, clouds, ep.robot, desc, mc_samples=0).warnings
+
+
+def test_a_robot_by_name_at_another_mount_is_its_descriptor_there(episode, tiny_run):
+    """``(name, mount_height)`` gives the model the descriptor at that mount, as the
+    descriptor itself does, and keeps the name, which a model's gates read the URDF by."""
+    from momakitchen.robots.descriptor import robot_descriptor
+    from momakitchen.robots.spec import get_robot_spec
+
+    inputs = {k: v for k, v in _inputs(episode).items() if k != "robot"}
+    by_name = momakitchen.predict(**inputs, robot=("ur10e", 1.3), checkpoint=tiny_run)
+    vector = robot_descriptor(get_robot_spec("ur10e"), 1.3)
+    by_vector = momakitchen.predict(**inputs, robot=vector, checkpoint=tiny_run)
+    np.testing.assert_array_equal(by_name.affordance, by_vector.affordance)
+    with pytest.raises(MomaError, match=r"mount_height must be in \[0.3, 1.3\]"):
+        momakitchen.predict(**inputs, robot=("ur10e", 1.6), checkpoint=tiny_run)
