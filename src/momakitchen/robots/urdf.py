@@ -160,7 +160,7 @@ def _base(robot: ET.Element, spec: RobotSpec) -> None:
 
 
 # --------------------------------------------------------------------------------------
-# Arms
+# The arm and tool, from the robot's URDF
 
 
 def _resolve_mesh(filename: str, urdf_dir: Path) -> str:
@@ -285,6 +285,7 @@ def embed_urdf(
 
 
 # --------------------------------------------------------------------------------------
+# The whole robot
 
 
 def mounted(spec: RobotSpec, mount_height: float | None) -> RobotSpec:
