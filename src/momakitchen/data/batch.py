@@ -43,7 +43,7 @@ Batch (after :class:`EpisodeCollator`, ``B`` samples, ``Ng``/``Nf`` fixed point 
   (the points training would have drawn) and interpolates to the rest.
 - ``obstacle_xyz`` (B, No, 3) float32, ``obstacle_mask`` (B, No) bool (only with
   ``obstacles``): each view's points that may block a base, taken from its whole cloud
-  before it is sampled down (:func:`~momakitchen.perception.footprint.obstacle_points`),
+  before it is sampled down (:func:`~momakitchen.perception.footprint.base_obstacles`),
   for a model's footprint gate (``ModelConfig.footprint_gate``); No = the largest count.
 - ``scene_id``, ``config_index``, ``episode_index``: lists of int; ``robot_name``: list of str
 
@@ -277,9 +277,9 @@ def collate_episodes(
             out["context_xyz"][i, : len(ci)] = s["floor_xyz"][ci]
             out["context_mask"][i, : len(ci)] = True
     if obstacles:
-        from momakitchen.perception.footprint import obstacle_points
+        from momakitchen.perception.footprint import base_obstacles
 
-        found = [obstacle_points(s["global_xyz"]) for s in clean]
+        found = [base_obstacles(s["global_xyz"]) for s in clean]
         no = max(1, *(len(f) for f in found))
         out["obstacle_xyz"] = np.zeros((b, no, 3), np.float32)
         out["obstacle_mask"] = np.zeros((b, no), bool)

@@ -185,7 +185,7 @@ def footprint_gate(batch: dict) -> torch.Tensor:
     ``robot_name``, optionally ``obstacle_xyz`` (B, No, 3) and ``obstacle_mask``) ->
     (B, Nf) in {0, 1}
     """
-    from momakitchen.perception.footprint import footprint_free, obstacle_points
+    from momakitchen.perception.footprint import base_obstacles, footprint_free
     from momakitchen.robots.spec import DEFAULT_FOOTPRINT
 
     target = target_centroid(batch["global_xyz"], batch["global_align"], batch["global_mask"])
@@ -199,7 +199,7 @@ def footprint_gate(batch: dict) -> torch.Tensor:
     else:
         points = batch["global_xyz"].detach().cpu().double().numpy()
         real = batch["global_mask"].detach().cpu().numpy()
-        obstacles = [obstacle_points(points[i][real[i]]) for i in range(len(floor))]
+        obstacles = [base_obstacles(points[i][real[i]]) for i in range(len(floor))]
     names = list(batch.get("robot_name", [])) or [""] * len(floor)
     out = np.ones(floor.shape[:2], np.float32)
     for i, name in enumerate(names):

@@ -74,7 +74,7 @@ def footprint_free(
     return free
 
 
-def obstacle_points(global_xyz: np.ndarray) -> np.ndarray:
+def base_obstacles(global_xyz: np.ndarray) -> np.ndarray:
     """A view's points that may block a base: above :data:`OBSTACLE_MIN_Z`, kept by
     :func:`supported`. Shapes: (N, 3) -> (K, 3) float64."""
     pts = np.asarray(global_xyz, np.float64)

@@ -15,7 +15,7 @@ import numpy as np
 
 from momakitchen.errors import MomaError
 from momakitchen.perception.floor import FloorCorrection
-from momakitchen.perception.footprint import OBSTACLE_MIN_Z, footprint_free, supported
+from momakitchen.perception.footprint import base_obstacles, footprint_free
 from momakitchen.perception.inputs import FrameArrays
 
 # The target's points are a plane (a door, a drawer front) when they lie this close to it
@@ -75,7 +75,7 @@ def observe(frame: FrameArrays, metric_depth: bool = True) -> ObservedFrame:
     camera = (clouds.correction.matrix @ frame.camera_to_base)[:3, 3]
     return ObservedFrame(
         floor_xyz=clouds.floor_xyz.astype(np.float64),
-        points=supported(xyz[xyz[:, 2] > OBSTACLE_MIN_Z]),
+        points=base_obstacles(xyz),
         target_points=xyz[clouds.global_align > 0],
         target_xyz=np.asarray(clouds.target_xyz, np.float64),
         camera_xyz=np.asarray(camera, np.float64),
@@ -85,9 +85,9 @@ def observe(frame: FrameArrays, metric_depth: bool = True) -> ObservedFrame:
 
 def free_floor(frame: ObservedFrame, footprint: tuple[float, float], ceiling: float) -> np.ndarray:
     """Floor points where the base's box (``footprint`` = length along its x, width,
-    grown by :data:`FOOTPRINT_MARGIN`), centred there and turned to face the target as
-    the poses are, holds no point of the frame between :data:`OBSTACLE_MIN_Z` and
-    ``ceiling`` (m; the arm mount: the base and its pillar stand up to there).
+    grown by a margin), centred there and turned to face the target as the poses are,
+    holds no point of the frame up to ``ceiling`` (m; the arm mount: the base and its
+    pillar stand up to there): :func:`~momakitchen.perception.footprint.footprint_free`.
 
     Shapes: -> (N,) bool over ``frame.floor_xyz``.
     """
