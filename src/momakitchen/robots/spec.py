@@ -156,8 +156,8 @@ class RobotRegistry(Registry[RobotSpec]):
     taken out again."""
 
     def __init__(self, kind: str) -> None:
-        super().__init__(kind)
         self._load: Callable[[], None] | None = None
+        super().__init__(kind)
 
     def load_first(self, load: Callable[[], None]) -> None:
         """Call ``load`` (register the built-ins) the first time the registry is read.
@@ -166,34 +166,17 @@ class RobotRegistry(Registry[RobotSpec]):
         lookup, without this module importing the loader."""
         self._load = load
 
-    def _builtins(self) -> None:
+    @property
+    def _entries(self) -> dict[str, RobotSpec]:
+        # Every read and write of the registry goes through here (Registry's methods).
         load, self._load = self._load, None
         if load is not None:
             load()
+        return self._store
 
-    def register(self, entry: RobotSpec, *, replace: bool = False) -> RobotSpec:
-        self._builtins()
-        return super().register(entry, replace=replace)
-
-    def get_entry(self, name: str) -> RobotSpec:
-        self._builtins()
-        return super().get_entry(name)
-
-    def names(self) -> tuple[str, ...]:
-        self._builtins()
-        return super().names()
-
-    def __getitem__(self, name: str) -> RobotSpec:
-        self._builtins()
-        return super().__getitem__(name)
-
-    def __iter__(self):
-        self._builtins()
-        return super().__iter__()
-
-    def __len__(self) -> int:
-        self._builtins()
-        return super().__len__()
+    @_entries.setter
+    def _entries(self, value: dict[str, RobotSpec]) -> None:
+        self._store = value
 
     def unregister(self, name: str) -> None:
         """Remove ``name`` if registered (user robots; the caller checks which)."""
