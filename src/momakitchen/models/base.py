@@ -145,6 +145,10 @@ class AffordanceModel(nn.Module):
             peak_weight=config.peak_weight,
             peak_temperature=config.peak_temperature,
         )
+        # The last batch's gates, by the objects they were computed from: inference runs
+        # a batch once plainly and once for its MC-dropout spread, and the gates (KD-trees,
+        # reachability lookups) need not run twice.
+        self._gates: tuple[tuple[Any, ...], torch.Tensor] | None = None
 
     def visible(self, batch: dict[str, Any]) -> dict[str, Any]:
         """``batch`` with the descriptor columns the model does not read
@@ -193,12 +197,21 @@ class AffordanceModel(nn.Module):
         ``ModelConfig.reach_gate``, the robot's reachability gate, and with
         ``ModelConfig.footprint_gate``, where its base fits. Shapes: (B, Nf)."""
         keep = batch["floor_mask"].to(dtype)
-        if self.config.reach_gate > 0:
-            gate = reach_gate(batch, self.config.reach_gate, self.config.reach_points)
-            keep = keep * gate.to(dtype)
-        if self.config.footprint_gate:
-            keep = keep * footprint_gate(batch).to(dtype)
-        return keep
+        if self.config.reach_gate <= 0 and not self.config.footprint_gate:
+            return keep
+        key = (batch, *(batch.get(k) for k in _GATE_INPUTS))
+        if self._gates is None or any(a is not b for a, b in zip(self._gates[0], key, strict=True)):
+            gate = torch.ones_like(keep)
+            if self.config.reach_gate > 0:
+                gate = gate * reach_gate(batch, self.config.reach_gate, self.config.reach_points)
+            if self.config.footprint_gate:
+                gate = gate * footprint_gate(batch)
+            self._gates = (key, gate)
+        return keep * self._gates[1].to(dtype)
+
+
+# What a batch's gates are computed from (AffordanceModel._keep).
+_GATE_INPUTS = ("floor_xyz", "global_xyz", "global_align", "robot", "robot_name", "obstacle_xyz")
 
 
 def num_parameters(model: nn.Module) -> int:
