@@ -143,12 +143,12 @@ def output_file(path: str | os.PathLike) -> Path:
 
 
 def checked_run_dir(run_dir: str) -> Path:
-    """A ``--checkpoint`` that exists (``bundled``: the bundled model's directory)."""
-    from momakitchen.train.checkpoint import BUNDLED, default_checkpoint
+    """A ``--checkpoint`` that exists (``bundled``, ``body``: a shipped model's directory)."""
+    from momakitchen.train.checkpoint import SHIPPED_CHECKPOINTS, shipped_checkpoint
 
     return (
-        default_checkpoint()
-        if run_dir == BUNDLED
+        shipped_checkpoint(run_dir)
+        if run_dir in SHIPPED_CHECKPOINTS
         else existing_dir(run_dir, "checkpoint directory")
     )
 

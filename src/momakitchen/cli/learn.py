@@ -142,7 +142,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "--init",
         default=None,
         metavar="RUN",
-        help="start from this run's weights (fine-tuning; 'bundled': the bundled model)",
+        help="start from this run's weights (fine-tuning; 'bundled', 'body': a shipped model)",
     )
     tr.add_argument(
         "--checkpoint-minutes",

@@ -123,14 +123,16 @@ CHECKPOINT = Option(
     "--checkpoint",
     default=None,
     metavar="RUN",
-    help="run directory written by `momakitchen train` (default: the bundled model)",
+    help="run directory written by `momakitchen train`, or a shipped model: 'bundled' (the "
+    "default) or 'body' (it reads the robot's reachability)",
 )
 CHECKPOINTS = Option(
     "--checkpoint",
     action="append",
     default=[],
     metavar="RUN",
-    help="run directory of a trained model (repeatable; with no method given: the bundled model)",
+    help="run directory of a trained model, or 'bundled' or 'body' (shipped; repeatable; with "
+    "no method given: the bundled model)",
 )
 BASELINE = Option(
     "--method",

@@ -163,9 +163,9 @@ def _closed_loop(args: argparse.Namespace, data: Path, checkpoint: str, out: Pat
 
 
 def _run_dir(checkpoint: str) -> str:
-    from momakitchen.train.checkpoint import default_checkpoint
+    from momakitchen.train.checkpoint import resolve_run_dir
 
-    return str(default_checkpoint()) if checkpoint == "bundled" else checkpoint
+    return str(resolve_run_dir(checkpoint))
 
 
 def _finetune(args: argparse.Namespace, root: Path) -> str:
@@ -216,7 +216,7 @@ def run(args: argparse.Namespace) -> int:
     get_robot_spec(args.robot)  # an unknown robot fails here, before anything is written
     if args.checkpoint is None:
         args.checkpoint = "bundled"
-    if args.checkpoint != "bundled" and not (Path(args.checkpoint) / "config.json").is_file():
+    if not (Path(_run_dir(args.checkpoint)) / "config.json").is_file():
         raise MomaError(f"--checkpoint {args.checkpoint!r} is not a run directory")
     first, last = args.first_scene_id, args.first_scene_id + args.scenes - 1
     tune_first = args.finetune_first_scene_id

@@ -51,33 +51,47 @@ CONFIG_FILE = "config.json"
 WEIGHTS_FILE = "model.safetensors"
 STATE_FILE = "trainer_state.safetensors"
 STATE_JSON = "trainer_state.json"
-# The checkpoint shipped inside the package (see its CARD.md).
-DEFAULT_CHECKPOINT = Path(__file__).resolve().parent.parent / "checkpoints" / "navaff"
-
-
-# The bundled model's name wherever a checkpoint is taken, and in every table.
+# The checkpoints shipped inside the package, by the name every ``--checkpoint`` takes
+# (each directory's CARD.md says how it was made): the bundled model, used when none is
+# given, and the body-aware model, which reads the robot's reachability.
 BUNDLED = "bundled"
+BODY = "body"
+_SHIPPED_DIR = Path(__file__).resolve().parent.parent / "checkpoints"
+SHIPPED_CHECKPOINTS: dict[str, Path] = {
+    BUNDLED: _SHIPPED_DIR / "navaff",
+    BODY: _SHIPPED_DIR / "body",
+}
+DEFAULT_CHECKPOINT = SHIPPED_CHECKPOINTS[BUNDLED]
 
 
 def resolve_run_dir(run_dir: str | os.PathLike) -> Path:
-    """A run directory as given, or the bundled model's for ``bundled``."""
-    return default_checkpoint() if str(run_dir) == BUNDLED else Path(run_dir)
+    """A run directory as given, or a shipped model's for its name (``bundled``, ``body``)."""
+    name = str(run_dir)
+    return shipped_checkpoint(name) if name in SHIPPED_CHECKPOINTS else Path(run_dir)
 
 
 def run_label(run: LoadedRun) -> str:
-    """What a run is reported as: ``bundled`` for the bundled model (its model's name
-    would not tell it from any run of that model), else its model's name."""
-    return BUNDLED if run.run_dir.resolve() == DEFAULT_CHECKPOINT.resolve() else run.config.model
+    """What a run is reported as: a shipped model's name (its model's name would not tell
+    it from any run of that model), else its model's name."""
+    where = run.run_dir.resolve()
+    names = [n for n, d in SHIPPED_CHECKPOINTS.items() if d.resolve() == where]
+    return names[0] if names else run.config.model
+
+
+def shipped_checkpoint(name: str) -> Path:
+    """The run directory of the shipped model ``name`` (a key of SHIPPED_CHECKPOINTS)."""
+    run_dir = SHIPPED_CHECKPOINTS[name]
+    if not (run_dir / WEIGHTS_FILE).is_file():
+        raise MomaError(
+            f"the {name} checkpoint is missing from {run_dir}; "
+            "pass a run directory from `momakitchen train`"
+        )
+    return run_dir
 
 
 def default_checkpoint() -> Path:
     """The bundled NavAff run directory."""
-    if not (DEFAULT_CHECKPOINT / "model.safetensors").is_file():
-        raise MomaError(
-            f"the bundled checkpoint is missing from {DEFAULT_CHECKPOINT}; "
-            "pass a run directory from `momakitchen train`"
-        )
-    return DEFAULT_CHECKPOINT
+    return shipped_checkpoint(BUNDLED)
 
 
 def write_run_config(

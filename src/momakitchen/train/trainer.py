@@ -315,9 +315,9 @@ def _initial_run(config: TrainConfig) -> tuple[Path, int, bool]:
     descriptor columns its model read and whether it lacked the reachability input that
     this run's reads; MomaError when it is missing or holds another model or another size
     (or a newer descriptor, or reads the reachability where this run does not)."""
-    from momakitchen.train.checkpoint import default_checkpoint, read_run_config
+    from momakitchen.train.checkpoint import read_run_config, resolve_run_dir
 
-    src = default_checkpoint() if config.init == "bundled" else Path(config.init)
+    src = resolve_run_dir(config.init)
     other, _ = read_run_config(src)
     # A run of an older descriptor starts a newer one (its weights widened, load_weights);
     # so does a run without the reachability input one with it.
