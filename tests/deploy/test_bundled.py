@@ -39,3 +39,18 @@ def test_demo_runs_on_defaults(tmp_path, capsys):
     assert result["checkpoint"] == "bundled" and result["model"] == "navaff"
     assert (tmp_path / "report.png").is_file()
     assert "report.png" in capsys.readouterr().out
+
+
+def test_the_body_model_is_shipped_by_name_and_reads_the_reachability():
+    """`--checkpoint body` everywhere: its own directory, its own name in every table."""
+    from momakitchen.cli.common import checked_run_dir
+    from momakitchen.train.checkpoint import SHIPPED_CHECKPOINTS, resolve_run_dir, run_label
+
+    run = load_checkpoint("body", model="navaff")
+    assert run_label(run) == "body" and run_label(load_checkpoint("bundled")) == "bundled"
+    assert resolve_run_dir("body") == checked_run_dir("body") == SHIPPED_CHECKPOINTS["body"]
+    mc = run.config.model_config
+    assert mc.reach_input and mc.footprint_gate and mc.reach_gate > 0
+    assert "reach_m" in mc.hidden_descriptor
+    files = {p.name for p in SHIPPED_CHECKPOINTS["body"].iterdir()}
+    assert {"config.json", "model.safetensors", "CARD.md"} <= files
