@@ -26,8 +26,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         nargs="+",
         default=[],
         metavar="RUN",
-        help="run directories of the compared models (one per model); 'bundled': the "
-        "bundled model (default with no --predictions: the bundled model alone)",
+        help="run directories of the compared models (one per model); 'bundled', 'body': a "
+        "shipped model (default with no --predictions: the bundled model alone)",
     )
     p.add_argument(
         "--predictions",

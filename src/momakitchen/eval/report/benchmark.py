@@ -84,7 +84,8 @@ __all__ = [
 ]
 
 
-# The name that stands for the bundled model's run directory among the runs.
+# The name that stands for the bundled model's run directory among the runs (as
+# momakitchen.train.checkpoint.BUNDLED, which this module does not import: it loads torch).
 BUNDLED = "bundled"
 
 
@@ -134,12 +135,10 @@ class BenchmarkRequest:
         object.__setattr__(self, "out", Path(self.out))
         if not self.runs and not self.predictions:  # as msr and robustness: the bundled model
             object.__setattr__(self, "runs", (Path(BUNDLED),))
-        if any(str(r) == BUNDLED for r in self.runs):
-            from momakitchen.train.checkpoint import default_checkpoint
+        if self.runs:  # a shipped model's name (bundled, body) stands for its directory
+            from momakitchen.train.checkpoint import resolve_run_dir
 
-            bundled = default_checkpoint()
-            runs = (bundled if str(r) == BUNDLED else r for r in self.runs)
-            object.__setattr__(self, "runs", tuple(runs))
+            object.__setattr__(self, "runs", tuple(resolve_run_dir(r) for r in self.runs))
         if not (Path(self.data) / "manifest.json").is_file():
             raise MomaError(f"{str(self.data)!r} is not a dataset directory (no manifest.json)")
         for run in (*self.runs, *self.ablations, *self.sweep, *self.seeds):
