@@ -1,16 +1,18 @@
-"""Copy a trained run with the robot's body gates set (ModelConfig.reach_gate and
-footprint_gate).
+"""Copy a trained run with the robot's body gates set (ModelConfig.reach_gate,
+index_gate and footprint_gate).
 
-    python scripts/gate_checkpoint.py SRC DST [--width 0.03] [--points 8] [--footprint]
+    python scripts/gate_checkpoint.py SRC DST [--width 0.03] [--points 8] [--index] [--footprint]
 
 ``SRC`` is a run directory (``momakitchen train``) or ``bundled``; ``DST`` a new directory.
-The gate has no weights: the copy predicts what ``SRC`` does, multiplied at each floor
+The gates have no weights: the copy predicts what ``SRC`` does, multiplied at each floor
 point by ``sigmoid(d / width)``, ``d`` how far inside the arm's reachable region the target
 lies from there, at ``points`` of its points (docs/ROBOTS.md, "What the model knows of a
-robot"); with ``--footprint`` also by 0 where the robot's base, facing the target, would
-stand on what the view shows above the floor (``--width 0``: that gate alone). Every
-command that takes ``--checkpoint`` takes the copy; its robots must be registered (a name
-or ``--robot-yaml``): the gates read the arm's URDF and the base's footprint.
+robot"); with ``--index`` also by the reachability index of the target from there (the
+share of approach directions by which the arm reaches it); with ``--footprint`` also by 0
+where the robot's base, facing the target, would stand on what the view shows above the
+floor (``--width 0``: no sigmoid). Every command that takes ``--checkpoint`` takes the
+copy; its robots must be registered (a name or ``--robot-yaml``): the gates read the
+arm's URDF and the base's footprint.
 """
 
 from __future__ import annotations
@@ -27,7 +29,9 @@ from momakitchen.models import ModelConfig
 from momakitchen.train.checkpoint import CONFIG_FILE, default_checkpoint, read_run_config
 
 
-def gate_copy(src: Path, dst: Path, width: float, points: int, footprint: bool = False) -> None:
+def gate_copy(
+    src: Path, dst: Path, width: float, points: int, footprint: bool = False, index: bool = False
+) -> None:
     """Copy run ``src`` to the new directory ``dst`` with the gate set (MomaError on bad
     input, before anything is written)."""
     read_run_config(src)  # a run directory
@@ -36,6 +40,8 @@ def gate_copy(src: Path, dst: Path, width: float, points: int, footprint: bool =
     info = json.loads((src / CONFIG_FILE).read_text())
     model_config = info["train_config"]["model_config"]
     model_config.update(reach_gate=width, reach_points=points, footprint_gate=footprint)
+    if index:
+        model_config["index_gate"] = True
     ModelConfig.from_dict(model_config)  # the gate's values are checked here
     tmp = dst.with_name(dst.name + ".partial")
     shutil.rmtree(tmp, ignore_errors=True)
@@ -51,19 +57,25 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--width", type=float, default=0.03, help="gate width in m (0.03)")
     parser.add_argument("--points", type=int, default=8, help="target points read (8)")
     parser.add_argument(
+        "--index", action="store_true", help="also weigh by the arm's reachability index"
+    )
+    parser.add_argument(
         "--footprint", action="store_true", help="also gate where the base does not fit"
     )
     args = parser.parse_args(argv)
     src = default_checkpoint() if args.src == "bundled" else Path(args.src)
     try:
-        gate_copy(src, Path(args.dst), args.width, args.points, args.footprint)
+        gate_copy(src, Path(args.dst), args.width, args.points, args.footprint, args.index)
     except MomaError as exc:
         print(f"gate_checkpoint: error: {exc}", file=sys.stderr)
         return 2
-    base = " and footprint_gate" if args.footprint else ""
-    print(
-        f"wrote {args.dst}: {args.src} with reach_gate {args.width} m at {args.points} points{base}"
+    extra = "".join(
+        f" and {name}"
+        for name, on in (("index_gate", args.index), ("footprint_gate", args.footprint))
+        if on
     )
+    gates = f"reach_gate {args.width} m at {args.points} points{extra}"
+    print(f"wrote {args.dst}: {args.src} with {gates}")
     return 0
 
 

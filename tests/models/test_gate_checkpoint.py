@@ -23,9 +23,10 @@ def test_the_copy_reads_the_gate_and_keeps_the_weights(tmp_path):
     weights = "model.safetensors"
     copied = (tmp_path / "gated" / weights).read_bytes()
     assert copied == (default_checkpoint() / weights).read_bytes()
-    assert not config.model_config.footprint_gate
-    assert gate.main(["bundled", str(tmp_path / "both"), "--footprint"]) == 0
-    assert read_run_config(tmp_path / "both")[0].model_config.footprint_gate
+    assert not config.model_config.footprint_gate and not config.model_config.index_gate
+    assert gate.main(["bundled", str(tmp_path / "both"), "--footprint", "--index"]) == 0
+    both = read_run_config(tmp_path / "both")[0].model_config
+    assert both.footprint_gate and both.index_gate
     source = json.loads((default_checkpoint() / "config.json").read_text())
     assert "reach_gate" not in source["train_config"]["model_config"]  # the source is untouched
 

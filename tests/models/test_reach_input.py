@@ -156,6 +156,34 @@ def test_the_reach_gate_scales_any_models_prediction_by_the_arms_reach(name, bat
     assert "reach_gate" not in ModelConfig().to_dict()
 
 
+@pytest.mark.parametrize("name", ["navaff", "pointnet2"])
+def test_the_index_gate_weighs_any_models_prediction_by_the_arms_dexterity(name, batch):
+    from momakitchen.models.config import TINY_MODEL
+    from momakitchen.models.reach_input import batch_floor_reach, reach_gate, target_centroid
+
+    torch.manual_seed(0)
+    plain = build_model(name, TINY_MODEL).eval()
+    both = build_model(name, dataclasses.replace(TINY_MODEL, reach_gate=0.03, index_gate=True))
+    alone = build_model(name, dataclasses.replace(TINY_MODEL, index_gate=True))
+    for model in (both, alone):
+        model.eval().load_state_dict(plain.state_dict())  # the gates have no weights
+    with torch.no_grad():
+        target = target_centroid(batch["global_xyz"], batch["global_align"], batch["global_mask"])
+        index = batch_floor_reach(
+            batch["robot_name"], batch["robot"][:, 1], target, batch["floor_xyz"]
+        )[..., 2]
+        assert float(index.max()) > 0.1 and float(index.min()) == 0.0  # some reach, some not
+        gate = reach_gate(batch, 0.0, 1, index=True)
+        torch.testing.assert_close(gate, index.clamp_min(0.01))
+        torch.testing.assert_close(alone(batch)["pred"], plain(batch)["pred"] * gate)
+        torch.testing.assert_close(
+            both(batch)["pred"], plain(batch)["pred"] * reach_gate(batch, 0.03, 1) * gate
+        )
+    with pytest.raises(MomaError, match="index_gate must be true or false"):
+        ModelConfig(index_gate=1)
+    assert "index_gate" not in ModelConfig().to_dict()
+
+
 def _fence_batch(name: str) -> dict:
     """One episode: a target 1 m ahead at 0.9 m, floor points along the line to it, and a
     box of points 0.6-0.7 m ahead (a stool, 0.3 m high) between them."""

@@ -194,17 +194,19 @@ class AffordanceModel(nn.Module):
 
     def _keep(self, batch: dict[str, Any], dtype: torch.dtype) -> torch.Tensor:
         """What of each prediction stands: 0 on padded floor points, else 1 or, with
-        ``ModelConfig.reach_gate``, the robot's reachability gate, and with
-        ``ModelConfig.footprint_gate``, where its base fits. Shapes: (B, Nf)."""
+        ``ModelConfig.reach_gate`` and ``ModelConfig.index_gate``, the robot's
+        reachability gates, and with ``ModelConfig.footprint_gate``, where its base
+        fits. Shapes: (B, Nf)."""
         keep = batch["floor_mask"].to(dtype)
-        if self.config.reach_gate <= 0 and not self.config.footprint_gate:
+        cfg = self.config
+        if cfg.reach_gate <= 0 and not cfg.index_gate and not cfg.footprint_gate:
             return keep
         key = (batch, *(batch.get(k) for k in _GATE_INPUTS))
         if self._gates is None or any(a is not b for a, b in zip(self._gates[0], key, strict=True)):
             gate = torch.ones_like(keep)
-            if self.config.reach_gate > 0:
-                gate = gate * reach_gate(batch, self.config.reach_gate, self.config.reach_points)
-            if self.config.footprint_gate:
+            if cfg.reach_gate > 0 or cfg.index_gate:
+                gate = gate * reach_gate(batch, cfg.reach_gate, cfg.reach_points, cfg.index_gate)
+            if cfg.footprint_gate:
                 gate = gate * footprint_gate(batch)
             self._gates = (key, gate)
         return keep * self._gates[1].to(dtype)

@@ -57,16 +57,24 @@ class ModelConfig:
             of the target from there (:mod:`momakitchen.models.reach_input`, from the
             robot's URDF and mount), so that a robot is known by what its arm reaches and
             not only by its descriptor's numbers (False: runs made before it).
-        reach_points: with ``reach_input`` or ``reach_gate``: at how many of the target's
-            points the reachability is read, each channel the best over them. 1: at the target's
-            centroid (runs made before this field); K > 1: at K of its visible points,
-            spread over it (:func:`~momakitchen.models.reach_input.target_points`), since
-            a door is opened at its handle, not at its centre.
+        reach_points: with ``reach_input``, ``reach_gate`` or ``index_gate``: at how many
+            of the target's points the reachability is read, each channel the best over
+            them. 1: at the target's centroid (runs made before this field); K > 1: at K
+            of its visible points, spread over it
+            (:func:`~momakitchen.models.reach_input.target_points`), since a door is opened
+            at its handle, not at its centre.
         reach_gate: any model: each prediction is multiplied by ``sigmoid(d / reach_gate)``,
             ``d`` (m) how far inside the robot's reachable region the target lies from
             that floor point (:func:`~momakitchen.models.reach_input.reach_gate`, at
             ``reach_points`` of its points), so that no stance the arm cannot reach from
             is chosen, whatever the network learnt; 0: no gate.
+        index_gate: any model: each prediction is also multiplied by the reachability
+            index of the target from that floor point (the share of approach directions
+            by which the arm reaches it, at ``reach_points`` of its points; at least
+            0.01), so that of stances the network rates alike the one the arm reaches
+            from many directions wins over one at the edge of its reach, where the
+            target's unseen depth or the grasp's orientation loses it (docs/RESULTS.md);
+            False: no gate.
         footprint_gate: any model: each prediction is multiplied by 0 where the robot's
             base, facing the target, would stand on points the view shows above the floor
             (:func:`~momakitchen.models.reach_input.footprint_gate`, the test the
@@ -103,6 +111,7 @@ class ModelConfig:
     reach_input: bool = field(default=False, metadata=codec.OMIT_IF_DEFAULT)
     reach_points: int = field(default=1, metadata=codec.OMIT_IF_DEFAULT)
     reach_gate: float = field(default=0.0, metadata=codec.OMIT_IF_DEFAULT)
+    index_gate: bool = field(default=False, metadata=codec.OMIT_IF_DEFAULT)
     footprint_gate: bool = field(default=False, metadata=codec.OMIT_IF_DEFAULT)
     hidden_descriptor: tuple[str, ...] = field(default=(), metadata=codec.OMIT_IF_DEFAULT)
 
@@ -157,6 +166,8 @@ class ModelConfig:
             raise bad("reach_points", "must be an integer in [1, 64]")
         if not 0.0 <= self.reach_gate <= 1.0:
             raise bad("reach_gate", "must be in [0, 1] m (0: no gate)")
+        if not isinstance(self.index_gate, bool):
+            raise bad("index_gate", "must be true or false")
         if not isinstance(self.footprint_gate, bool):
             raise bad("footprint_gate", "must be true or false")
         names = DESCRIPTOR_LAYOUTS.get(self.descriptor_version, ())

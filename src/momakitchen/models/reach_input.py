@@ -30,7 +30,7 @@ import torch
 
 from momakitchen.errors import MomaError
 from momakitchen.robots.spec import get_robot_spec
-from momakitchen.sim.reachability import ReachabilityMap
+from momakitchen.sim.reachability import MIN_SCORE, ReachabilityMap
 
 REACH_CHANNELS = 3
 # The signed distance (m) at which a channel saturates: a few centimetres decide between
@@ -153,23 +153,35 @@ def batch_floor_reach(
     return torch.from_numpy(out).to(device=floor_xyz.device, dtype=floor_xyz.dtype)
 
 
-def reach_gate(batch: dict, width: float, points: int) -> torch.Tensor:
+def reach_gate(batch: dict, width: float, points: int, index: bool = False) -> torch.Tensor:
     """How much of a prediction the robot's reachability lets through
-    (``ModelConfig.reach_gate``): ``sigmoid(d / width)`` at each floor point, where ``d``
-    (m) is how far inside the arm's reachable region the target lies for a base there
-    facing it, the better of a horizontal and a top-down approach, at the best of
-    ``points`` of the target's points (1: its centroid). ``d`` saturates at
-    :data:`REACH_SCALE`.
+    (``ModelConfig.reach_gate`` and ``ModelConfig.index_gate``) at each floor point:
+
+    - with ``width`` > 0, ``sigmoid(d / width)``, where ``d`` (m) is how far inside the
+      arm's reachable region the target lies for a base there facing it, the better of a
+      horizontal and a top-down approach, at the best of ``points`` of the target's
+      points (1: its centroid); ``d`` saturates at :data:`REACH_SCALE`;
+    - with ``index``, times the reachability index of the target from there (channel 2
+      of :func:`floor_reach`, at least
+      :data:`~momakitchen.sim.reachability.MIN_SCORE`): a stance at the edge of the
+      arm's reach, where a few centimetres of the target's unseen depth or of the
+      grasp's orientation lose it, counts less than one the arm reaches from many
+      directions.
 
     Shapes: a batch (``floor_xyz`` (B, Nf, 3), the global cloud, ``robot``,
-    ``robot_name``) -> (B, Nf) in (0, 1)
+    ``robot_name``) -> (B, Nf) in (0, 1]
     """
     target = target_centroid(batch["global_xyz"], batch["global_align"], batch["global_mask"])
     at = reach_targets(batch, target, points)
     mount = batch.get("robot_mount", batch["robot"][:, 1])
     reach = batch_floor_reach(batch.get("robot_name", []), mount, at, batch["floor_xyz"])
-    inside = torch.maximum(reach[..., 0], reach[..., 1]) * REACH_SCALE
-    return torch.sigmoid(inside / width)
+    gate = torch.ones_like(reach[..., 0])
+    if width > 0:
+        inside = torch.maximum(reach[..., 0], reach[..., 1]) * REACH_SCALE
+        gate = torch.sigmoid(inside / width)
+    if index:
+        gate = gate * reach[..., 2].clamp_min(MIN_SCORE)
+    return gate
 
 
 def footprint_gate(batch: dict) -> torch.Tensor:
