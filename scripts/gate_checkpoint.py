@@ -1,18 +1,18 @@
 """Copy a trained run with the robot's body gates set (ModelConfig.reach_gate,
 index_gate and footprint_gate).
 
-    python scripts/gate_checkpoint.py SRC DST [--width 0.03] [--points 8] [--index] [--footprint]
+    python scripts/gate_checkpoint.py SRC DST [--width 0.03] [--points 8] [--index R] [--footprint]
 
 ``SRC`` is a run directory (``momakitchen train``) or ``bundled``; ``DST`` a new directory.
 The gates have no weights: the copy predicts what ``SRC`` does, multiplied at each floor
 point by ``sigmoid(d / width)``, ``d`` how far inside the arm's reachable region the target
 lies from there, at ``points`` of its points (docs/ROBOTS.md, "What the model knows of a
-robot"); with ``--index`` also by the reachability index of the target from there (the
-share of approach directions by which the arm reaches it); with ``--footprint`` also by 0
-where the robot's base, facing the target, would stand on what the view shows above the
-floor (``--width 0``: no sigmoid). Every command that takes ``--checkpoint`` takes the
-copy; its robots must be registered (a name or ``--robot-yaml``): the gates read the
-arm's URDF and the base's footprint.
+robot"); with ``--index R`` also by ``min(1, r / R)``, ``r`` the reachability index of the
+target from there (the share of approach directions by which the arm reaches it); with
+``--footprint`` also by 0 where the robot's base, facing the target, would stand on what the
+view shows above the floor (``--width 0``: no sigmoid). Every command that takes
+``--checkpoint`` takes the copy; its robots must be registered (a name or ``--robot-yaml``):
+the gates read the arm's URDF and the base's footprint.
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ from momakitchen.train.checkpoint import CONFIG_FILE, default_checkpoint, read_r
 
 
 def gate_copy(
-    src: Path, dst: Path, width: float, points: int, footprint: bool = False, index: bool = False
+    src: Path, dst: Path, width: float, points: int, footprint: bool = False, index: float = 0.0
 ) -> None:
     """Copy run ``src`` to the new directory ``dst`` with the gate set (MomaError on bad
     input, before anything is written)."""
@@ -41,7 +41,7 @@ def gate_copy(
     model_config = info["train_config"]["model_config"]
     model_config.update(reach_gate=width, reach_points=points, footprint_gate=footprint)
     if index:
-        model_config["index_gate"] = True
+        model_config["index_gate"] = index
     ModelConfig.from_dict(model_config)  # the gate's values are checked here
     tmp = dst.with_name(dst.name + ".partial")
     shutil.rmtree(tmp, ignore_errors=True)
@@ -57,7 +57,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--width", type=float, default=0.03, help="gate width in m (0.03)")
     parser.add_argument("--points", type=int, default=8, help="target points read (8)")
     parser.add_argument(
-        "--index", action="store_true", help="also weigh by the arm's reachability index"
+        "--index",
+        type=float,
+        default=0.0,
+        help="also weigh by min(1, the arm's reachability index / INDEX) (0: not)",
     )
     parser.add_argument(
         "--footprint", action="store_true", help="also gate where the base does not fit"
@@ -71,7 +74,10 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     extra = "".join(
         f" and {name}"
-        for name, on in (("index_gate", args.index), ("footprint_gate", args.footprint))
+        for name, on in (
+            (f"index_gate {args.index}", args.index),
+            ("footprint_gate", args.footprint),
+        )
         if on
     )
     gates = f"reach_gate {args.width} m at {args.points} points{extra}"

@@ -23,10 +23,10 @@ def test_the_copy_reads_the_gate_and_keeps_the_weights(tmp_path):
     weights = "model.safetensors"
     copied = (tmp_path / "gated" / weights).read_bytes()
     assert copied == (default_checkpoint() / weights).read_bytes()
-    assert not config.model_config.footprint_gate and not config.model_config.index_gate
-    assert gate.main(["bundled", str(tmp_path / "both"), "--footprint", "--index"]) == 0
+    assert not config.model_config.footprint_gate and config.model_config.index_gate == 0
+    assert gate.main(["bundled", str(tmp_path / "both"), "--footprint", "--index", "0.5"]) == 0
     both = read_run_config(tmp_path / "both")[0].model_config
-    assert both.footprint_gate and both.index_gate
+    assert both.footprint_gate and both.index_gate == 0.5
     source = json.loads((default_checkpoint() / "config.json").read_text())
     assert "reach_gate" not in source["train_config"]["model_config"]  # the source is untouched
 
@@ -35,6 +35,8 @@ def test_bad_values_and_existing_directories_write_nothing(tmp_path, capsys):
     gate = _script()
     assert gate.main(["bundled", str(tmp_path / "a"), "--width", "5"]) == 2
     assert "reach_gate must be in [0, 1] m" in capsys.readouterr().err
+    assert gate.main(["bundled", str(tmp_path / "a"), "--index", "2"]) == 2
+    assert "index_gate must be in [0, 1]" in capsys.readouterr().err
     (tmp_path / "b").mkdir()
     with pytest.raises(MomaError, match="exists"):
         gate.gate_copy(default_checkpoint(), tmp_path / "b", 0.03, 8)

@@ -163,8 +163,8 @@ def test_the_index_gate_weighs_any_models_prediction_by_the_arms_dexterity(name,
 
     torch.manual_seed(0)
     plain = build_model(name, TINY_MODEL).eval()
-    both = build_model(name, dataclasses.replace(TINY_MODEL, reach_gate=0.03, index_gate=True))
-    alone = build_model(name, dataclasses.replace(TINY_MODEL, index_gate=True))
+    both = build_model(name, dataclasses.replace(TINY_MODEL, reach_gate=0.03, index_gate=1.0))
+    alone = build_model(name, dataclasses.replace(TINY_MODEL, index_gate=0.25))
     for model in (both, alone):
         model.eval().load_state_dict(plain.state_dict())  # the gates have no weights
     with torch.no_grad():
@@ -172,15 +172,21 @@ def test_the_index_gate_weighs_any_models_prediction_by_the_arms_dexterity(name,
         index = batch_floor_reach(
             batch["robot_name"], batch["robot"][:, 1], target, batch["floor_xyz"]
         )[..., 2]
-        assert float(index.max()) > 0.1 and float(index.min()) == 0.0  # some reach, some not
-        gate = reach_gate(batch, 0.0, 1, index=True)
-        torch.testing.assert_close(gate, index.clamp_min(0.01))
-        torch.testing.assert_close(alone(batch)["pred"], plain(batch)["pred"] * gate)
+        # some floor points reach the target from most directions, some from few, some none
+        assert float(index.max()) > 0.5 and float(index.min()) == 0.0
+        assert bool(((index > 0.02) & (index < 0.25)).any())
+        plain_index = reach_gate(batch, 0.0, 1, index=1.0)
+        torch.testing.assert_close(plain_index, index.clamp_min(0.01))
+        capped = reach_gate(batch, 0.0, 1, index=0.25)
+        torch.testing.assert_close(capped, (index / 0.25).clamp(0.01, 1.0))
+        assert float(capped.max()) == 1.0  # well inside the arm's reach: not weighed down
+        torch.testing.assert_close(alone(batch)["pred"], plain(batch)["pred"] * capped)
         torch.testing.assert_close(
-            both(batch)["pred"], plain(batch)["pred"] * reach_gate(batch, 0.03, 1) * gate
+            both(batch)["pred"], plain(batch)["pred"] * reach_gate(batch, 0.03, 1) * plain_index
         )
-    with pytest.raises(MomaError, match="index_gate must be true or false"):
-        ModelConfig(index_gate=1)
+    for bad in (True, 1.5, -0.1):
+        with pytest.raises(MomaError, match=r"index_gate must be in \[0, 1\]"):
+            ModelConfig(index_gate=bad)
     assert "index_gate" not in ModelConfig().to_dict()
 
 

@@ -199,12 +199,12 @@ class AffordanceModel(nn.Module):
         fits. Shapes: (B, Nf)."""
         keep = batch["floor_mask"].to(dtype)
         cfg = self.config
-        if cfg.reach_gate <= 0 and not cfg.index_gate and not cfg.footprint_gate:
+        if cfg.reach_gate <= 0 and cfg.index_gate <= 0 and not cfg.footprint_gate:
             return keep
         key = (batch, *(batch.get(k) for k in _GATE_INPUTS))
         if self._gates is None or any(a is not b for a, b in zip(self._gates[0], key, strict=True)):
             gate = torch.ones_like(keep)
-            if cfg.reach_gate > 0 or cfg.index_gate:
+            if cfg.reach_gate > 0 or cfg.index_gate > 0:
                 gate = gate * reach_gate(batch, cfg.reach_gate, cfg.reach_points, cfg.index_gate)
             if cfg.footprint_gate:
                 gate = gate * footprint_gate(batch)

@@ -68,13 +68,14 @@ class ModelConfig:
             that floor point (:func:`~momakitchen.models.reach_input.reach_gate`, at
             ``reach_points`` of its points), so that no stance the arm cannot reach from
             is chosen, whatever the network learnt; 0: no gate.
-        index_gate: any model: each prediction is also multiplied by the reachability
-            index of the target from that floor point (the share of approach directions
-            by which the arm reaches it, at ``reach_points`` of its points; at least
-            0.01), so that of stances the network rates alike the one the arm reaches
-            from many directions wins over one at the edge of its reach, where the
-            target's unseen depth or the grasp's orientation loses it (docs/RESULTS.md);
-            False: no gate.
+        index_gate: any model: each prediction is also multiplied by
+            ``min(1, r / index_gate)``, ``r`` the reachability index of the target from
+            that floor point (the share of approach directions by which the arm reaches
+            it, at ``reach_points`` of its points; the product at least 0.01), so that a
+            stance at the edge of the arm's reach, where the target's unseen depth or the
+            grasp's orientation loses it, counts less than one well inside, and stances
+            reached from at least ``index_gate`` of the directions count alike
+            (docs/RESULTS.md); 1: the plain index; 0: no gate.
         footprint_gate: any model: each prediction is multiplied by 0 where the robot's
             base, facing the target, would stand on points the view shows above the floor
             (:func:`~momakitchen.models.reach_input.footprint_gate`, the test the
@@ -111,7 +112,7 @@ class ModelConfig:
     reach_input: bool = field(default=False, metadata=codec.OMIT_IF_DEFAULT)
     reach_points: int = field(default=1, metadata=codec.OMIT_IF_DEFAULT)
     reach_gate: float = field(default=0.0, metadata=codec.OMIT_IF_DEFAULT)
-    index_gate: bool = field(default=False, metadata=codec.OMIT_IF_DEFAULT)
+    index_gate: float = field(default=0.0, metadata=codec.OMIT_IF_DEFAULT)
     footprint_gate: bool = field(default=False, metadata=codec.OMIT_IF_DEFAULT)
     hidden_descriptor: tuple[str, ...] = field(default=(), metadata=codec.OMIT_IF_DEFAULT)
 
@@ -166,8 +167,8 @@ class ModelConfig:
             raise bad("reach_points", "must be an integer in [1, 64]")
         if not 0.0 <= self.reach_gate <= 1.0:
             raise bad("reach_gate", "must be in [0, 1] m (0: no gate)")
-        if not isinstance(self.index_gate, bool):
-            raise bad("index_gate", "must be true or false")
+        if isinstance(self.index_gate, bool) or not 0.0 <= self.index_gate <= 1.0:
+            raise bad("index_gate", "must be in [0, 1] (0: no gate)")
         if not isinstance(self.footprint_gate, bool):
             raise bad("footprint_gate", "must be true or false")
         names = DESCRIPTOR_LAYOUTS.get(self.descriptor_version, ())

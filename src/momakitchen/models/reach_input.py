@@ -153,7 +153,7 @@ def batch_floor_reach(
     return torch.from_numpy(out).to(device=floor_xyz.device, dtype=floor_xyz.dtype)
 
 
-def reach_gate(batch: dict, width: float, points: int, index: bool = False) -> torch.Tensor:
+def reach_gate(batch: dict, width: float, points: int, index: float = 0.0) -> torch.Tensor:
     """How much of a prediction the robot's reachability lets through
     (``ModelConfig.reach_gate`` and ``ModelConfig.index_gate``) at each floor point:
 
@@ -161,12 +161,12 @@ def reach_gate(batch: dict, width: float, points: int, index: bool = False) -> t
       arm's reachable region the target lies for a base there facing it, the better of a
       horizontal and a top-down approach, at the best of ``points`` of the target's
       points (1: its centroid); ``d`` saturates at :data:`REACH_SCALE`;
-    - with ``index``, times the reachability index of the target from there (channel 2
-      of :func:`floor_reach`, at least
-      :data:`~momakitchen.sim.reachability.MIN_SCORE`): a stance at the edge of the
-      arm's reach, where a few centimetres of the target's unseen depth or of the
-      grasp's orientation lose it, counts less than one the arm reaches from many
-      directions.
+    - with ``index`` > 0, times ``min(1, r / index)``, ``r`` the reachability index of the
+      target from there (channel 2 of :func:`floor_reach`), at least
+      :data:`~momakitchen.sim.reachability.MIN_SCORE`: a stance at the edge of the arm's
+      reach, where a few centimetres of the target's unseen depth or of the grasp's
+      orientation lose it, counts less; one the arm reaches from at least ``index`` of
+      the approach directions counts fully (1: the plain index).
 
     Shapes: a batch (``floor_xyz`` (B, Nf, 3), the global cloud, ``robot``,
     ``robot_name``) -> (B, Nf) in (0, 1]
@@ -179,8 +179,8 @@ def reach_gate(batch: dict, width: float, points: int, index: bool = False) -> t
     if width > 0:
         inside = torch.maximum(reach[..., 0], reach[..., 1]) * REACH_SCALE
         gate = torch.sigmoid(inside / width)
-    if index:
-        gate = gate * reach[..., 2].clamp_min(MIN_SCORE)
+    if index > 0:
+        gate = gate * (reach[..., 2] / index).clamp(MIN_SCORE, 1.0)
     return gate
 
 
