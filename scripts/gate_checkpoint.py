@@ -40,6 +40,7 @@ def gate_copy(
     info = json.loads((src / CONFIG_FILE).read_text())
     model_config = info["train_config"]["model_config"]
     model_config.update(reach_gate=width, reach_points=points, footprint_gate=footprint)
+    model_config.pop("index_gate", None)  # a copy of a copy keeps none of its weight
     if index:
         model_config["index_gate"] = index
     ModelConfig.from_dict(model_config)  # the gate's values are checked here
@@ -72,16 +73,10 @@ def main(argv: list[str] | None = None) -> int:
     except MomaError as exc:
         print(f"gate_checkpoint: error: {exc}", file=sys.stderr)
         return 2
-    extra = "".join(
-        f" and {name}"
-        for name, on in (
-            (f"index_gate {args.index}", args.index),
-            ("footprint_gate", args.footprint),
-        )
-        if on
-    )
-    gates = f"reach_gate {args.width} m at {args.points} points{extra}"
-    print(f"wrote {args.dst}: {args.src} with {gates}")
+    gates = [f"reach_gate {args.width} m at {args.points} points"]
+    gates += [f"index_gate {args.index}"] if args.index else []
+    gates += ["footprint_gate"] if args.footprint else []
+    print(f"wrote {args.dst}: {args.src} with {' and '.join(gates)}")
     return 0
 
 

@@ -7,7 +7,7 @@ import json
 import pytest
 
 from momakitchen.errors import MomaError
-from momakitchen.train.checkpoint import default_checkpoint, read_run_config
+from momakitchen.train.checkpoint import SHIPPED_CHECKPOINTS, default_checkpoint, read_run_config
 from script_helpers import load_script
 
 
@@ -27,6 +27,10 @@ def test_the_copy_reads_the_gate_and_keeps_the_weights(tmp_path):
     assert gate.main(["bundled", str(tmp_path / "both"), "--footprint", "--index", "0.5"]) == 0
     both = read_run_config(tmp_path / "both")[0].model_config
     assert both.footprint_gate and both.index_gate == 0.5
+    # a copy of the shipped body (which carries the weight) without --index carries none
+    body = str(SHIPPED_CHECKPOINTS["body"])
+    assert gate.main([body, str(tmp_path / "plain"), "--footprint"]) == 0
+    assert read_run_config(tmp_path / "plain")[0].model_config.index_gate == 0
     source = json.loads((default_checkpoint() / "config.json").read_text())
     assert "reach_gate" not in source["train_config"]["model_config"]  # the source is untouched
 

@@ -71,7 +71,7 @@ class ModelConfig:
         index_gate: any model: each prediction is also multiplied by
             ``min(1, r / index_gate)``, ``r`` the reachability index of the target from
             that floor point (the share of approach directions by which the arm reaches
-            it, at ``reach_points`` of its points; the product at least 0.01), so that a
+            it, at ``reach_points`` of its points; the weight at least 0.01), so that a
             stance at the edge of the arm's reach, where the target's unseen depth or the
             grasp's orientation loses it, counts less than one well inside, and stances
             reached from at least ``index_gate`` of the directions count alike
