@@ -190,3 +190,76 @@ def test_views_by_distance_stand_as_far_and_as_turned_as_asked():
             assert 0.75 + 0.525 * k - 1e-9 <= dist <= 0.75 + 0.525 * (k + 1) + 1e-9
             assert forward > 0 and abs(lateral) <= forward + 1e-9  # within 45 degrees
             assert np.sign(lateral) in (0.0, 1.0 if k % 2 == 0 else -1.0)
+
+
+def test_far_share_bounds():
+    from momakitchen.data.config import ViewConfig
+    from momakitchen.errors import MomaError
+
+    with pytest.raises(MomaError, match=r"views\.far_share must be in \[0, 1\], got 1\.5"):
+        ViewConfig(distance=(0.75, 6.0), far_share=1.5)
+    with pytest.raises(MomaError, match=r"views\.far_share needs views\.distance on"):
+        ViewConfig(far_share=0.4)  # placed by forward / lateral: no distance to share
+    with pytest.raises(MomaError, match=r"far_from 7\.0, distance \(0\.75, 6\.0\)"):
+        ViewConfig(distance=(0.75, 6.0), far_share=0.4, far_from=7.0)
+    # off by default, and then left out of a dataset's manifest (its bytes stay)
+    views = GenerationConfig().to_dict()["views"]
+    assert "far_share" not in views and "far_from" not in views
+
+
+def test_far_view_points_stand_where_asked(scene):
+    from momakitchen.data.config import ViewConfig
+    from momakitchen.generation.producer import far_view_points
+    from momakitchen.scene.configuration import base_fits
+
+    views = ViewConfig(distance=(0.75, 6.0), max_angle=45.0, far_share=0.4)
+    cfg = scene.configurations[0]
+    footprint = (0.6, 0.5)
+    pts = far_view_points(scene.layout, cfg, views, footprint, 1.5)
+    assert len(pts) > 10
+    rel = pts - np.asarray(cfg.target.anchor)[:2]
+    dist = np.hypot(rel[:, 0], rel[:, 1])
+    assert dist.min() >= 3.8 and dist.max() <= 6.0
+    assert np.all(np.diff(dist) >= 0)  # nearest first
+    assert np.all(np.abs(rel[:, 0]) <= rel[:, 1] + 1e-9)  # within 45 degrees of the front
+    assert base_fits(scene.layout, cfg, pts, footprint).all()  # the plan's own rule agrees
+    # a sensor that sees 4 m leaves only the points within its range
+    near = far_view_points(
+        scene.layout, cfg, replace_views(views, max_distance=4.0), footprint, 1.5
+    )
+    assert 0 < len(near) < len(pts)
+    # none where the room is not that deep
+    assert (
+        len(far_view_points(scene.layout, cfg, replace_views(views, far_from=5.9), footprint, 1.5))
+        == 0
+    )
+
+
+def replace_views(views, **changes):
+    import dataclasses
+
+    return dataclasses.replace(views, **changes)
+
+
+def test_far_share_puts_the_last_views_far_where_the_room_allows(world, scene):
+    """``views.far_share``: 2 of 5 views 3.8 m or more away (the last two), the others
+    below 3.8 m; with 0.8, 4 of 5."""
+    import dataclasses
+
+    from momakitchen.data.config import ViewConfig
+    from momakitchen.generation.producer import sample_views
+
+    cfg = scene.configurations[0]
+    anchor = np.asarray(cfg.target.anchor)[:2]
+    base = GenerationConfig()
+
+    def distances(**far) -> np.ndarray:
+        views = ViewConfig(episodes=5, distance=(0.75, 6.0), coverage_radius=0, **far)
+        out = sample_views(world, scene.layout, cfg, dataclasses.replace(base, views=views))
+        assert len(out) == 5
+        return np.array([np.hypot(*(np.asarray(v.base[:2]) - anchor)) for v in out])
+
+    far = distances(far_share=0.4)
+    assert np.all(far[:3] < 3.8) and np.all(far[3:] >= 3.8)
+    assert np.all(np.diff(far[:3]) > 0)  # the near ones stratified, increasing
+    assert (distances(far_share=0.8) >= 3.8).sum() == 4

@@ -50,6 +50,13 @@ class ViewConfig:
             and ``lateral``: in a room 3.6-5 m deep, only a view from the side stands
             more than about 4 m away. (0, 0): off.
         max_angle: see ``distance``.
+        far_share: with ``distance`` on, at least this share of a configuration's views
+            (the last ones) stand ``far_from`` m or more from the target wherever the room
+            holds such a viewpoint (within ``max_angle`` of the target's front, the base
+            inside the room and clear of furniture and obstacles); the others are
+            stratified below ``far_from``. Where the room holds none, the views are placed
+            as without it. 0: off (stratified over the whole range).
+        far_from: see ``far_share`` (3.8 m: where the driven track's far starts begin).
     """
 
     episodes: int = 10
@@ -62,6 +69,8 @@ class ViewConfig:
     max_distance: float = 0.0
     distance: tuple[float, float] = field(default=(0.0, 0.0), metadata=codec.OMIT_IF_DEFAULT)
     max_angle: float = field(default=45.0, metadata=codec.OMIT_IF_DEFAULT)
+    far_share: float = field(default=0.0, metadata=codec.OMIT_IF_DEFAULT)
+    far_from: float = field(default=3.8, metadata=codec.OMIT_IF_DEFAULT)
 
     @property
     def farthest(self) -> float:
@@ -79,6 +88,13 @@ class ViewConfig:
             )
         if not (math.isfinite(self.max_angle) and 0.0 <= self.max_angle <= 90.0):
             raise MomaError(f"views.max_angle must be in [0, 90] degrees, got {self.max_angle!r}")
+        if not (math.isfinite(self.far_share) and 0.0 <= self.far_share <= 1.0):
+            raise MomaError(f"views.far_share must be in [0, 1], got {self.far_share!r}")
+        if self.far_share > 0 and not lo < self.far_from < hi:
+            raise MomaError(
+                f"views.far_share needs views.distance on and views.far_from inside it: "
+                f"far_from {self.far_from!r}, distance {self.distance}"
+            )
         if self.max_distance != 0.0 and not 1.0 <= self.max_distance <= 20.0:
             raise MomaError(
                 f"views.max_distance must be 0 (no limit) or in [1, 20] m, got {self.max_distance}"

@@ -90,14 +90,19 @@ def target_links(world: World) -> list[int]:
 
 
 def _view_candidates(
-    rng: np.random.Generator, anchor: np.ndarray, k: int, n: int, views: ViewConfig
+    rng: np.random.Generator,
+    anchor: np.ndarray,
+    k: int,
+    n: int,
+    views: ViewConfig,
+    span: tuple[float, float] | None = None,
 ) -> tuple[float, float]:
     """(lateral, forward) offsets for view ``k`` of ``n``: alternating sides, forward
-    distance (or, with ``views.distance``, the distance) stratified so that it increases
-    with ``k``."""
+    distance (or, with ``views.distance``, the distance, over ``span`` if given) stratified
+    so that it increases with ``k``."""
     side = 1.0 if k % 2 == 0 else -1.0
     if views.distance[1] > 0:
-        lo, hi = views.distance
+        lo, hi = span or views.distance
         dist = lo + (hi - lo) * (k + rng.uniform()) / n
         angle = math.radians(rng.uniform(0.0, views.max_angle))
         return side * dist * math.sin(angle), dist * math.cos(angle)
@@ -105,6 +110,58 @@ def _view_candidates(
     forward = lo + (hi - lo) * (k + rng.uniform()) / n
     lateral = side * rng.uniform(*views.lateral)
     return lateral, forward
+
+
+FAR_CELL = 0.1  # m: spacing of the candidate far viewpoints
+
+
+def _clear(fp: np.ndarray, blocked: np.ndarray, room) -> np.ndarray:
+    """(N,) whether each base footprint (N, 4, 2) lies inside the room, 2 cm from its walls,
+    clear of ``blocked`` (K, 4, 2)."""
+    return (
+        (fp.min(axis=(1, 2)) >= 0.02)
+        & (fp[..., 0].max(axis=1) <= room.width - 0.02)
+        & (fp[..., 1].max(axis=1) <= room.depth - 0.02)
+        & ~overlap_matrix(fp, blocked).any(axis=1)
+    )
+
+
+def _blocked(layout: Layout, cfg: Configuration) -> np.ndarray:
+    return corners_of(layout.footprints(0.02) + [o.footprint(0.02) for o in cfg.obstacles])
+
+
+def far_view_points(
+    layout: Layout,
+    cfg: Configuration,
+    views: ViewConfig,
+    footprint: tuple[float, float],
+    height: float,
+) -> np.ndarray:
+    """Floor points (M, 2), nearest first, where a view of ``cfg`` can stand
+    ``views.far_from`` to ``views.distance[1]`` m from the target, within
+    ``views.max_angle`` of its front, the viewing base (``footprint``, facing the target)
+    in the room and clear of furniture and obstacles, and its camera (at ``height``) within
+    ``views.max_distance`` of the target: ``views.far_share``'s "where the room holds
+    such a viewpoint" (empty where it holds none). A grid of ``FAR_CELL``."""
+    anchor = np.asarray(cfg.target.anchor, float)
+    room = layout.room
+    gx, gy = np.meshgrid(
+        np.arange(0.0, room.width, FAR_CELL), np.arange(0.0, room.depth, FAR_CELL), indexing="ij"
+    )
+    pts = np.stack([gx.ravel(), gy.ravel()], 1)
+    rel = pts - anchor[:2]
+    dist = np.hypot(rel[:, 0], rel[:, 1])
+    angle = np.degrees(np.arctan2(np.abs(rel[:, 0]), rel[:, 1]))  # from the front, +y
+    ok = (dist >= views.far_from) & (dist <= views.distance[1]) & (angle <= views.max_angle)
+    if views.max_distance:
+        ok &= dist**2 + (height - anchor[2]) ** 2 <= views.max_distance**2
+    pts, dist = pts[ok], dist[ok]
+    if len(pts):
+        yaws = np.arctan2(anchor[1] - pts[:, 1], anchor[0] - pts[:, 0])
+        fp = box_corners(pts[:, 0], pts[:, 1], yaws, *footprint)
+        keep = _clear(fp, _blocked(layout, cfg), room)
+        pts, dist = pts[keep], dist[keep]
+    return pts[np.argsort(dist, kind="stable")]
 
 
 Clouds = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
@@ -160,44 +217,58 @@ def sample_views(
     views, cam = config.views, config.camera
     rng = scene_rng(cfg.scene_id, VIEW_STREAM, cfg.index)
     anchor = np.asarray(cfg.target.anchor, float)
-    blocked = corners_of(layout.footprints(0.02) + [o.footprint(0.02) for o in cfg.obstacles])
+    blocked = _blocked(layout, cfg)
     room = layout.room
     intr = cam.intrinsics
     height = cfg.mount + cam.above_mount  # the head camera rides on the arm's pillar
     goals = np.zeros((0, 2)) if successes is None else np.asarray(successes).reshape(-1, 2)
     check = len(goals) > 0 and views.coverage_radius > 0
+    n = views.episodes
+    far = np.zeros((0, 2))
+    if views.far_share > 0:
+        far = far_view_points(layout, cfg, views, spec.footprint, height)
+    n_far = math.ceil(views.far_share * n - 1e-9) if len(far) else 0
     out = []
-    for k in range(views.episodes):
+    for k in range(n):
         farther = False
         for attempt in range(views.max_tries):
-            lateral, forward = _view_candidates(rng, anchor, k, views.episodes, views)
-            if views.distance[1] > 0:
-                # By distance: farther back along the same direction. Later attempts come
-                # closer (the room may not hold the distance), slowly at first: each also
-                # turns another way, and a room too shallow ahead may be wide enough aside.
-                scale = rng.uniform(1.0, views.distance[1] / np.hypot(lateral, forward))
-                scale = scale if farther else 1.0
-                scale *= 1.0 - 0.5 * (attempt / views.max_tries) ** 2
-                lateral, forward = lateral * scale, forward * scale
+            j = k - (n - n_far)  # this view's place among the far ones (< 0: not one)
+            if j >= 0 and attempt < views.max_tries // 2:
+                # A far viewpoint: first from this view's distance stratum of the far
+                # points (nearest first), then from any of them.
+                lo, hi = (j * len(far)) // n_far, -(-(j + 1) * len(far) // n_far)
+                if attempt >= views.max_tries // 4:
+                    lo, hi = 0, len(far)
+                x, y = (float(v) for v in far[rng.integers(lo, hi)])
             else:
-                if farther:  # the last view missed the successes: stand farther back
-                    forward = rng.uniform(forward, views.forward[1])
-                # Later attempts come closer: the room may be shallower than the nominal range.
-                forward *= 1.0 - 0.5 * attempt / views.max_tries
-            if views.max_distance:  # within the sensor's working range of the target
-                reach2 = views.max_distance**2 - lateral**2 - (height - anchor[2]) ** 2
-                if reach2 < 0.5**2:
-                    continue
-                forward = min(forward, float(np.sqrt(reach2)))
-            x, y = anchor[0] + lateral, anchor[1] + forward
+                if j < 0 and n_far:  # stratified below far_from
+                    span = (views.distance[0], views.far_from)
+                    lateral, forward = _view_candidates(rng, anchor, k, n - n_far, views, span)
+                else:
+                    lateral, forward = _view_candidates(rng, anchor, k, n, views)
+                if views.distance[1] > 0:
+                    # By distance: farther back along the same direction. Later attempts
+                    # come closer (the room may not hold the distance), slowly at first:
+                    # each also turns another way, and a room too shallow ahead may be
+                    # wide enough aside.
+                    scale = rng.uniform(1.0, views.distance[1] / np.hypot(lateral, forward))
+                    scale = scale if farther else 1.0
+                    scale *= 1.0 - 0.5 * (attempt / views.max_tries) ** 2
+                    lateral, forward = lateral * scale, forward * scale
+                else:
+                    if farther:  # the last view missed the successes: stand farther back
+                        forward = rng.uniform(forward, views.forward[1])
+                    # Later attempts come closer: the room may be shallower than the range.
+                    forward *= 1.0 - 0.5 * attempt / views.max_tries
+                if views.max_distance:  # within the sensor's working range of the target
+                    reach2 = views.max_distance**2 - lateral**2 - (height - anchor[2]) ** 2
+                    if reach2 < 0.5**2:
+                        continue
+                    forward = min(forward, float(np.sqrt(reach2)))
+                x, y = anchor[0] + lateral, anchor[1] + forward
             yaw = float(np.arctan2(anchor[1] - y, anchor[0] - x))
             fp = box_corners(x, y, yaw, *spec.footprint)
-            if (
-                fp.min() < 0.02
-                or fp[..., 0].max() > room.width - 0.02
-                or fp[..., 1].max() > room.depth - 0.02
-                or overlap_matrix(fp, blocked).any()
-            ):
+            if not _clear(fp, blocked, room)[0]:
                 continue
             base = (float(x), float(y), yaw)
             camera = look_toward(np.array([x, y, height]), anchor, intr, views.target_row)
