@@ -208,9 +208,9 @@ def sample_views(
     A viewpoint must leave the viewing robot's footprint inside the room and clear of
     furniture and obstacles. Where the room is too shallow for the nominal distances, the
     forward range shrinks to what fits. With ``views.far_share``, the last views stand
-    among :func:`far_view_points` where there are any. The head camera turns toward the target with the
-    target high in the image (``views.target_row``). With ``successes`` (S, 2), the world
-    positions of successful trials, a view must also see floor within
+    among :func:`far_view_points` where there are any. The head camera turns toward the
+    target with the target high in the image (``views.target_row``). With ``successes``
+    (S, 2), the world positions of successful trials, a view must also see floor within
     ``views.coverage_radius`` of one of them; after a view that does not, later attempts
     stand farther back.
     """
