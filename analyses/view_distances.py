@@ -35,26 +35,25 @@ def view_distances(
     configuration's room holds a viewpoint ``far_from`` to ``far_to`` m away."""
     manifest, gen = dataset_generation(root)
     views = dataclasses.replace(
-        gen.views, distance=(min(0.75, far_from), far_to), max_angle=max_angle, far_from=far_from
+        gen.views,
+        distance=(min(0.75, far_from), far_to),
+        max_angle=max_angle,
+        far_share=0.0,
+        far_from=far_from,
     )
     dist, room = [], []
     todo = split_configurations(manifest, "all")
     for scene, shard, ci in rebuilt_configurations(root, todo, gen.scene):
         cfg = scene.configurations[ci]
         anchor = np.asarray(shard.configuration(ci).anchor, float)
-        height = cfg.mount + gen.camera.above_mount
-        allows = (
-            len(
-                far_view_points(
-                    scene.layout, cfg, views, get_robot_spec(cfg.robot).footprint, height
-                )
-            )
-            > 0
+        footprint = get_robot_spec(cfg.robot).footprint
+        far = far_view_points(
+            scene.layout, cfg, views, footprint, cfg.mount + gen.camera.above_mount
         )
         for e in shard.episode_indices(ci):
             base = np.asarray(shard.episode_attrs(ci, e)["base_pose"], float)
             dist.append(float(np.hypot(*(base[:2] - anchor[:2]))))
-            room.append(allows)
+            room.append(len(far) > 0)
     if not dist:
         raise MomaError(f"dataset {str(root)!r} has no views")
     return np.asarray(dist), np.asarray(room, bool)
@@ -80,6 +79,11 @@ def main() -> None:
     ap.add_argument("--far-to", type=float, default=6.0)
     ap.add_argument("--max-angle", type=float, default=45.0)
     args = ap.parse_args()
+    if not 0.5 <= args.far_from < args.far_to <= 10:
+        raise MomaError(
+            f"--far-from and --far-to must satisfy 0.5 <= from < to <= 10 m, "
+            f"got {args.far_from} and {args.far_to}"
+        )
     dist, room = view_distances(args.data, args.far_from, args.far_to, args.max_angle)
     print(format_distances(dist, room, args.far_from))
 
