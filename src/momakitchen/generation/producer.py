@@ -232,14 +232,13 @@ def sample_views(
     out = []
     for k in range(n):
         farther = False
+        j = k - (n - n_far)  # this view's place among the far ones (< 0: not one)
+        # its distance stratum of the far points (nearest first)
+        stratum = ((j * len(far)) // n_far, -(-(j + 1) * len(far) // n_far)) if j >= 0 else None
         for attempt in range(views.max_tries):
-            j = k - (n - n_far)  # this view's place among the far ones (< 0: not one)
-            if j >= 0 and attempt < views.max_tries // 2:
-                # A far viewpoint: first from this view's distance stratum of the far
-                # points (nearest first), then from any of them.
-                lo, hi = (j * len(far)) // n_far, -(-(j + 1) * len(far) // n_far)
-                if attempt >= views.max_tries // 4:
-                    lo, hi = 0, len(far)
+            if stratum and attempt < views.max_tries // 2:
+                # A far viewpoint: first from its stratum, then from any far point.
+                lo, hi = stratum if attempt < views.max_tries // 4 else (0, len(far))
                 x, y = (float(v) for v in far[rng.integers(lo, hi)])
             else:
                 if j < 0 and n_far:  # stratified below far_from
