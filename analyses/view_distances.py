@@ -11,21 +11,29 @@ target within ``--max-angle`` degrees of its front, the base in the room and cle
 furniture and obstacles (``far_view_points``, the rule ``views.far_share`` follows; by
 default the driven track's far starts, 3.8-6 m within 45 degrees). The configurations are
 rebuilt from their scene ids and the dataset's generation config (no simulator).
+
+With ``--points N`` it also prints, by distance band, the median number of the target's
+points among the N a model draws from the view's cloud (``EpisodeCollator``, seed 0; the
+cpu preset's ``num_global`` is 2048): what of the target a far look leaves the model.
 """
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
+import itertools
 from pathlib import Path
 
 import numpy as np
 from analysis_cli import run_main
 
+from momakitchen.data.batch import EpisodeCollator
 from momakitchen.data.reader import dataset_generation, rebuilt_configurations, split_configurations
+from momakitchen.data.shard import SceneShard
 from momakitchen.errors import MomaError
 from momakitchen.generation.producer import far_view_points
 from momakitchen.robots import get_robot_spec
+from momakitchen.robots.spec import DESCRIPTOR_DIM
 
 
 def view_distances(
@@ -59,6 +67,49 @@ def view_distances(
     return np.asarray(dist), np.asarray(room, bool)
 
 
+# The distance bands --points reports, m.
+BANDS = (0.0, 2.0, 3.0, 3.8, 10.0)
+
+
+def target_points(root: Path, points: int) -> np.ndarray:
+    """(V,) how many of each view's ``points`` cloud points a model draws are the target's,
+    in :func:`view_distances`'s order; -1 for a view without points."""
+    manifest, _ = dataset_generation(root)
+    draw = EpisodeCollator(num_global=points, num_floor=1, seed=0)
+    out = []
+    for sid, ci, file in split_configurations(manifest, "all"):
+        with SceneShard(root / file) as shard:
+            for e in shard.episode_indices(ci):
+                a = shard.arrays(ci, e, ["global_xyz", "global_align", "floor_xyz"])
+                if not len(a["global_xyz"]) or not len(a["floor_xyz"]):
+                    out.append(-1)  # a view a model is never given (evaluate skips it)
+                    continue
+                sample = {
+                    "global_xyz": a["global_xyz"],
+                    "global_rgb": np.zeros_like(a["global_xyz"]),
+                    "global_align": a["global_align"],
+                    "floor_xyz": a["floor_xyz"],
+                    "robot": np.zeros(DESCRIPTOR_DIM, np.float32),
+                    "scene_id": sid,
+                    "config_index": ci,
+                    "episode_index": e,
+                }
+                batch = draw([sample])
+                out.append(int((batch["global_align"][0] > 0).sum()))
+    return np.asarray(out)
+
+
+def format_points(dist: np.ndarray, target: np.ndarray, points: int) -> str:
+    lines = [f"the target's points among the {points} a model draws, by view distance:"]
+    for lo, hi in itertools.pairwise(BANDS):
+        band = (dist >= lo) & (dist < hi) & (target >= 0)
+        if band.any():
+            lines.append(
+                f"  {lo:g}-{hi:g} m: {int(band.sum())} views, median {np.median(target[band]):.0f}"
+            )
+    return "\n".join(lines)
+
+
 def format_distances(dist: np.ndarray, room: np.ndarray, far_from: float) -> str:
     q10, q50, q90 = np.percentile(dist, [10, 50, 90])
     far = dist >= far_from
@@ -78,7 +129,10 @@ def main() -> None:
     ap.add_argument("--far-from", type=float, default=3.8)
     ap.add_argument("--far-to", type=float, default=6.0)
     ap.add_argument("--max-angle", type=float, default=45.0)
+    ap.add_argument("--points", type=int, default=0, help="a model's cloud draw (0: off)")
     args = ap.parse_args()
+    if args.points < 0:
+        raise MomaError(f"--points must be 0 (off) or a point count, got {args.points}")
     if not 0.5 <= args.far_from < args.far_to <= 10:
         raise MomaError(
             f"--far-from and --far-to must satisfy 0.5 <= from < to <= 10 m, "
@@ -86,6 +140,8 @@ def main() -> None:
         )
     dist, room = view_distances(args.data, args.far_from, args.far_to, args.max_angle)
     print(format_distances(dist, room, args.far_from))
+    if args.points:
+        print(format_points(dist, target_points(args.data, args.points), args.points))
 
 
 if __name__ == "__main__":

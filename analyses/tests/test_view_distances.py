@@ -44,3 +44,24 @@ def test_a_missing_dataset_is_one_line(tmp_path):
     assert proc.returncode == 2
     assert proc.stderr.count("\n") == 1 and "view_distances.py: error:" in proc.stderr
     assert "nope" in proc.stderr
+
+
+def test_target_points_are_the_models_draw(real_dataset, monkeypatch):
+    monkeypatch.syspath_prepend(str(SCRIPT.parent))
+    from view_distances import format_points, target_points
+
+    whole = []
+    for entry in load_manifest(real_dataset)["shards"].values():
+        with SceneShard(real_dataset / entry["file"]) as shard:
+            for ci in shard.config_indices():
+                for e in shard.episode_indices(ci):
+                    whole.append(
+                        int((shard.arrays(ci, e, ["global_align"])["global_align"] > 0).sum())
+                    )
+    # a draw larger than every cloud keeps all of each view's target points
+    assert list(target_points(real_dataset, 10**6)) == whole
+    few = target_points(real_dataset, 64)
+    assert (few <= np.minimum(whole, 64)).all() and (few >= 1).all()
+    text = format_points(np.array([1.0, 2.5, 2.9, 5.0, 1.5]), np.array([9, 4, 6, 1, -1]), 64)
+    assert "0-2 m: 1 views, median 9" in text and "2-3 m: 2 views, median 5" in text
+    assert "3.8-10 m: 1 views, median 1" in text and "3-3.8 m" not in text
