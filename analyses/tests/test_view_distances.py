@@ -14,18 +14,24 @@ from momakitchen.data.shard import SceneShard
 SCRIPT = Path(__file__).resolve().parents[1] / "view_distances.py"
 
 
+def each_view(root):
+    """(shard, config_index, episode_index) of every view of the dataset, in its order."""
+    for entry in load_manifest(root)["shards"].values():
+        with SceneShard(root / entry["file"]) as shard:
+            for ci in shard.config_indices():
+                for e in shard.episode_indices(ci):
+                    yield shard, ci, e
+
+
 def test_distances_are_each_views_from_its_anchor(real_dataset, monkeypatch):
     monkeypatch.syspath_prepend(str(SCRIPT.parent))
     from view_distances import format_distances, view_distances
 
     expected = []
-    for entry in load_manifest(real_dataset)["shards"].values():
-        with SceneShard(real_dataset / entry["file"]) as shard:
-            for ci in shard.config_indices():
-                anchor = np.asarray(shard.configuration(ci).anchor)[:2]
-                for e in shard.episode_indices(ci):
-                    base = shard.episode(ci, e).base_pose
-                    expected.append(np.hypot(base[0] - anchor[0], base[1] - anchor[1]))
+    for shard, ci, e in each_view(real_dataset):
+        anchor = np.asarray(shard.configuration(ci).anchor)[:2]
+        base = shard.episode(ci, e).base_pose
+        expected.append(np.hypot(base[0] - anchor[0], base[1] - anchor[1]))
     dist, room = view_distances(real_dataset, 3.8, 6.0, 45.0)
     assert np.allclose(dist, expected) and len(room) == len(dist)
     # a "far" from below every view counts them all; one past the room's depth, no room
@@ -50,14 +56,10 @@ def test_target_points_are_the_models_draw(real_dataset, monkeypatch):
     monkeypatch.syspath_prepend(str(SCRIPT.parent))
     from view_distances import format_points, target_points
 
-    whole = []
-    for entry in load_manifest(real_dataset)["shards"].values():
-        with SceneShard(real_dataset / entry["file"]) as shard:
-            for ci in shard.config_indices():
-                for e in shard.episode_indices(ci):
-                    whole.append(
-                        int((shard.arrays(ci, e, ["global_align"])["global_align"] > 0).sum())
-                    )
+    whole = [
+        int((shard.arrays(ci, e, ["global_align"])["global_align"] > 0).sum())
+        for shard, ci, e in each_view(real_dataset)
+    ]
     # a draw larger than every cloud keeps all of each view's target points
     assert list(target_points(real_dataset, 10**6)) == whole
     few = target_points(real_dataset, 64)
