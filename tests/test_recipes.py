@@ -16,10 +16,16 @@ from momakitchen.errors import MomaError
 from momakitchen.robots.user import register_user_robots, unregister_user_robot
 
 RECIPE_DIR = Path(__file__).parents[1] / "scripts" / "recipes"
-# A recipe whose command registers the scaled arms (--robot-yaml scripts/recipes/robots)
-# is read with them registered, which takes a while: slow.
+
+
+def needs_robots(path: Path) -> bool:
+    """Whether the recipe's command registers the scaled arms (--robot-yaml
+    scripts/recipes/robots): it is read with them registered, which takes a while."""
+    return "recipes/robots" in path.read_text()
+
+
 RECIPES = [
-    pytest.param(p, marks=pytest.mark.slow) if "recipes/robots" in p.read_text() else p
+    pytest.param(p, marks=pytest.mark.slow) if needs_robots(p) else p
     for p in sorted(RECIPE_DIR.glob("*.yaml"))
 ]
 SECTIONS = {f.name for f in fields(GenerationConfig)} - {"preset"}
@@ -55,7 +61,7 @@ def test_recipes_found() -> None:
 
 @pytest.mark.parametrize("path", RECIPES, ids=lambda p: p.name)
 def test_recipe_reads(path: Path, request: pytest.FixtureRequest) -> None:
-    if "recipes/robots" in path.read_text():
+    if needs_robots(path):
         request.getfixturevalue("recipe_robots")
     config = read_recipe(path)
     data = read_config_file(path)
