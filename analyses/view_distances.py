@@ -27,13 +27,12 @@ from pathlib import Path
 import numpy as np
 from analysis_cli import run_main
 
+from momakitchen.data import EpisodeDataset
 from momakitchen.data.batch import EpisodeCollator
 from momakitchen.data.reader import dataset_generation, rebuilt_configurations, split_configurations
-from momakitchen.data.shard import SceneShard
 from momakitchen.errors import MomaError
 from momakitchen.generation.producer import far_view_points
 from momakitchen.robots import get_robot_spec
-from momakitchen.robots.spec import DESCRIPTOR_DIM
 
 
 def view_distances(
@@ -73,30 +72,22 @@ BANDS = (0.0, 2.0, 3.0, 3.8, 10.0)
 
 def target_points(root: Path, points: int) -> np.ndarray:
     """(V,) how many of each view's ``points`` cloud points a model draws are the target's,
-    in :func:`view_distances`'s order; -1 for a view without points."""
-    manifest, _ = dataset_generation(root)
+    in :func:`view_distances`'s order; -1 for a view without points (a model is never
+    given it: ``EpisodeDataset`` leaves it out)."""
+    data = EpisodeDataset(root, "all")
     draw = EpisodeCollator(num_global=points, num_floor=1, seed=0)
-    out = []
-    for sid, ci, file in split_configurations(manifest, "all"):
-        with SceneShard(root / file) as shard:
-            for e in shard.episode_indices(ci):
-                a = shard.arrays(ci, e, ["global_xyz", "global_align", "floor_xyz"])
-                if not len(a["global_xyz"]) or not len(a["floor_xyz"]):
-                    out.append(-1)  # a view a model is never given (evaluate skips it)
-                    continue
-                sample = {
-                    "global_xyz": a["global_xyz"],
-                    "global_rgb": np.zeros_like(a["global_xyz"]),
-                    "global_align": a["global_align"],
-                    "floor_xyz": a["floor_xyz"],
-                    "robot": np.zeros(DESCRIPTOR_DIM, np.float32),
-                    "scene_id": sid,
-                    "config_index": ci,
-                    "episode_index": e,
-                }
-                batch = draw([sample])
-                out.append(int((batch["global_align"][0] > 0).sum()))
-    return np.asarray(out)
+    counts = {
+        (sid, c, e): int((draw([data[i]])["global_align"][0] > 0).sum())
+        for i, (_file, sid, c, e, _robot) in enumerate(data.index)
+    }
+    shards = data.manifest["shards"]
+    return np.asarray(
+        [
+            counts.get((sid, c, e), -1)
+            for sid, c, _file in split_configurations(data.manifest, "all")
+            for e in range(shards[str(sid)]["episodes_per_config"][c])
+        ]
+    )
 
 
 def format_points(dist: np.ndarray, target: np.ndarray, points: int) -> str:
