@@ -19,7 +19,6 @@ cause; then the same for each run of the model alone.
 from __future__ import annotations
 
 import argparse
-import gzip
 import json
 from collections import Counter
 from pathlib import Path
@@ -29,6 +28,7 @@ from analysis_cli import run_main
 
 from momakitchen.errors import MomaError
 from momakitchen.eval.robot_check import gap_closed_interval
+from momakitchen.fileio import atomic_write_text, read_json_object
 
 BASELINES = ("oracle", "random")
 # Settings that may differ between runs pooled: which rows and which part they ran.
@@ -38,13 +38,8 @@ PER_RUN = ("policies", "part", "max_configs", "split")
 def read_run(arg: str) -> tuple[str, dict[str, Any], set[str] | None]:
     """(path, approach result, the methods to read or None for all) of one argument."""
     path, _, methods = arg.partition(":")
-    p = Path(path)
-    try:
-        raw = gzip.decompress(p.read_bytes()) if p.suffix == ".gz" else p.read_bytes()
-        result = json.loads(raw)
-    except (OSError, ValueError) as exc:
-        raise MomaError(f"cannot read approach result {path!r}: {exc}") from None
-    if not isinstance(result, dict) or "records" not in result or "config" not in result:
+    result = read_json_object(path)
+    if "records" not in result or "config" not in result:
         raise MomaError(f"{path!r} is not a momakitchen approach --json result")
     return path, result, set(methods.split(",")) if methods else None
 
@@ -153,8 +148,6 @@ def main() -> None:
             + ", ".join(f"{k} {v}" for k, v in row["misses"].items())
         )
     if args.json:
-        from momakitchen.fileio import atomic_write_text
-
         atomic_write_text(args.json, json.dumps(table, indent=1) + "\n")
 
 
