@@ -95,6 +95,7 @@ def test_every_command_takes_the_one_declaration_of_a_shared_option():
     assert {flag for flag, commands in seen.items() if len(commands) < 2} == {
         "--mc-samples",
         "--relative-depth",
+        "--opens",
     }
     for command in ("msr", "robustness", "approach", "export-inputs", "evaluate"):
         assert command in seen["--split"]
@@ -212,9 +213,10 @@ def test_a_command_builds_its_config_from_the_shared_options():
     args = build_parser("approach").parse_args(["approach", "--data", "D", "--json", "J"])
     fields = options.config_fields(args, ApproachConfig)
     assert fields == {"seed": 0, "split": "test", "max_configs": 0}
-    args = build_parser("predict").parse_args(["predict", "--out", "O", "--relative-depth"])
+    argv = ["predict", "--out", "O", "--relative-depth", "--opens"]
+    args = build_parser("predict").parse_args(argv)
     assert PredictOptions(**options.config_fields(args, PredictOptions)) == PredictOptions(
-        metric_depth=False
+        metric_depth=False, opens=True
     )
     assert set(PredictFields.__annotations__) == {
         f.name for f in dataclasses.fields(PredictOptions)

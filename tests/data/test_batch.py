@@ -80,6 +80,17 @@ def test_collate_pads_with_masks(data):
     assert all(np.array_equal(p, g) for p, g in zip(preds, gts, strict=True))
 
 
+def test_whether_the_robot_opens_its_target_is_collated_when_a_sample_says(data):
+    samples = [dict(data[i]) for i in range(3)]
+    assert "target_opens" not in collate_episodes(samples)
+    samples[0]["target_opens"], samples[2]["target_opens"] = True, np.bool_(False)
+    opens = collate_episodes(samples)["target_opens"]
+    # the sample that does not say counts as a pick
+    assert opens.dtype == torch.bool and opens.tolist() == [True, False, False]
+    with pytest.raises(MomaError, match="'target_opens' must be true or false, got 'yes'"):
+        validate_sample(dict(samples[0], target_opens="yes"))
+
+
 def test_collate_samples_down_deterministically(data):
     samples = [data[i] for i in range(4)]
     collate = EpisodeCollator(num_global=128, num_floor=64, seed=7)

@@ -38,6 +38,17 @@ def test_samples_follow_the_contract(small_dataset):
     np.testing.assert_allclose(s["global_rgb"].numpy() * 255, ep.global_rgb, atol=1e-4)
 
 
+def test_a_sample_says_whether_its_robot_opens_the_target(small_dataset):
+    ds = EpisodeDataset(small_dataset, split="all")
+    told = {}
+    for s in ds:
+        with SceneShard(list_shards(small_dataset)[s["scene_id"]]) as shard:
+            target = shard.configuration(s["config_index"]).target
+        assert s["target_opens"] == ("/" in target), target
+        told[s["target_opens"]] = target
+    assert set(told) == {True, False}  # both kinds were read
+
+
 def test_splits_partition_the_scenes(small_dataset):
     train, test = EpisodeDataset(small_dataset, "train"), EpisodeDataset(small_dataset, "test")
     assert len(train) + len(test) == 30 and len(test) > 0

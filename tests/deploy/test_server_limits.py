@@ -283,6 +283,8 @@ def test_headers_are_checked_before_decoding(no_tracebacks):
                 assert repr(value) in doc["error"], doc
         status, doc, _ = post(addr, *form(floor_points="2"))
         assert status == 400 and "'floor_points' must be 0 or 1" in one_line_error(doc)
+        status, doc, _ = post(addr, *form(opens="yes"))
+        assert status == 400 and "'opens' must be 0 or 1, got 'yes'" in one_line_error(doc)
         # accepted at the limits
         ok = {"mc_samples": "64", "top_k": "50", "min_spread": "0", "pick_radius": "1"}
         assert post(addr, *form(**ok))[0] == 200
@@ -403,6 +405,14 @@ class DecodingServer(SleepyServer):
     def predict(self, files, text):
         predict_arguments(files, text)
         return super().predict(files, text)
+
+
+def test_opens_reaches_predict_as_a_flag():
+    """The request's ``opens`` (0 or 1; default 0) is ``predict``'s ``opens``."""
+    parts = {"depth": [npy(np.ones((H, W), np.float32))], "target_mask": [npy(np.ones((H, W)))]}
+    text = {"intrinsics": "4 4 4 3", "camera_to_base": CAMERA, "robot": "panda"}
+    assert predict_arguments(parts, text)[0]["opens"] is False
+    assert predict_arguments(parts, {**text, "opens": "1"})[0]["opens"] is True
 
 
 def test_non_finite_numbers_and_colours_are_named(no_tracebacks):

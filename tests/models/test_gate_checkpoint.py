@@ -30,7 +30,11 @@ def test_the_copy_reads_the_gate_and_keeps_the_weights(tmp_path):
     # a copy of the shipped body (which carries the weight) without --index carries none
     body = str(SHIPPED_CHECKPOINTS["body"])
     assert gate.main([body, str(tmp_path / "plain"), "--footprint"]) == 0
-    assert read_run_config(tmp_path / "plain")[0].model_config.index_gate == 0
+    plain = read_run_config(tmp_path / "plain")[0].model_config
+    assert plain.index_gate == 0 and not plain.index_picks_only
+    assert gate.main([body, str(tmp_path / "picks"), "--index", "0.5", "--picks-only"]) == 0
+    picks = read_run_config(tmp_path / "picks")[0].model_config
+    assert picks.index_gate == 0.5 and picks.index_picks_only
     source = json.loads((default_checkpoint() / "config.json").read_text())
     assert "reach_gate" not in source["train_config"]["model_config"]  # the source is untouched
 
@@ -41,6 +45,8 @@ def test_bad_values_and_existing_directories_write_nothing(tmp_path, capsys):
     assert "reach_gate must be in [0, 1] m" in capsys.readouterr().err
     assert gate.main(["bundled", str(tmp_path / "a"), "--index", "2"]) == 2
     assert "index_gate must be in [0, 1]" in capsys.readouterr().err
+    assert gate.main(["bundled", str(tmp_path / "a"), "--picks-only"]) == 2
+    assert "index_picks_only needs index_gate > 0" in capsys.readouterr().err
     (tmp_path / "b").mkdir()
     with pytest.raises(MomaError, match="exists"):
         gate.gate_copy(default_checkpoint(), tmp_path / "b", 0.03, 8)

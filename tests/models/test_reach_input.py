@@ -190,6 +190,38 @@ def test_the_index_gate_weighs_any_models_prediction_by_the_arms_dexterity(name,
     assert "index_gate" not in ModelConfig().to_dict()
 
 
+def test_the_index_gate_for_picks_only_leaves_the_targets_that_open_unweighed(batch):
+    """``index_picks_only``: the dexterity weight on the episodes whose robot picks its
+    target, none on those that open it; a batch that does not say is weighed whole."""
+    from momakitchen.models.config import TINY_MODEL
+    from momakitchen.models.reach_input import reach_gate
+
+    torch.manual_seed(0)
+    plain = build_model("navaff", TINY_MODEL).eval()
+    cfg = dataclasses.replace(TINY_MODEL, reach_gate=0.03, index_gate=0.5, index_picks_only=True)
+    picks = build_model("navaff", cfg).eval()
+    picks.load_state_dict(plain.state_dict())
+    opens = torch.tensor([True, False, True])
+    with torch.no_grad():
+        weighed = reach_gate(batch, 0.03, 1, index=0.5)
+        reach_only = reach_gate(batch, 0.03, 1)
+        assert not torch.allclose(weighed, reach_only)  # the weight does something here
+        told = {**batch, "target_opens": opens}
+        gate = reach_gate(told, 0.03, 1, index=0.5, picks_only=True)
+        torch.testing.assert_close(gate[opens], reach_only[opens])
+        torch.testing.assert_close(gate[~opens], weighed[~opens])
+        # without picks_only, or without being told, every target is weighed
+        torch.testing.assert_close(reach_gate(told, 0.03, 1, index=0.5), weighed)
+        torch.testing.assert_close(reach_gate(batch, 0.03, 1, 0.5, picks_only=True), weighed)
+        torch.testing.assert_close(picks(told)["pred"], plain(told)["pred"] * gate)
+        torch.testing.assert_close(picks(batch)["pred"], plain(batch)["pred"] * weighed)
+    with pytest.raises(MomaError, match="index_picks_only needs index_gate > 0"):
+        ModelConfig(index_picks_only=True)
+    with pytest.raises(MomaError, match="index_picks_only must be true or false"):
+        ModelConfig(index_gate=0.5, index_picks_only=1)
+    assert "index_picks_only" not in ModelConfig(index_gate=0.5).to_dict()
+
+
 def _fence_batch(name: str) -> dict:
     """One episode: a target 1 m ahead at 0.9 m, floor points along the line to it, and a
     box of points 0.6-0.7 m ahead (a stool, 0.3 m high) between them."""

@@ -110,6 +110,12 @@ RELATIVE_DEPTH = Option(
     help="the depth is known only up to scale (a monocular depth network): the "
     "calibrated camera height fixes the scale, read from the floor",
 )
+OPENS = Option(
+    "--opens",
+    action="store_true",
+    help="the robot will open the target (a door's or a drawer's handle), not pick it up: "
+    "a model that weighs the arm's dexterity for picks only (--checkpoint body) leaves it off",
+)
 QUIET = Option("--quiet", action="store_true", help="no progress bars")
 ROBOT_YAML = Option(
     "--robot-yaml",
@@ -163,6 +169,7 @@ OPTIONS = (
     PICK_RADIUS_OPTION,
     MC_SAMPLES_OPTION,
     RELATIVE_DEPTH,
+    OPENS,
     QUIET,
     ROBOT_YAML,
     CHECKPOINT,
@@ -216,10 +223,11 @@ def add_picking(parser: Any, top_k: int) -> None:
 
 def add_prediction(parser: Any) -> None:
     """The options of a prediction on a robot's frame (``PredictOptions``): the picking
-    options, ``--mc-samples`` and ``--relative-depth``."""
+    options, ``--mc-samples``, ``--relative-depth`` and ``--opens``."""
     add_picking(parser, PREDICT_TOP_K)
     MC_SAMPLES_OPTION.add(parser)
     RELATIVE_DEPTH.add(parser)
+    OPENS.add(parser)
 
 
 def add_quiet(parser: Any) -> None:

@@ -26,7 +26,9 @@ key                 shape        dtype      meaning
 ==================  ===========  =========  ===============================================
 
 A sample may also carry ``global_mask`` (ng,) / ``floor_mask`` (nf,) booleans; points whose
-mask is False are dropped before collation.
+mask is False are dropped before collation, and ``target_opens`` (bool): whether the robot
+opens its target (a door's or a drawer's handle) rather than picking it, for a model that
+weighs the two apart (``ModelConfig.index_picks_only``); left out or None: not said.
 
 Batch (after :class:`EpisodeCollator`, ``B`` samples, ``Ng``/``Nf`` fixed point counts):
 
@@ -45,6 +47,8 @@ Batch (after :class:`EpisodeCollator`, ``B`` samples, ``Ng``/``Nf`` fixed point 
   ``obstacles``): each view's points that may block a base, taken from its whole cloud
   before it is sampled down (:func:`~momakitchen.perception.footprint.base_obstacles`),
   for a model's footprint gate (``ModelConfig.footprint_gate``); No = the largest count.
+- ``target_opens`` (B,) bool (only when a sample says): True where the robot opens its
+  target; False where it picks it or the sample does not say
 - ``scene_id``, ``config_index``, ``episode_index``: lists of int; ``robot_name``: list of str
 
 Padding entries are zeros. Real points always come first in each row (masks are prefix
@@ -102,6 +106,11 @@ def validate_sample(sample: Mapping[str, Any]) -> dict[str, Any]:
             raise MomaError(f"sample is missing field {key!r}; it has {sorted(sample)}")
     for key in META_KEYS:
         out[key] = sample.get(key, -1 if key != "robot_name" else "")
+    opens = sample.get("target_opens")
+    if opens is not None:
+        if not isinstance(opens, (bool, np.bool_)):
+            raise MomaError(f"sample field 'target_opens' must be true or false, got {opens!r}")
+        out["target_opens"] = bool(opens)
     xyz = _as_array(sample["global_xyz"], "global_xyz")
     if xyz.ndim != 2 or xyz.shape[1] != 3:
         raise MomaError(f"global_xyz must have shape (ng, 3), got {xyz.shape}")
@@ -286,6 +295,8 @@ def collate_episodes(
         for i, f in enumerate(found):
             out["obstacle_xyz"][i, : len(f)] = f
             out["obstacle_mask"][i, : len(f)] = True
+    if any("target_opens" in s for s in clean):
+        out["target_opens"] = np.array([s.get("target_opens", False) for s in clean], bool)
     batch: Batch = {k: torch.from_numpy(v) for k, v in out.items()}
     for key in META_KEYS:
         batch[key] = [s[key] for s in clean]

@@ -131,6 +131,12 @@ def target_category(target: str) -> str:
     return target.split("/")[0]
 
 
+def target_opens(target: str) -> bool:
+    """Whether the robot opens a configuration's target (an articulated part, named
+    ``"fridge/door"``) rather than picking it (an object, ``"fruit"``)."""
+    return "/" in target
+
+
 def compute_counts(shards: Any) -> dict[str, Any]:
     """Scenes, configurations, episodes and trials per split, robot and target category."""
     counts: dict[str, Any] = {"total": _zero()}

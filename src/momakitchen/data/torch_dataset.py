@@ -92,10 +92,16 @@ def noisy_sample(
 
 
 def episode_sample(
-    arrays: dict[str, np.ndarray], scene_id: int, config_index: int, episode_index: int, robot: str
+    arrays: dict[str, np.ndarray],
+    scene_id: int,
+    config_index: int,
+    episode_index: int,
+    robot: str,
+    opens: bool | None = None,
 ) -> dict[str, Any]:
     """A model sample (see :class:`EpisodeDataset`) from an episode's stored arrays
-    (``CLOUD_FIELDS``; ``floor_label`` may be left out)."""
+    (``CLOUD_FIELDS``; ``floor_label`` may be left out); ``opens``: whether the robot opens
+    its target (``target_opens``; None: not said)."""
     sample: dict[str, Any] = {
         "global_xyz": torch.from_numpy(arrays["global_xyz"].astype(np.float32)),
         "global_rgb": torch.from_numpy(arrays["global_rgb"].astype(np.float32) / 255.0),
@@ -109,6 +115,8 @@ def episode_sample(
     }
     if "floor_label" in arrays:
         sample["floor_label"] = torch.from_numpy(arrays["floor_label"].astype(np.float32))
+    if opens is not None:
+        sample["target_opens"] = bool(opens)
     return sample
 
 
@@ -132,7 +140,8 @@ class EpisodeDataset(Dataset):
     A sample (see :mod:`momakitchen.data.batch`): ``global_xyz`` (ng, 3), ``global_rgb``
     (ng, 3) in [0, 1], ``global_align`` (ng,), ``floor_xyz`` (nf, 3), ``floor_label`` (nf,)
     float32 tensors; ``robot`` (D,) float32 (the stored descriptor); ``scene_id``,
-    ``config_index``, ``episode_index``, ``robot_name``. Batch them with
+    ``config_index``, ``episode_index``, ``robot_name``; ``target_opens`` (from the
+    manifest's target names). Batch them with
     :class:`~momakitchen.data.batch.EpisodeCollator`.
     """
 
@@ -167,6 +176,8 @@ class EpisodeDataset(Dataset):
         robot_set = None if robots is None else set(robots)
         # (file, scene_id, config_index, episode_index, robot) of every selected episode.
         self.index: list[tuple[str, int, int, int, str]] = []
+        # (scene_id, config_index) -> whether its robot opens the target.
+        self.opens: dict[tuple[int, int], bool] = {}
         for key, entry in self.manifest["shards"].items():
             sid = int(key)
             if split != "all" and entry["split"] != split:
@@ -178,6 +189,8 @@ class EpisodeDataset(Dataset):
             ):
                 if robot_set is not None and robot not in robot_set:
                     continue
+                if c < len(entry.get("targets", ())):
+                    self.opens[sid, c] = mf.target_opens(entry["targets"][c])
                 for e in range(n):
                     if skip_empty and (
                         entry["global_points"][c][e] == 0 or entry["floor_points"][c][e] == 0
@@ -244,7 +257,7 @@ class EpisodeDataset(Dataset):
             rng = np.random.default_rng([self.noise_seed, self.epoch, sid, c, e])
             rebuilt = noisy_sample(a, self.sensor_noise, rng, self.preprocessing)
             a = rebuilt if rebuilt is not None else shard.arrays(c, e, CLOUD_FIELDS)
-        sample = episode_sample(a, sid, c, e, robot)
+        sample = episode_sample(a, sid, c, e, robot, self.opens.get((sid, c)))
         return self.transform(sample) if self.transform else sample
 
     def close(self) -> None:

@@ -357,7 +357,9 @@ class ServerPerceiver:
             conn.close()
 
     # ---------------------------------------------------------------------- frames
-    def __call__(self, frame: Any, robot: Any, metric: bool, config: Any) -> Any:
+    def __call__(
+        self, frame: Any, robot: Any, metric: bool, config: Any, opens: bool = False
+    ) -> Any:
         fields: list[tuple[str, str | bytes]] = [
             ("depth", _npy(np.asarray(frame.depth, np.float32))),
             ("target_mask", _npy(frame.target_mask.astype(np.uint8))),
@@ -368,6 +370,7 @@ class ServerPerceiver:
             ("top_k", "1"),
             ("mc_samples", str(config.mc_samples)),
             ("pick_radius", f"{config.pick_radius:g}"),
+            ("opens", "1" if opens else "0"),
         ]
         fields += [("obstacle_mask", _npy(m.astype(np.uint8))) for m in frame.obstacle_masks]
         body, ctype = multipart(fields)

@@ -27,6 +27,10 @@ class PredictOptions:
         metric_depth: False for depth known only up to scale (a monocular depth
             network): the calibrated camera height then fixes the scale, read from the
             floor, instead of the floor correcting the height.
+        opens: the robot will open the target (a door's or a drawer's handle), not pick
+            it up. A model whose dexterity weight reads picks only
+            (``ModelConfig.index_picks_only``, the shipped ``body``) leaves the weight off
+            for it; other models read nothing of it.
     """
 
     top_k: int = 5
@@ -35,6 +39,7 @@ class PredictOptions:
     mc_samples: int = MC_SAMPLES
     threads: int | None = 1
     metric_depth: bool = True
+    opens: bool = False
 
     def __post_init__(self) -> None:
         if not 1 <= self.top_k <= 50:
@@ -45,6 +50,8 @@ class PredictOptions:
             raise MomaError(f"pick_radius must be in [0, 1] m, got {self.pick_radius}")
         if self.threads is not None and self.threads < 1:
             raise MomaError(f"threads must be >= 1 or None, got {self.threads}")
+        if not isinstance(self.opens, bool):
+            raise MomaError(f"opens must be true or false, got {self.opens!r}")
 
 
 class PredictFields(TypedDict, total=False):
@@ -56,3 +63,4 @@ class PredictFields(TypedDict, total=False):
     mc_samples: int
     threads: int | None
     metric_depth: bool
+    opens: bool

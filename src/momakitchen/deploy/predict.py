@@ -94,7 +94,8 @@ def predict(
         options: how poses are ranked and returned (a
             :class:`~momakitchen.deploy.options.PredictOptions`; default: its defaults).
         **fields: any of its fields (``top_k``, ``min_spread``, ``pick_radius``,
-            ``mc_samples``, ``threads``, ``metric_depth``), which override ``options``.
+            ``mc_samples``, ``threads``, ``metric_depth``, ``opens``), which override
+            ``options``.
     """
     from momakitchen.models.inference import predict_map
     from momakitchen.perception.live import frame_inputs
@@ -133,6 +134,7 @@ def predict(
         mc_samples=opts.mc_samples,
         episode_id=episode_id,
         threads=opts.threads,
+        opens=opts.opens,
     )
 
 

@@ -21,6 +21,8 @@ field               required  content
 ``pick_radius``     no        metres in [0, 1] (default 0), as in :func:`momakitchen.predict`
 ``min_spread``      no        metres in [0, 5] between poses (default 0.2)
 ``floor_points``    no        ``0`` leaves the floor points out of the answer (default 1)
+``opens``           no        ``1``: the robot opens the target (a handle), ``0`` picks it
+                              (default 0), as ``opens`` of :func:`momakitchen.predict`
 ==================  ========  =========================================================
 
 The answer is the ``prediction.json`` document (:meth:`Prediction.to_dict`); the
@@ -274,7 +276,7 @@ class ModelServer:
             from momakitchen.placement.methods import place
 
             args = {**self.defaults, **kwargs}
-            for name in ("mc_samples", "threads"):
+            for name in ("mc_samples", "threads", "opens"):  # a model's only
                 args.pop(name, None)
             pred = place(self.method, **args)
         else:

@@ -42,6 +42,7 @@ TEXT = (
     "shoulder_rise",
     "shoulder_offset",
     "floor_points",
+    "opens",
 )
 # With reach and mount_height, optional: the rest of a robot given by its numbers.
 ROBOT_NUMBERS = ("dof", "finger_force", "shoulder_rise", "shoulder_offset")
@@ -234,6 +235,10 @@ def check_fields(
     for name in NUMBERS:
         if name in text:
             kwargs[name] = _option(name, text[name])
+    opens = text.get("opens", "0")
+    if opens not in ("0", "1"):
+        raise MomaError(f"field 'opens' must be 0 or 1, got {opens[:40]!r}")
+    kwargs["opens"] = opens == "1"
     floor = text.get("floor_points", "1")
     if floor not in ("0", "1"):
         raise MomaError(f"field 'floor_points' must be 0 or 1, got {floor[:40]!r}")

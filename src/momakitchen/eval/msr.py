@@ -177,6 +177,7 @@ def run_configuration(
     target_xy = world_to_base(np.asarray([cfg.target.anchor[:2]]), episode.base_pose)[0]
     dist = np.hypot(*(floor_xy - target_xy).T)
     reach = get_robot_spec(cfg.robot).reach
+    opens = cfg.target.is_articulated
     record = view_record(sid, ci, ep, labels, methods={})
     with World(scene.layout) as world:
         world.load_configuration(cfg)
@@ -216,7 +217,9 @@ def run_configuration(
                         continue
                 else:
                     arrays = {f: getattr(episode, f) for f in CLOUD_FIELDS}
-                    scores, std = models[name](episode_sample(arrays, sid, ci, ep, cfg.robot))
+                    scores, std = models[name](
+                        episode_sample(arrays, sid, ci, ep, cfg.robot, opens)
+                    )
                     is_map = True
                 chosen = select_points(
                     floor_xy, scores, config.top_k, config.min_spread, accept, radius

@@ -135,6 +135,7 @@ def run_demo(
             clouds,
             cfg.robot,
             np.asarray(robot_descriptor(get_robot_spec(cfg.robot), cfg.mount_height), np.float32),
+            opens=cfg.target.is_articulated,
         )
         end(2)
 

@@ -205,7 +205,9 @@ class AffordanceModel(nn.Module):
         if self._gates is None or any(a is not b for a, b in zip(self._gates[0], key, strict=True)):
             gate = torch.ones_like(keep)
             if cfg.reach_gate > 0 or cfg.index_gate > 0:
-                gate = gate * reach_gate(batch, cfg.reach_gate, cfg.reach_points, cfg.index_gate)
+                gate = gate * reach_gate(
+                    batch, cfg.reach_gate, cfg.reach_points, cfg.index_gate, cfg.index_picks_only
+                )
             if cfg.footprint_gate:
                 gate = gate * footprint_gate(batch)
             self._gates = (key, gate)
@@ -213,7 +215,15 @@ class AffordanceModel(nn.Module):
 
 
 # What a batch's gates are computed from (AffordanceModel._keep).
-_GATE_INPUTS = ("floor_xyz", "global_xyz", "global_align", "robot", "robot_name", "obstacle_xyz")
+_GATE_INPUTS = (
+    "floor_xyz",
+    "global_xyz",
+    "global_align",
+    "robot",
+    "robot_name",
+    "obstacle_xyz",
+    "target_opens",
+)
 
 
 def num_parameters(model: nn.Module) -> int:

@@ -76,6 +76,12 @@ class ModelConfig:
             grasp's orientation loses it, counts less than one well inside, and stances
             reached from at least ``index_gate`` of the directions count alike
             (docs/RESULTS.md); 1: the plain index; 0: no gate.
+        index_picks_only: with ``index_gate``: weigh only the targets the robot picks,
+            not those it opens (a door's or a drawer's handle, the batch's
+            ``target_opens``): the index says where the arm reaches the handle, not
+            along the path it must pull it, and an opening stood nearer by the weight
+            collides with its own door (docs/RESULTS.md). A batch that does not say
+            which targets open is weighed whole; False: every target is weighed.
         footprint_gate: any model: each prediction is multiplied by 0 where the robot's
             base, facing the target, would stand on points the view shows above the floor
             (:func:`~momakitchen.models.reach_input.footprint_gate`, the test the
@@ -113,6 +119,7 @@ class ModelConfig:
     reach_points: int = field(default=1, metadata=codec.OMIT_IF_DEFAULT)
     reach_gate: float = field(default=0.0, metadata=codec.OMIT_IF_DEFAULT)
     index_gate: float = field(default=0.0, metadata=codec.OMIT_IF_DEFAULT)
+    index_picks_only: bool = field(default=False, metadata=codec.OMIT_IF_DEFAULT)
     footprint_gate: bool = field(default=False, metadata=codec.OMIT_IF_DEFAULT)
     hidden_descriptor: tuple[str, ...] = field(default=(), metadata=codec.OMIT_IF_DEFAULT)
 
@@ -169,6 +176,10 @@ class ModelConfig:
             raise bad("reach_gate", "must be in [0, 1] m (0: no gate)")
         if isinstance(self.index_gate, bool) or not 0.0 <= self.index_gate <= 1.0:
             raise bad("index_gate", "must be in [0, 1] (0: no gate)")
+        if not isinstance(self.index_picks_only, bool):
+            raise bad("index_picks_only", "must be true or false")
+        if self.index_picks_only and not self.index_gate:
+            raise bad("index_picks_only", "needs index_gate > 0 (it says which targets it weighs)")
         if not isinstance(self.footprint_gate, bool):
             raise bad("footprint_gate", "must be true or false")
         names = DESCRIPTOR_LAYOUTS.get(self.descriptor_version, ())

@@ -286,6 +286,7 @@ def predict_map(
     mc_samples: int = MC_SAMPLES,
     episode_id: tuple[int, int, int] | None = None,
     threads: int | None = 1,
+    opens: bool | None = None,
 ) -> Prediction:
     """The map of a loaded run (:func:`momakitchen.train.load_checkpoint`) over the floor
     points of ``clouds`` (:func:`~momakitchen.perception.live.frame_inputs`, or a stored
@@ -294,12 +295,14 @@ def predict_map(
     ``pick_radius`` (m; 0: the raw map, see :func:`select_points`).
 
     ``episode_id`` seeds the cloud down-sampling exactly as ``evaluate`` does (None for
-    live frames); ``threads``: torch threads while the model runs (None: unchanged).
+    live frames); ``threads``: torch threads while the model runs (None: unchanged);
+    ``opens``: whether the robot opens the target rather than picking it (the sample's
+    ``target_opens``; None: not said).
     """
     arrays = clouds.arrays() if isinstance(clouds, FrameClouds) else clouds
     f_xyz = arrays["floor_xyz"]
     ids = episode_id if episode_id is not None else (-1, -1, -1)
-    sample = episode_sample({**arrays, "descriptor": descriptor}, *ids, robot)
+    sample = episode_sample({**arrays, "descriptor": descriptor}, *ids, robot, opens)
     with torch_threads(threads):
         batch, affordance, uncertainty = run_model(run, sample, mc_samples)
     if isinstance(clouds, FrameClouds):

@@ -153,7 +153,9 @@ def batch_floor_reach(
     return torch.from_numpy(out).to(device=floor_xyz.device, dtype=floor_xyz.dtype)
 
 
-def reach_gate(batch: dict, width: float, points: int, index: float = 0.0) -> torch.Tensor:
+def reach_gate(
+    batch: dict, width: float, points: int, index: float = 0.0, picks_only: bool = False
+) -> torch.Tensor:
     """How much of a prediction the robot's reachability lets through
     (``ModelConfig.reach_gate`` and ``ModelConfig.index_gate``) at each floor point:
 
@@ -166,10 +168,11 @@ def reach_gate(batch: dict, width: float, points: int, index: float = 0.0) -> to
       :data:`~momakitchen.sim.reachability.MIN_SCORE`: a stance at the edge of the arm's
       reach, where a few centimetres of the target's unseen depth or of the grasp's
       orientation lose it, counts less; one the arm reaches from at least ``index`` of
-      the approach directions counts fully (1: the plain index).
+      the approach directions counts fully (1: the plain index); with ``picks_only``,
+      not where the batch's ``target_opens`` says the target opens.
 
     Shapes: a batch (``floor_xyz`` (B, Nf, 3), the global cloud, ``robot``,
-    ``robot_name``) -> (B, Nf) in (0, 1]
+    ``robot_name``, optionally ``target_opens`` (B,) bool) -> (B, Nf) in (0, 1]
     """
     target = target_centroid(batch["global_xyz"], batch["global_align"], batch["global_mask"])
     at = reach_targets(batch, target, points)
@@ -180,7 +183,11 @@ def reach_gate(batch: dict, width: float, points: int, index: float = 0.0) -> to
         inside = torch.maximum(reach[..., 0], reach[..., 1]) * REACH_SCALE
         gate = torch.sigmoid(inside / width)
     if index > 0:
-        gate = gate * (reach[..., 2] / index).clamp(MIN_SCORE, 1.0)
+        weight = (reach[..., 2] / index).clamp(MIN_SCORE, 1.0)
+        opens = batch.get("target_opens")
+        if picks_only and opens is not None:
+            weight = torch.where(opens.to(weight.device)[:, None], 1.0, weight)
+        gate = gate * weight
     return gate
 
 

@@ -58,7 +58,12 @@ class ModelPerceiver:
         self.preprocessing = run.preprocessing
 
     def __call__(
-        self, frame: Any, robot: str | tuple[str, float], metric: bool, config: ApproachConfig
+        self,
+        frame: Any,
+        robot: str | tuple[str, float],
+        metric: bool,
+        config: ApproachConfig,
+        opens: bool = False,
     ) -> Any:
         from momakitchen.deploy.predict import predict
 
@@ -75,6 +80,7 @@ class ModelPerceiver:
             pick_radius=config.pick_radius,
             mc_samples=config.mc_samples,
             metric_depth=metric,
+            opens=opens,
         )
 
 
@@ -90,7 +96,12 @@ class ClassicalPerceiver:
         self.name = name
 
     def __call__(
-        self, frame: Any, robot: str | tuple[str, float], metric: bool, config: ApproachConfig
+        self,
+        frame: Any,
+        robot: str | tuple[str, float],
+        metric: bool,
+        config: ApproachConfig,
+        opens: bool = False,
     ) -> Any:
         from momakitchen.placement.methods import place_frame
 
@@ -231,7 +242,9 @@ def take_look(ctx: Context, perceiver: Any, frame: Any, ids: tuple[int, ...]) ->
     # (here or behind a server) its URDF.
     robot = ctx.robot_by_name
     try:
-        pred = perceiver(bad, robot, corruption.preset.depth.metric, ctx.config)
+        pred = perceiver(
+            bad, robot, corruption.preset.depth.metric, ctx.config, ctx.cfg.target.is_articulated
+        )
     except MomaError as exc:
         if exc.fatal:
             raise

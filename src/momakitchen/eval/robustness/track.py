@@ -144,7 +144,15 @@ def run_robustness(
                                 view_frame, inputs, cfg.robot, cfg.mount, config, metric
                             )
                         else:
-                            view = predict_view(run, inputs, cfg.robot, descriptor, config, key)
+                            view = predict_view(
+                                run,
+                                inputs,
+                                cfg.robot,
+                                descriptor,
+                                config,
+                                key,
+                                cfg.target.is_articulated,
+                            )
                         pred = view.pop("prediction", None)
                         if view_maps is not None and not records and model == next(iter(runs)):
                             view_maps[name] = pred if pred is not None else view

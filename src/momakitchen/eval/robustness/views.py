@@ -269,10 +269,12 @@ def predict_view(
     descriptor: np.ndarray,
     config: RobustnessConfig,
     key: str = "",
+    opens: bool | None = None,
 ) -> dict[str, Any]:
     """One model (a loaded run, or a :class:`PredictionsMethod` with the view's ``key``)
     on one view's input (:func:`view_inputs` or :func:`stored_view`): ``{"status": "ok",
     "prediction": Prediction}``, or a copy of the view's status when it has no input.
+    ``opens``: whether the robot opens the target (``predict_map``'s).
 
     A stored view is scored as ``msr`` scores it: its own descriptor, the down-sampling
     seeded by the episode, torch's threads as they are."""
@@ -295,6 +297,7 @@ def predict_view(
             mc_samples=0,
             episode_id=inputs.episode_id if stored else None,
             threads=None if stored else 1,
+            opens=opens,
         )
     except MomaError as exc:
         if exc.fatal:  # a broken model, not a bad view: stop the run
@@ -359,13 +362,14 @@ def run_view(
     robot: str,
     descriptor: np.ndarray,
     config: RobustnessConfig,
+    opens: bool | None = None,
 ) -> dict[str, Any]:
     """One model on one corrupted view (the real-robot path, :func:`view_inputs`):
     ``{"status": "ok"|"beyond_range"|"error", ...}`` with the prediction
     (``prediction``) when ok."""
     preprocessing = None if run is None else run.preprocessing
     inputs = view_inputs(frame, corruption_name, ids, preprocessing, config.seed)
-    return predict_view(run, inputs, robot, descriptor, config)
+    return predict_view(run, inputs, robot, descriptor, config, opens=opens)
 
 
 def judged_views(
