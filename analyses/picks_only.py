@@ -1,0 +1,148 @@
+"""What the dexterity weight for picks only (``ModelConfig.index_picks_only``) scores on
+configurations already run with the weight on every target and without it.
+
+    python analyses/picks_only.py \
+        results/body/dexterity/t300-msr-r05.json.gz:navaff \
+        results/body/retrained/t300-msr.json.gz:navaff
+
+The weight is a gate on each episode's prediction, with no weights of its own: where the
+robot picks its target, a picks-only model predicts what the weighted model does, and where
+it opens it, what the unweighted model does. So on the same configurations (same data,
+seed and settings, the same machine) its records are the weighted run's for the picks and
+the unweighted run's for the openings, record for record. Each argument is a ``momakitchen
+msr --json`` or ``approach --json`` file with ``:METHOD``, the model's method in it. Prints,
+per policy (``msr``: Top-1), the configurations both runs hold, how many of them open
+their target, and each model's successes; with ``--baselines FILE`` (a run holding the
+oracle and random on the same configurations), the share of the random -> oracle gap each
+closes.
+"""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from analysis_cli import run_main
+
+from momakitchen.data.manifest import target_opens
+from momakitchen.errors import MomaError
+from momakitchen.fileio import read_json_object
+
+BASELINES = ("oracle", "random")
+Key = tuple[str, int, int, str]  # policy, scene, configuration, start
+
+
+def outcomes(path: str, methods: tuple[str, ...]) -> dict[str, dict[Key, tuple[bool, int]]]:
+    """Per method of ``methods``: ``{(policy, scene, config, start): (opens, success)}`` of
+    an ``msr`` (policy ``top1``) or ``approach`` result."""
+    result = read_json_object(path)
+    records = result.get("records")
+    if not isinstance(records, list):
+        raise MomaError(f"{path!r} is not a momakitchen msr or approach --json result")
+    out: dict[str, dict[Key, tuple[bool, int]]] = {m: {} for m in methods}
+    for r in records:
+        opens = target_opens(str(r["target"]))
+        ident = (int(r["scene_id"]), int(r["config_index"]))
+        if "methods" in r:  # msr: every method in one record
+            for m in methods:
+                v = r["methods"].get(m)
+                if v is not None:
+                    out[m][("top1", *ident, "")] = (
+                        opens,
+                        int(v["outcomes"][0]) if v["outcomes"] else 0,
+                    )
+        elif r.get("method") in methods:
+            key = (str(r["policy"]), *ident, str(r.get("start", "")))
+            out[r["method"]][key] = (opens, int(r["success"]))
+    for m, rows in out.items():
+        if not rows:
+            raise MomaError(f"{path!r} has no record of method {m!r}")
+    return out
+
+
+def compose(
+    weighted: dict[Key, tuple[bool, int]], unweighted: dict[Key, tuple[bool, int]]
+) -> dict[Key, tuple[bool, int]]:
+    """The picks-only model's outcomes on the configurations both runs hold."""
+    both = sorted(weighted.keys() & unweighted.keys())
+    if not both:
+        raise MomaError("the two runs share no configuration")
+    for k in both:
+        if weighted[k][0] != unweighted[k][0]:
+            raise MomaError(f"configuration {k[1:3]} has another target in the two runs")
+    return {k: unweighted[k] if weighted[k][0] else weighted[k] for k in both}
+
+
+def table(
+    weighted: dict[Key, tuple[bool, int]],
+    unweighted: dict[Key, tuple[bool, int]],
+    baselines: dict[str, dict[Key, tuple[bool, int]]] | None = None,
+) -> list[dict[str, Any]]:
+    """One row per policy: configurations, openings, and successes of the weighted, the
+    unweighted and the picks-only model (and the gap each closes, with baselines)."""
+    picks = compose(weighted, unweighted)
+    rows = []
+    for policy in sorted({k[0] for k in picks}):
+        keys = [k for k in picks if k[0] == policy]
+        row: dict[str, Any] = {
+            "policy": policy,
+            "configurations": len(keys),
+            "openings": sum(picks[k][0] for k in keys),
+        }
+        for name, rows_of in (
+            ("weighted", weighted),
+            ("unweighted", unweighted),
+            ("picks_only", picks),
+        ):
+            row[name] = sum(rows_of[k][1] for k in keys)
+        if baselines:
+            base = {
+                b: {(k[1], k[2], k[3]): v for k, v in rows_b.items()}
+                for b, rows_b in baselines.items()
+            }
+            missing = [k for k in keys if any((k[1], k[2], k[3]) not in base[b] for b in BASELINES)]
+            if missing:
+                raise MomaError(f"the baselines lack configuration {missing[0][1:3]}")
+            oracle = sum(base["oracle"][(k[1], k[2], k[3])][1] for k in keys)
+            rand = sum(base["random"][(k[1], k[2], k[3])][1] for k in keys)
+            row |= {"oracle": oracle, "random": rand}
+            for name in ("weighted", "unweighted", "picks_only"):
+                row[f"{name}_gap"] = (
+                    (row[name] - rand) / (oracle - rand) if oracle != rand else None
+                )
+        rows.append(row)
+    return rows
+
+
+def _read(arg: str, extra: tuple[str, ...] = ()) -> dict[str, dict[Key, tuple[bool, int]]]:
+    path, _, method = arg.partition(":")
+    if not method:
+        raise MomaError(f"give the model's method as FILE:METHOD, got {arg!r}")
+    return outcomes(path, (method, *extra))
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("weighted", help="FILE:METHOD, run with the weight on every target")
+    ap.add_argument("unweighted", help="FILE:METHOD, the same model without the weight")
+    ap.add_argument("--baselines", help="FILE holding the oracle and random")
+    args = ap.parse_args()
+    w = next(iter(_read(args.weighted).values()))
+    u = next(iter(_read(args.unweighted).values()))
+    base = outcomes(args.baselines, BASELINES) if args.baselines else None
+    for row in table(w, u, base):
+        n = row["configurations"]
+        line = f"{row['policy']}: {n} configurations ({row['openings']} open their target)"
+        for name in ("weighted", "unweighted", "picks_only"):
+            gap = row.get(f"{name}_gap")
+            line += f"; {name} {100 * row[name] / n:.1f} %"
+            line += f" ({gap:.2f} of the gap)" if gap is not None else ""
+        if base:
+            line += (
+                f"; oracle {100 * row['oracle'] / n:.1f} %, random {100 * row['random'] / n:.1f} %"
+            )
+        print(line)
+
+
+if __name__ == "__main__":
+    run_main(main, "picks_only.py")
