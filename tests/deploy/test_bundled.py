@@ -51,6 +51,7 @@ def test_the_body_model_is_shipped_by_name_and_reads_the_reachability():
     assert resolve_run_dir("body") == checked_run_dir("body") == SHIPPED_CHECKPOINTS["body"]
     mc = run.config.model_config
     assert mc.reach_input and mc.footprint_gate and mc.reach_gate > 0 and mc.index_gate == 0.5
+    assert mc.index_picks_only  # the weight is left off where the robot opens its target
     assert "reach_m" in mc.hidden_descriptor
     files = {p.name for p in SHIPPED_CHECKPOINTS["body"].iterdir()}
     assert {"config.json", "model.safetensors", "CARD.md"} <= files

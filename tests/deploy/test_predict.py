@@ -317,3 +317,25 @@ def test_a_robot_by_name_at_another_mount_is_its_descriptor_there(episode, tiny_
     np.testing.assert_array_equal(by_name.affordance, by_vector.affordance)
     with pytest.raises(MomaError, match=r"mount_height must be in \[0.3, 1.3\]"):
         momakitchen.predict(**inputs, robot=("ur10e", 1.6), checkpoint=tiny_run)
+
+
+def test_opens_leaves_the_shipped_body_models_dexterity_weight_off(episode, tmp_path):
+    """``opens=True``: the shipped ``body`` (``index_picks_only``) predicts what it does
+    without its dexterity weight; ``opens=False`` (the default), what it does with it."""
+    from momakitchen.train.checkpoint import SHIPPED_CHECKPOINTS, load_checkpoint
+    from script_helpers import load_script
+
+    gate = load_script("gate_checkpoint")
+    body = SHIPPED_CHECKPOINTS["body"]
+    for name, index in (("weighted", 0.5), ("unweighted", 0.0)):
+        gate.gate_copy(body, tmp_path / name, 0.03, 8, footprint=True, index=index)
+    inputs = dict(_inputs(episode), obstacle_masks=[episode.semantic == OBSTACLE], mc_samples=0)
+
+    def scores(checkpoint, **fields):
+        run = load_checkpoint(checkpoint)
+        return momakitchen.predict(**inputs, checkpoint=run, **fields).affordance
+
+    picked, opened = scores("body"), scores("body", opens=True)
+    assert not np.allclose(picked, opened)  # the weight matters on this view
+    np.testing.assert_array_equal(picked, scores(tmp_path / "weighted", opens=True))
+    np.testing.assert_array_equal(opened, scores(tmp_path / "unweighted"))
