@@ -14,7 +14,8 @@ msr --json`` or ``approach --json`` file with ``:METHOD``, the model's method in
 per policy (``msr``: Top-1), the configurations both runs hold, how many of them open
 their target, and each model's successes; with ``--baselines FILE`` (a run holding the
 oracle and random on the same configurations), the share of the random -> oracle gap each
-closes.
+closes and ``robot-check``'s verdict on the picks-only model (its paired bootstrap, 10
+points' tolerance).
 """
 
 from __future__ import annotations
@@ -26,9 +27,11 @@ from analysis_cli import run_main
 
 from momakitchen.data.manifest import target_opens
 from momakitchen.errors import MomaError
+from momakitchen.eval.robot_check import gap_interval, verdict
 from momakitchen.fileio import read_json_object
 
 BASELINES = ("oracle", "random")
+TOLERANCE = 0.1  # robot-check's default: within 10 points of the oracle serves
 Key = tuple[str, int, int, str]  # policy, scene, configuration, start
 
 
@@ -97,28 +100,34 @@ def table(
             row[name] = sum(rows_of[k][1] for k in keys)
         if baselines:
             base = {
-                b: {(k[1], k[2], k[3]): v for k, v in rows_b.items()}
+                b: {(k[1], k[2], k[3]): v[1] for k, v in rows_b.items()}
                 for b, rows_b in baselines.items()
             }
-            missing = [k for k in keys if any((k[1], k[2], k[3]) not in base[b] for b in BASELINES)]
+            at = [(k[1], k[2], k[3]) for k in keys]
+            missing = [a for a in at if any(a not in base[b] for b in BASELINES)]
             if missing:
-                raise MomaError(f"the baselines lack configuration {missing[0][1:3]}")
-            oracle = sum(base["oracle"][(k[1], k[2], k[3])][1] for k in keys)
-            rand = sum(base["random"][(k[1], k[2], k[3])][1] for k in keys)
-            row |= {"oracle": oracle, "random": rand}
+                raise MomaError(f"the baselines lack configuration {missing[0][:2]}")
+            oracle, rand = ([base[b][a] for a in at] for b in BASELINES)
+            row |= {"oracle": sum(oracle), "random": sum(rand)}
+            span = sum(oracle) - sum(rand)
             for name in ("weighted", "unweighted", "picks_only"):
-                row[f"{name}_gap"] = (
-                    (row[name] - rand) / (oracle - rand) if oracle != rand else None
-                )
+                row[f"{name}_gap"] = (row[name] - sum(rand)) / span if span else None
+            # robot-check's estimator and verdict, on the picks-only model's outcomes
+            gap, low, high = gap_interval([picks[k][1] for k in keys], oracle)
+            row["check"] = {
+                "gap": gap,
+                "interval": [low, high],
+                "verdict": verdict(gap, low, high, TOLERANCE),
+            }
         rows.append(row)
     return rows
 
 
-def _read(arg: str, extra: tuple[str, ...] = ()) -> dict[str, dict[Key, tuple[bool, int]]]:
+def _read(arg: str) -> dict[Key, tuple[bool, int]]:
     path, _, method = arg.partition(":")
     if not method:
         raise MomaError(f"give the model's method as FILE:METHOD, got {arg!r}")
-    return outcomes(path, (method, *extra))
+    return outcomes(path, (method,))[method]
 
 
 def main() -> None:
@@ -127,8 +136,7 @@ def main() -> None:
     ap.add_argument("unweighted", help="FILE:METHOD, the same model without the weight")
     ap.add_argument("--baselines", help="FILE holding the oracle and random")
     args = ap.parse_args()
-    w = next(iter(_read(args.weighted).values()))
-    u = next(iter(_read(args.unweighted).values()))
+    w, u = _read(args.weighted), _read(args.unweighted)
     base = outcomes(args.baselines, BASELINES) if args.baselines else None
     for row in table(w, u, base):
         n = row["configurations"]
@@ -138,8 +146,12 @@ def main() -> None:
             line += f"; {name} {100 * row[name] / n:.1f} %"
             line += f" ({gap:.2f} of the gap)" if gap is not None else ""
         if base:
+            c = row["check"]
+            low, high = (100 * v for v in c["interval"])
             line += (
                 f"; oracle {100 * row['oracle'] / n:.1f} %, random {100 * row['random'] / n:.1f} %"
+                f"; picks only, robot-check: {100 * c['gap']:.1f} points below the oracle "
+                f"[{low:.1f}, {high:.1f}], {c['verdict']}"
             )
         print(line)
 

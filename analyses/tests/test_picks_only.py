@@ -79,6 +79,7 @@ def test_the_openings_take_the_unweighted_runs_outcome(tmp_path):
             "weighted_gap": 0.5,
             "unweighted_gap": 0.5,
             "picks_only_gap": 1.0,
+            "check": {"gap": 0.0, "interval": [0.0, 0.0], "verdict": "serves"},
         }
     ]
     # the driven track: per policy, the same rule
