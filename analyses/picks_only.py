@@ -15,12 +15,15 @@ per policy (``msr``: Top-1), the configurations both runs hold, how many of them
 their target, and each model's successes; with ``--baselines FILE`` (a run holding the
 oracle and random on the same configurations), the share of the random -> oracle gap each
 closes and ``robot-check``'s verdict on the picks-only model (its paired bootstrap, 10
-points' tolerance).
+points' tolerance). ``--json FILE`` (``approach`` results) writes the picks-only model's
+records, which ``drive_pooled.py`` pools with runs of it on other kitchens.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
+from pathlib import Path
 from typing import Any
 
 from analysis_cli import run_main
@@ -28,7 +31,7 @@ from analysis_cli import run_main
 from momakitchen.data.manifest import target_opens
 from momakitchen.errors import MomaError
 from momakitchen.eval.robot_check import gap_interval, verdict
-from momakitchen.fileio import read_json_object
+from momakitchen.fileio import atomic_write_text, read_json_object
 
 BASELINES = ("oracle", "random")
 TOLERANCE = 0.1  # robot-check's default: within 10 points of the oracle serves
@@ -123,6 +126,32 @@ def table(
     return rows
 
 
+def composed_run(weighted: str, unweighted: str) -> dict[str, Any]:
+    """The picks-only model's ``approach`` result on the configurations both runs
+    (``FILE:METHOD``) hold: the weighted run's records where the robot picks its target,
+    the unweighted run's where it opens it, as method ``picks_only``, with the weighted
+    run's settings (so ``drive_pooled.py`` pools it with measured runs)."""
+    runs = []
+    for arg in (weighted, unweighted):
+        path, _, method = arg.partition(":")
+        result = read_json_object(path)
+        rows = {
+            (r["policy"], r["scene_id"], r["config_index"], r.get("start", "")): r
+            for r in result.get("records", [])
+            if r.get("method") == method and "methods" not in r
+        }
+        if not rows:
+            raise MomaError(f"{path!r} holds no approach record of method {method!r}")
+        runs.append((result, rows))
+    (result, w), (_, u) = runs
+    records = [
+        {**(u[k] if target_opens(str(r["target"])) else r), "method": "picks_only"}
+        for k, r in w.items()
+        if k in u
+    ]
+    return {"config": result["config"], "composed_from": [weighted, unweighted], "records": records}
+
+
 def _read(arg: str) -> dict[Key, tuple[bool, int]]:
     path, _, method = arg.partition(":")
     if not method:
@@ -135,7 +164,13 @@ def main() -> None:
     ap.add_argument("weighted", help="FILE:METHOD, run with the weight on every target")
     ap.add_argument("unweighted", help="FILE:METHOD, the same model without the weight")
     ap.add_argument("--baselines", help="FILE holding the oracle and random")
+    ap.add_argument(
+        "--json", type=Path, help="approach results: write the picks-only model's records here"
+    )
     args = ap.parse_args()
+    if args.json:
+        composed = composed_run(args.weighted, args.unweighted)
+        atomic_write_text(args.json, json.dumps(composed) + "\n")
     w, u = _read(args.weighted), _read(args.unweighted)
     base = outcomes(args.baselines, BASELINES) if args.baselines else None
     for row in table(w, u, base):

@@ -125,3 +125,21 @@ def test_baselines_must_cover_every_configuration(tmp_path, baselines):
         assert out.returncode == 2 and "has no record of method 'random'" in out.stderr
     else:
         assert out.returncode == 0 and "picks_only 100.0 %" in out.stdout
+
+
+def test_the_composed_drive_pools_with_measured_runs(tmp_path):
+    a = _approach(tmp_path / "a.json", {("m", "single"): [1, 0, 0, 0]})
+    b = _approach(tmp_path / "b.json", {("n", "single"): [0, 1, 1, 1]})
+    out = _script(f"{a}:m", f"{b}:n", "--json", str(tmp_path / "c.json"))
+    assert out.returncode == 0, out.stderr
+    composed = json.loads((tmp_path / "c.json").read_text())
+    assert composed["config"] == {} and composed["composed_from"] == [f"{a}:m", f"{b}:n"]
+    assert [(r["method"], r["success"]) for r in composed["records"]] == [
+        ("picks_only", 1),  # fruit: the weighted run's
+        ("picks_only", 1),  # fridge/door: the unweighted run's
+        ("picks_only", 1),
+        ("picks_only", 0),  # bottle: the weighted run's
+    ]
+    out = _script(f"{a}:x", f"{b}:n", "--json", str(tmp_path / "d.json"))
+    assert out.returncode == 2 and "holds no approach record of method 'x'" in out.stderr
+    assert not (tmp_path / "d.json").exists()
