@@ -370,8 +370,9 @@ class ServerPerceiver:
             ("top_k", "1"),
             ("mc_samples", str(config.mc_samples)),
             ("pick_radius", f"{config.pick_radius:g}"),
-            ("opens", "1" if opens else "0"),
         ]
+        if opens:  # (a server older than the field answers a pick as before)
+            fields.append(("opens", "1"))
         fields += [("obstacle_mask", _npy(m.astype(np.uint8))) for m in frame.obstacle_masks]
         body, ctype = multipart(fields)
         return self.parse(self._request("/predict", body, ctype, self.limits.timeout), robot)

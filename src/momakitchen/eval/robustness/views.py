@@ -362,14 +362,13 @@ def run_view(
     robot: str,
     descriptor: np.ndarray,
     config: RobustnessConfig,
-    opens: bool | None = None,
 ) -> dict[str, Any]:
     """One model on one corrupted view (the real-robot path, :func:`view_inputs`):
     ``{"status": "ok"|"beyond_range"|"error", ...}`` with the prediction
     (``prediction``) when ok."""
     preprocessing = None if run is None else run.preprocessing
     inputs = view_inputs(frame, corruption_name, ids, preprocessing, config.seed)
-    return predict_view(run, inputs, robot, descriptor, config, opens=opens)
+    return predict_view(run, inputs, robot, descriptor, config)
 
 
 def judged_views(
