@@ -38,6 +38,18 @@ TOLERANCE = 0.1  # robot-check's default: within 10 points of the oracle serves
 Key = tuple[str, int, int, str]  # policy, scene, configuration, start
 
 
+def _key(r: dict[str, Any]) -> Key:
+    """An ``approach`` record's (policy, scene, configuration, start)."""
+    return (str(r["policy"]), int(r["scene_id"]), int(r["config_index"]), str(r.get("start", "")))
+
+
+def _choose(weighted: dict[Key, Any], unweighted: dict[Key, Any], opens: Any) -> dict[Key, Any]:
+    """The picks-only model's entries on the keys both runs hold: the weighted run's where
+    the robot picks its target, the unweighted run's where ``opens(entry)`` says it opens."""
+    both = sorted(weighted.keys() & unweighted.keys())
+    return {k: unweighted[k] if opens(weighted[k]) else weighted[k] for k in both}
+
+
 def outcomes(path: str, methods: tuple[str, ...]) -> dict[str, dict[Key, tuple[bool, int]]]:
     """Per method of ``methods``: ``{(policy, scene, config, start): (opens, success)}`` of
     an ``msr`` (policy ``top1``) or ``approach`` result."""
@@ -58,8 +70,7 @@ def outcomes(path: str, methods: tuple[str, ...]) -> dict[str, dict[Key, tuple[b
                         int(v["outcomes"][0]) if v["outcomes"] else 0,
                     )
         elif r.get("method") in methods:
-            key = (str(r["policy"]), *ident, str(r.get("start", "")))
-            out[r["method"]][key] = (opens, int(r["success"]))
+            out[r["method"]][_key(r)] = (opens, int(r["success"]))
     for m, rows in out.items():
         if not rows:
             raise MomaError(f"{path!r} has no record of method {m!r}")
@@ -76,7 +87,7 @@ def compose(
     for k in both:
         if weighted[k][0] != unweighted[k][0]:
             raise MomaError(f"configuration {k[1:3]} has another target in the two runs")
-    return {k: unweighted[k] if weighted[k][0] else weighted[k] for k in both}
+    return _choose(weighted, unweighted, lambda v: v[0])
 
 
 def table(
@@ -136,7 +147,7 @@ def composed_run(weighted: str, unweighted: str) -> dict[str, Any]:
         path, _, method = arg.partition(":")
         result = read_json_object(path)
         rows = {
-            (r["policy"], r["scene_id"], r["config_index"], r.get("start", "")): r
+            _key(r): r
             for r in result.get("records", [])
             if r.get("method") == method and "methods" not in r
         }
@@ -144,11 +155,8 @@ def composed_run(weighted: str, unweighted: str) -> dict[str, Any]:
             raise MomaError(f"{path!r} holds no approach record of method {method!r}")
         runs.append((result, rows))
     (result, w), (_, u) = runs
-    records = [
-        {**(u[k] if target_opens(str(r["target"])) else r), "method": "picks_only"}
-        for k, r in w.items()
-        if k in u
-    ]
+    chosen = _choose(w, u, lambda r: target_opens(str(r["target"])))
+    records = [{**r, "method": "picks_only"} for r in chosen.values()]
     return {"config": result["config"], "composed_from": [weighted, unweighted], "records": records}
 
 
