@@ -197,6 +197,10 @@ def test_a_server_that_answers_garbage_stops_the_run_and_keeps_what_was_done(
         (["--record", "7"], "--record wants SCENE:CONFIG"),
         (["--part", "3/2"], "expected K/N with 1 <= K <= N, got '3/2'"),
         (["--part", "9/9"], "part 9/9 is empty"),
+        (
+            ["--obstacle-min-points", "0"],
+            "obstacle_min_points must be an integer in [1, 1000], got 0",
+        ),
     ],
 )
 def test_bad_input_is_one_line_before_any_work(real_dataset, tmp_path, capsys, argv, message):
@@ -304,3 +308,45 @@ def test_a_look_sees_the_configuration_as_labelled_after_a_trial(real_dataset):
             after = ctx.render(episode.base_pose, episode.camera_to_base)
         np.testing.assert_array_equal(after.depth, before.depth)
         np.testing.assert_array_equal(after.target_mask, before.target_mask)
+
+
+def test_a_stray_depth_point_marks_no_cell_with_obstacle_min_points(real_dataset):
+    """A look's obstacle points mark the costmap cell by cell; with ``obstacle_min_points``
+    a cell needs that many of them, so one stray depth point blocks no stance."""
+    import numpy as np
+
+    from momakitchen.data.reader import dataset_generation, rebuilt_configurations
+    from momakitchen.eval.approach.baselines import baseline_goal
+    from momakitchen.eval.approach.episode import Episode
+    from momakitchen.eval.approach.track import opened_configuration, placed_start
+
+    manifest, gen = dataset_generation(real_dataset)
+    (sid,) = [int(k) for k in manifest["shards"]]
+    todo = [(sid, 0, manifest["shards"][str(sid)]["file"])]
+    blocked = {}
+    for n in (1, 5):
+        config = ApproachConfig(obstacle_min_points=n)
+        for scene, shard, ci in rebuilt_configurations(real_dataset, todo, gen.scene):
+            with opened_configuration(scene, shard, ci, gen, config) as ctx:
+                start, head = placed_start(ctx, "near", shard)
+                ep = Episode(
+                    ctx, start, head, 0, "oracle", "-", goal_of=baseline_goal(ctx, "oracle")
+                )
+                free = ctx.known.cells[ctx.known.free]
+                # two free cells farther apart than a base box reaches
+                stray = free[np.argmax(np.hypot(*(free - ctx.anchor[:2]).T))]
+                crowd = free[np.argmax(np.hypot(*(free - stray).T))]
+                # the points are given in the base frame at the start: the base is there
+                x, y, yaw = ep.state.odom
+                c, s = np.cos(yaw), np.sin(yaw)
+                world = np.vstack([stray[None], np.repeat(crowd[None], 8, 0)])
+                rel = world - [x, y]
+                base = np.stack([c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1]], 1)
+                ep.observe(base)
+                blocked[n] = [not ep.costmap.is_free(*p) for p in (stray, crowd)]
+    assert blocked[1] == [True, True]  # every point marks its cell: the stray one too
+    assert blocked[5] == [False, True]
+    assert "obstacle_min_points" not in ApproachConfig().to_dict()  # runs before it compare equal
+    assert ApproachConfig(obstacle_min_points=5).to_dict()["obstacle_min_points"] == 5
+    with pytest.raises(MomaError, match="obstacle_min_points must be an integer in"):
+        ApproachConfig(obstacle_min_points=0)

@@ -99,6 +99,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "obstacles around the target only as its looks see them, the default) or full "
         "(everything, as before)",
     )
+    ap.add_argument(
+        "--obstacle-min-points",
+        type=int,
+        default=1,
+        metavar="N",
+        help="static map: a look marks a 5 cm costmap cell as an obstacle only where at least N "
+        "of its depth points above the floor fall in it (%(default)s: every point)",
+    )
     add_selection(ap)
     ap.add_argument(
         "--part",
@@ -237,6 +245,7 @@ def run(args: argparse.Namespace) -> int:
         stop_sweep=STOP_SWEEP if args.stop_sweep else (),
         motion=motion,
         map=args.map,
+        obstacle_min_points=args.obstacle_min_points,
         **config_fields(args, ApproachConfig),
     )
     unknown = [m for m in args.method if m not in METHODS]

@@ -64,6 +64,9 @@ class ApproachConfig:
             the same pre-stop pose; () for none.
         motion: driving speed, drift and stop error.
         map: what the robot knows of the room at the start (:data:`MAPS`).
+        obstacle_min_points: with a static map, a look marks a costmap cell only where at
+            least this many of its points above the floor fall in it (1: every point, as
+            a bare obstacle layer does; more: a stray depth point marks nothing).
     """
 
     starts: tuple[str, ...] = ("far",)
@@ -81,6 +84,7 @@ class ApproachConfig:
     stop_sweep: tuple[tuple[float, float], ...] = ()
     motion: MotionConfig = field(default_factory=MotionConfig)
     map: str = "static"
+    obstacle_min_points: int = 1
 
     def __post_init__(self) -> None:
         for name, values, allowed in (
@@ -97,6 +101,13 @@ class ApproachConfig:
         perception_corruption(self.perception)
         if self.map not in MAPS:
             raise MomaError(f"unknown map {self.map!r}; choose from {', '.join(MAPS)}")
+        if not (
+            isinstance(self.obstacle_min_points, int) and 1 <= self.obstacle_min_points <= 1000
+        ):
+            raise MomaError(
+                "obstacle_min_points must be an integer in [1, 1000], got "
+                f"{self.obstacle_min_points!r}"
+            )
         if self.seed < 0 or self.max_configs < 0:
             raise MomaError("seed and max_configs must be >= 0")
         k, n = self.part
@@ -124,4 +135,8 @@ class ApproachConfig:
 
         out = asdict(self)
         out["perception_corruption"] = perception_corruption(self.perception)
+        if self.obstacle_min_points == 1:
+            # Runs with the default stay equal to runs made before the setting existed, so
+            # they merge and pool with them.
+            del out["obstacle_min_points"]
         return out

@@ -377,7 +377,8 @@ class Episode:
 
     def observe(self, points: np.ndarray) -> None:
         """Add a look's obstacle points (base frame at the look) to the costmap, without
-        those on the furniture the prior map already holds, thinned to its cells."""
+        those on the furniture the prior map already holds, thinned to its cells: a cell
+        with fewer than ``config.obstacle_min_points`` of them is not marked."""
         from momakitchen.frames import base_to_world_xy
         from momakitchen.scene.geometry import corners_of
 
@@ -385,7 +386,8 @@ class Episode:
             return
         xy = base_to_world_xy(points, self.state.odom)
         cell = self.costmap.step
-        xy = np.unique(np.floor(xy / cell), axis=0) * cell + cell / 2
+        keys, counts = np.unique(np.floor(xy / cell), axis=0, return_counts=True)
+        xy = keys[counts >= self.ctx.config.obstacle_min_points] * cell + cell / 2
         known = corners_of(self.ctx.scene.layout.footprints(KNOWN_MARGIN))
         self.costmap.observe(xy[~_in_boxes(xy, known)])
 
