@@ -50,10 +50,12 @@ def _choose(weighted: dict[Key, Any], unweighted: dict[Key, Any], opens: Any) ->
     return {k: unweighted[k] if opens(weighted[k]) else weighted[k] for k in both}
 
 
-def outcomes(path: str, methods: tuple[str, ...]) -> dict[str, dict[Key, tuple[bool, int]]]:
+def outcomes(
+    path: str, methods: tuple[str, ...], result: dict[str, Any] | None = None
+) -> dict[str, dict[Key, tuple[bool, int]]]:
     """Per method of ``methods``: ``{(policy, scene, config, start): (opens, success)}`` of
-    an ``msr`` (policy ``top1``) or ``approach`` result."""
-    result = read_json_object(path)
+    an ``msr`` (policy ``top1``) or ``approach`` result (``result``: ``path`` already read)."""
+    result = read_json_object(path) if result is None else result
     records = result.get("records")
     if not isinstance(records, list):
         raise MomaError(f"{path!r} is not a momakitchen msr or approach --json result")
@@ -137,34 +139,44 @@ def table(
     return rows
 
 
-def composed_run(weighted: str, unweighted: str) -> dict[str, Any]:
+Run = tuple[str, str, dict[str, Any]]  # the FILE:METHOD argument, the method, the result
+
+
+def composed_run(weighted: Run, unweighted: Run) -> dict[str, Any]:
     """The picks-only model's ``approach`` result on the configurations both runs
-    (``FILE:METHOD``) hold: the weighted run's records where the robot picks its target,
+    (:func:`_load`) hold: the weighted run's records where the robot picks its target,
     the unweighted run's where it opens it, as method ``picks_only``, with the weighted
     run's settings (so ``drive_pooled.py`` pools it with measured runs)."""
-    runs = []
-    for arg in (weighted, unweighted):
-        path, _, method = arg.partition(":")
-        result = read_json_object(path)
-        rows = {
+    rows = []
+    for arg, method, result in (weighted, unweighted):
+        mine = {
             _key(r): r
             for r in result.get("records", [])
             if r.get("method") == method and "methods" not in r
         }
-        if not rows:
+        if not mine:
+            path = arg.partition(":")[0]
             raise MomaError(f"{path!r} holds no approach record of method {method!r}")
-        runs.append((result, rows))
-    (result, w), (_, u) = runs
-    chosen = _choose(w, u, lambda r: target_opens(str(r["target"])))
+        rows.append(mine)
+    chosen = _choose(*rows, lambda r: target_opens(str(r["target"])))
     records = [{**r, "method": "picks_only"} for r in chosen.values()]
-    return {"config": result["config"], "composed_from": [weighted, unweighted], "records": records}
+    return {
+        "config": weighted[2]["config"],
+        "composed_from": [weighted[0], unweighted[0]],
+        "records": records,
+    }
 
 
-def _read(arg: str) -> dict[Key, tuple[bool, int]]:
+def _load(arg: str) -> Run:
     path, _, method = arg.partition(":")
     if not method:
         raise MomaError(f"give the model's method as FILE:METHOD, got {arg!r}")
-    return outcomes(path, (method,))[method]
+    return arg, method, read_json_object(path)
+
+
+def _read(run: Run) -> dict[Key, tuple[bool, int]]:
+    arg, method, result = run
+    return outcomes(arg.partition(":")[0], (method,), result)[method]
 
 
 def main() -> None:
@@ -176,10 +188,11 @@ def main() -> None:
         "--json", type=Path, help="approach results: write the picks-only model's records here"
     )
     args = ap.parse_args()
+    weighted, unweighted = _load(args.weighted), _load(args.unweighted)
     if args.json:
-        composed = composed_run(args.weighted, args.unweighted)
+        composed = composed_run(weighted, unweighted)
         atomic_write_text(args.json, json.dumps(composed) + "\n")
-    w, u = _read(args.weighted), _read(args.unweighted)
+    w, u = _read(weighted), _read(unweighted)
     base = outcomes(args.baselines, BASELINES) if args.baselines else None
     for row in table(w, u, base):
         n = row["configurations"]

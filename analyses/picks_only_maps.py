@@ -48,12 +48,13 @@ def opened_categories(data: Path) -> dict[str, bool]:
     return out
 
 
-def _per_category(path: str) -> tuple[dict[str, dict[str, float]], int]:
+def _evaluation(path: str) -> dict[str, Any]:
+    """An ``evaluate --json`` result that breaks its metrics down per target category."""
     result = read_json_object(path)
     per = result.get("per_category")
     if not isinstance(per, dict) or not per:
         raise MomaError(f"{path!r} is not a momakitchen evaluate --json result with per_category")
-    return per, int(result["episodes"])
+    return result
 
 
 def compose(
@@ -92,14 +93,14 @@ def main() -> None:
     ap.add_argument("unweighted", help="evaluate --json, the same model without the weight")
     ap.add_argument("--check", help="evaluate --json of the picks-only model, to compare")
     args = ap.parse_args()
-    (w, nw), (u, nu) = _per_category(args.weighted), _per_category(args.unweighted)
-    if nw != nu:
-        raise MomaError(f"the runs hold {nw} and {nu} episodes")
-    picks = compose(w, u, opened_categories(args.data))
+    w, u = _evaluation(args.weighted), _evaluation(args.unweighted)
+    if w["episodes"] != u["episodes"]:
+        raise MomaError(f"the runs hold {w['episodes']} and {u['episodes']} episodes")
+    picks = compose(w["per_category"], u["per_category"], opened_categories(args.data))
     print(f"{int(picks['episodes'])} episodes, {int(picks['openings'])} open their target")
     rows: list[tuple[str, dict[str, Any]]] = [
-        ("weighted", read_json_object(args.weighted)["metrics"]),
-        ("unweighted", read_json_object(args.unweighted)["metrics"]),
+        ("weighted", w["metrics"]),
+        ("unweighted", u["metrics"]),
         ("picks only", picks),
     ]
     if args.check:

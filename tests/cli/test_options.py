@@ -179,7 +179,7 @@ def test_the_defaults_are_the_configs():
         ("msr", MsrConfig, picking + selection),
         ("robustness", RobustnessConfig, picking + selection),
         ("export-inputs", RobustnessConfig, selection),
-        ("approach", ApproachConfig, ("perception", *selection)),
+        ("approach", ApproachConfig, ("perception", "obstacle_min_points", *selection)),
         ("predict", PredictOptions, (*picking, "mc_samples", "metric_depth")),
     ):
         cli, fields = _defaults(command), _field_defaults(config)

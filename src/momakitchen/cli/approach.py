@@ -50,6 +50,7 @@ MAX_UNCERTAINTY = 0.10
 STOP_XY_CM = 3.0
 STOP_YAW_DEG = 2.0
 DRIFT_PERCENT = 2.0
+OBSTACLE_MIN_POINTS = 1
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -102,7 +103,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     ap.add_argument(
         "--obstacle-min-points",
         type=int,
-        default=1,
+        default=OBSTACLE_MIN_POINTS,
         metavar="N",
         help="static map: a look marks a 5 cm costmap cell as an obstacle only where at least N "
         "of its depth points above the floor fall in it (%(default)s: every point)",
