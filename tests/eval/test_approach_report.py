@@ -94,6 +94,14 @@ def test_rows_pairs_and_sweep():
         summarize(result)
     )
     assert "McNemar" in text and "halves at" in text
+    # The header names what the robot knew of the room where the run recorded it.
+    assert "map" not in text.splitlines()[2]
+    result["config"]["map"] = "static"
+    assert "map `static` (a costmap cell marked at 1 depth point);" in report_markdown(result)
+    result["config"]["obstacle_min_points"] = 10
+    assert "marked at 10 depth points);" in report_markdown(result)
+    result["config"]["map"] = "full"
+    assert "map `full`;" in report_markdown(result)
 
 
 def test_halving_error():

@@ -217,14 +217,28 @@ def strata_table(rows: Sequence[dict[str, Any]]) -> str:
     return "\n".join(out)
 
 
+def _map_words(config: dict[str, Any]) -> str:
+    """What the robot knew of the room, for the report's header ("" for runs made before
+    the setting was recorded)."""
+    if "map" not in config:
+        return ""
+    words = f", map `{config['map']}`"
+    if config["map"] == "static":
+        # to_dict leaves the threshold out at its default: every point marks its cell.
+        n = config.get("obstacle_min_points", 1)
+        words += f" (a costmap cell marked at {n} depth point{'s' if n > 1 else ''})"
+    return words
+
+
 def report_markdown(result: dict[str, Any]) -> str:
     """The whole Markdown report: main table, per-robot success, stop errors, McNemar."""
     rows = result.get("results") or summarize(result)
+    config = result["config"]
     parts = [
         f"# Approach track: {result['dataset']}",
         "",
-        f"{result['configurations']} configurations ({result['config']['split']} split), seed "
-        f"{result['config']['seed']}, perception `{result['config']['perception']}`; "
+        f"{result['configurations']} configurations ({config['split']} split), seed "
+        f"{config['seed']}, perception `{config['perception']}`{_map_words(config)}; "
         f"{len(result['skipped'])} starts that could not be placed.",
         "",
         markdown_table(rows),
