@@ -40,6 +40,7 @@ from momakitchen.metrics import episode_metrics
 
 RING = 0.05  # m: the rings the radial averages are taken over
 BINS = (0.0, 0.4, 0.6, 0.8, 1.0, 1.2, np.inf)  # m: the mass table's rings
+MASSES = ("label", "pred")
 
 
 def ring_average(d: np.ndarray, values: np.ndarray, width: float = RING) -> np.ndarray:
@@ -89,21 +90,12 @@ def summarize(rows: Iterable[tuple[str, dict[str, Any]]]) -> dict[str, dict[str,
         by[robot].append(row)
     out = {}
     for robot, rs in sorted(by.items()):
-
-        def med(key: str, rs: list[dict[str, Any]] = rs) -> float:
-            return round(float(np.nanmedian([r[key] for r in rs])), 3)
-
+        col = {k: np.array([r[k] for r in rs]) for k in rs[0]}
         out[robot] = {
             "views": len(rs),
-            **{k: round(float(np.mean([r[k] for r in rs])), 4) for k in ("pcc", "pcc_radial")},
-            "ceiling_radial": round(float(np.mean([r["ceiling_radial"] for r in rs])), 4),
-            "label_m": med("label_m"),
-            "pred_m": med("pred_m"),
-            "shift_m": med("shift_m"),
-            "mass": {
-                which: [round(float(v), 3) for v in np.mean([r[f"{which}_mass"] for r in rs], 0)]
-                for which in ("label", "pred")
-            },
+            **{k: round(float(col[k].mean()), 4) for k in ("pcc", "pcc_radial", "ceiling_radial")},
+            **{k: round(float(np.nanmedian(col[k])), 3) for k in ("label_m", "pred_m", "shift_m")},
+            "mass": {w: [round(float(v), 3) for v in col[f"{w}_mass"].mean(0)] for w in MASSES},
         }
     return out
 
