@@ -63,8 +63,9 @@ def view_row(d: np.ndarray, pred: np.ndarray, label: np.ndarray) -> dict[str, An
     if np.ptp(label) == 0:
         return None
     label_ring = ring_average(d, label)
-    pred_m = float((pred * d).sum() / pred.sum()) if pred.sum() > 0 else float("nan")
-    label_m = float((label * d).sum() / label.sum())
+    pred_sum, label_sum = pred.sum(), label.sum()
+    pred_m = float((pred * d).sum() / pred_sum) if pred_sum > 0 else float("nan")
+    label_m = float((label * d).sum() / label_sum)
     which = np.digitize(d, BINS[1:-1])
     return {
         "pcc": episode_metrics(pred, label)["pcc"],
@@ -73,12 +74,8 @@ def view_row(d: np.ndarray, pred: np.ndarray, label: np.ndarray) -> dict[str, An
         "label_m": label_m,
         "pred_m": pred_m,
         "shift_m": pred_m - label_m,
-        "label_mass": np.bincount(which, label, len(BINS) - 1) / label.sum(),
-        "pred_mass": (
-            np.bincount(which, pred, len(BINS) - 1) / pred.sum()
-            if pred.sum() > 0
-            else np.zeros(len(BINS) - 1)
-        ),
+        "label_mass": np.bincount(which, label, len(BINS) - 1) / label_sum,
+        "pred_mass": np.bincount(which, pred, len(BINS) - 1) / max(pred_sum, 1e-300),
     }
 
 
@@ -108,6 +105,7 @@ def model_rows(args: argparse.Namespace) -> list[tuple[str, dict[str, Any]]]:
 
     from momakitchen.data import EpisodeDataset
     from momakitchen.eval.evaluate import predicted_maps
+    from momakitchen.models.reach_input import target_centroid
     from momakitchen.train.checkpoint import load_checkpoint
 
     if args.every < 1:
@@ -121,12 +119,14 @@ def model_rows(args: argparse.Namespace) -> list[tuple[str, dict[str, Any]]]:
     rows = []
     for batch, preds, labels in predicted_maps(run, views, progress=not args.quiet):
         mask = batch["floor_mask"].numpy()
+        seen = ((batch["global_align"] > 0.5) & batch["global_mask"]).any(1).numpy()
+        # the target's centre as the model's reachability input takes it
+        centre = target_centroid(batch["global_xyz"], batch["global_align"], batch["global_mask"])
         for i, (pred, label) in enumerate(zip(preds, labels, strict=True)):
-            floor = batch["floor_xyz"][i].numpy()[mask[i], :2]
-            target = batch["global_xyz"][i].numpy()[batch["global_align"][i].numpy() > 0]
-            if not len(target):
+            if not seen[i]:
                 continue
-            d = np.hypot(*(floor - target[:, :2].mean(0)).T)
+            floor = batch["floor_xyz"][i].numpy()[mask[i], :2]
+            d = np.hypot(*(floor - centre[i, :2].numpy()).T)
             row = view_row(d, pred, label)
             if row is not None:
                 rows.append((str(batch["robot_name"][i]), row))

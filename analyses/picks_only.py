@@ -139,7 +139,7 @@ def table(
     return rows
 
 
-Run = tuple[str, str, dict[str, Any]]  # the FILE:METHOD argument, the method, the result
+Run = tuple[str, str, dict[str, Any]]  # a FILE:METHOD argument: the file, the method, its result
 
 
 def composed_run(weighted: Run, unweighted: Run) -> dict[str, Any]:
@@ -148,21 +148,20 @@ def composed_run(weighted: Run, unweighted: Run) -> dict[str, Any]:
     the unweighted run's where it opens it, as method ``picks_only``, with the weighted
     run's settings (so ``drive_pooled.py`` pools it with measured runs)."""
     rows = []
-    for arg, method, result in (weighted, unweighted):
+    for path, method, result in (weighted, unweighted):
         mine = {
             _key(r): r
             for r in result.get("records", [])
             if r.get("method") == method and "methods" not in r
         }
         if not mine:
-            path = arg.partition(":")[0]
             raise MomaError(f"{path!r} holds no approach record of method {method!r}")
         rows.append(mine)
     chosen = _choose(*rows, lambda r: target_opens(str(r["target"])))
     records = [{**r, "method": "picks_only"} for r in chosen.values()]
     return {
         "config": weighted[2]["config"],
-        "composed_from": [weighted[0], unweighted[0]],
+        "composed_from": [f"{path}:{method}" for path, method, _ in (weighted, unweighted)],
         "records": records,
     }
 
@@ -171,12 +170,12 @@ def _load(arg: str) -> Run:
     path, _, method = arg.partition(":")
     if not method:
         raise MomaError(f"give the model's method as FILE:METHOD, got {arg!r}")
-    return arg, method, read_json_object(path)
+    return path, method, read_json_object(path)
 
 
 def _read(run: Run) -> dict[Key, tuple[bool, int]]:
-    arg, method, result = run
-    return outcomes(arg.partition(":")[0], (method,), result)[method]
+    path, method, result = run
+    return outcomes(path, (method,), result)[method]
 
 
 def main() -> None:

@@ -222,10 +222,12 @@ def _map_words(config: dict[str, Any]) -> str:
     the setting was recorded)."""
     if "map" not in config:
         return ""
+    from momakitchen.eval.approach.config import ApproachConfig
+
     words = f", map `{config['map']}`"
     if config["map"] == "static":
-        # to_dict leaves the threshold out at its default: every point marks its cell.
-        n = config.get("obstacle_min_points", 1)
+        # to_dict leaves the threshold out at its default
+        n = config.get("obstacle_min_points", ApproachConfig.obstacle_min_points)
         words += f" (a costmap cell marked at {n} depth point{'s' if n > 1 else ''})"
     return words
 
